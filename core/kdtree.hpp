@@ -1,0 +1,43 @@
+#pragma once
+// A 3-D k-d tree over a vector of points (nanoflann 1.4.3 underneath). The tree keeps a
+// reference to the points: they must outlive it and must not change while it is used.
+// Queries are const and safe to call from several threads at once.
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <utility>
+#include <vector>
+
+namespace lidarfuse::core {
+
+class KdTree {
+public:
+    explicit KdTree(const std::vector<Eigen::Vector3d>& points, int leaf_max_size = 10);
+    ~KdTree();
+    KdTree(const KdTree&) = delete;
+    KdTree& operator=(const KdTree&) = delete;
+
+    std::size_t size() const;
+
+    // Up to k nearest neighbours of `query`, nearest first. Writes indices and squared
+    // distances (m^2) into the caller's arrays (capacity >= k); returns how many.
+    std::size_t knn(const Eigen::Vector3d& query, std::size_t k, std::uint32_t* indices,
+                    double* squared_distances) const;
+
+    // The nearest neighbour; false when the tree is empty.
+    bool nearest(const Eigen::Vector3d& query, std::uint32_t* index,
+                 double* squared_distance) const;
+
+    // All points within `radius_m` of `query` (index, squared distance), nearest first.
+    // `out` is cleared first; reuse it across calls to avoid allocation.
+    std::size_t radius(const Eigen::Vector3d& query, double radius_m,
+                       std::vector<std::pair<std::uint32_t, double>>* out) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace lidarfuse::core

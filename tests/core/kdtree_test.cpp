@@ -1,0 +1,64 @@
+#include "core/kdtree.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+namespace lidarfuse::core {
+namespace {
+
+std::vector<Eigen::Vector3d> random_points(std::size_t n, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-10.0, 10.0);
+    std::vector<Eigen::Vector3d> points(n);
+    for (auto& p : points) p = {u(rng), u(rng), u(rng)};
+    return points;
+}
+
+// Every query against brute force: the k nearest and the radius set must agree exactly.
+TEST(KdTree, KnnAndRadiusMatchBruteForce) {
+    const auto points = random_points(2000, 7);
+    const auto queries = random_points(200, 8);
+    KdTree tree(points);
+    ASSERT_EQ(tree.size(), points.size());
+    std::vector<std::pair<std::uint32_t, double>> found;
+    for (const auto& q : queries) {
+        std::vector<std::pair<double, std::uint32_t>> brute;
+        for (std::uint32_t i = 0; i < points.size(); ++i) {
+            brute.emplace_back((points[i] - q).squaredNorm(), i);
+        }
+        std::sort(brute.begin(), brute.end());
+
+        constexpr std::size_t k = 8;
+        std::uint32_t idx[k];
+        double d2[k];
+        ASSERT_EQ(tree.knn(q, k, idx, d2), k);
+        for (std::size_t j = 0; j < k; ++j) {
+            EXPECT_EQ(idx[j], brute[j].second);
+            EXPECT_DOUBLE_EQ(d2[j], brute[j].first);
+        }
+
+        const double r = 2.5;
+        tree.radius(q, r, &found);
+        const auto expected = std::count_if(brute.begin(), brute.end(),
+                                            [&](const auto& b) { return b.first <= r * r; });
+        ASSERT_EQ(static_cast<long>(found.size()), expected);
+        for (std::size_t j = 0; j < found.size(); ++j) {
+            EXPECT_EQ(found[j].first, brute[j].second);
+        }
+    }
+}
+
+TEST(KdTree, EmptyTreeAnswersNothing) {
+    std::vector<Eigen::Vector3d> none;
+    KdTree tree(none);
+    std::uint32_t idx = 0;
+    double d2 = 0;
+    EXPECT_FALSE(tree.nearest(Eigen::Vector3d::Zero(), &idx, &d2));
+    std::vector<std::pair<std::uint32_t, double>> found;
+    EXPECT_EQ(tree.radius(Eigen::Vector3d::Zero(), 1.0, &found), 0u);
+}
+
+}  // namespace
+}  // namespace lidarfuse::core

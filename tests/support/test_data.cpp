@@ -1,0 +1,75 @@
+#include "tests/support/test_data.hpp"
+
+#include <openssl/evp.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <atomic>
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
+
+namespace lidarfuse::test {
+
+std::optional<std::filesystem::path> data_dir() {
+    const char* env = std::getenv("LIDARFUSE_DATA_DIR");
+    std::filesystem::path dir = (env && *env) ? env : LIDARFUSE_DEFAULT_DATA_DIR;
+    std::error_code ec;
+    if (!std::filesystem::is_directory(dir, ec)) return std::nullopt;
+    return dir;
+}
+
+std::optional<std::filesystem::path> ouster_file(const std::string& name) {
+    const auto dir = data_dir();
+    if (!dir) return std::nullopt;
+    auto file = *dir / "ouster" / name;
+    std::error_code ec;
+    if (!std::filesystem::exists(file, ec)) return std::nullopt;
+    return file;
+}
+
+TempDir::TempDir(const std::string& tag) {
+    static std::atomic<int> counter{0};
+    path_ = std::filesystem::temp_directory_path() /
+            (tag + "-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+    std::filesystem::remove_all(path_);
+    std::filesystem::create_directories(path_);
+}
+
+TempDir::~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+}
+
+std::string md5_hex(const void* data, std::size_t size) {
+    std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
+    unsigned int length = 0;
+    if (EVP_Digest(data, size, digest.data(), &length, EVP_md5(), nullptr) != 1) {
+        throw std::runtime_error("EVP_Digest(md5) failed");
+    }
+    static const char* kHex = "0123456789abcdef";
+    std::string out;
+    for (unsigned int i = 0; i < length; ++i) {
+        out += kHex[digest[i] >> 4];
+        out += kHex[digest[i] & 0xF];
+    }
+    return out;
+}
+
+std::string tool_path() { return LIDARFUSE_TOOL_PATH; }
+std::string daemon_path() { return LIDARFUSED_PATH; }
+
+int run_command(const std::string& command, std::string* output) {
+    FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
+    if (!pipe) return -1;
+    std::array<char, 4096> buffer{};
+    std::size_t n = 0;
+    while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) {
+        if (output) output->append(buffer.data(), n);
+    }
+    const int status = ::pclose(pipe);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace lidarfuse::test

@@ -1,0 +1,52 @@
+#pragma once
+// Helpers shared by the tests: where the sample captures live, temporary folders, md5.
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace lidarfuse::test {
+
+// The shared data folder: $LIDARFUSE_DATA_DIR, else the CMake cache value
+// LIDARFUSE_DATA_DIR (default ../shared/data beside the checkout). Empty when absent.
+std::optional<std::filesystem::path> data_dir();
+
+// Path of an Ouster sample file (data_dir()/ouster/NAME), or nullopt when the data
+// folder or the file is missing. Use through LIDARFUSE_REQUIRE_OUSTER_FILE.
+std::optional<std::filesystem::path> ouster_file(const std::string& name);
+
+// A fresh empty folder under the system temp dir, removed by the destructor.
+class TempDir {
+public:
+    explicit TempDir(const std::string& tag = "lidarfuse");
+    ~TempDir();
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+    const std::filesystem::path& path() const { return path_; }
+
+private:
+    std::filesystem::path path_;
+};
+
+// Lower-case hex md5 of a byte range (OpenSSL EVP).
+std::string md5_hex(const void* data, std::size_t size);
+
+// Absolute paths of the built executables.
+std::string tool_path();    // lidarfuse
+std::string daemon_path();  // lidarfused
+
+// Runs a shell command, captures stdout+stderr into `output`, returns the exit status.
+int run_command(const std::string& command, std::string* output);
+
+}  // namespace lidarfuse::test
+
+// Skips the current test, with a visible reason, when a sample file is not available.
+#define LIDARFUSE_REQUIRE_OUSTER_FILE(var, name)                                           \
+    const auto var##_opt = ::lidarfuse::test::ouster_file(name);                           \
+    if (!var##_opt) {                                                                      \
+        GTEST_SKIP() << "sample data " << (name)                                           \
+                     << " not found (set LIDARFUSE_DATA_DIR to the shared/data folder)";  \
+    }                                                                                      \
+    const std::filesystem::path var = *var##_opt
