@@ -1,0 +1,226 @@
+#include "drivers/station/station_config.hpp"
+
+#include <arpa/inet.h>
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace lidarfuse::station {
+
+namespace {
+
+std::string join_problems(const std::string& source, const std::vector<std::string>& problems) {
+    std::ostringstream out;
+    out << source << ": " << problems.size() << " problem" << (problems.size() == 1 ? "" : "s")
+        << " in the station config";
+    for (const auto& p : problems) out << "\n  " << p;
+    return out.str();
+}
+
+// Collects problems while reading typed values out of YAML nodes.
+class Reader {
+public:
+    std::vector<std::string> problems;
+
+    std::optional<std::string> string(const YAML::Node& node, const std::string& path,
+                                      bool required) {
+        if (!node) {
+            if (required) problems.push_back(path + ": missing (expected a string)");
+            return std::nullopt;
+        }
+        if (!node.IsScalar() || node.Scalar().empty()) {
+            problems.push_back(path + ": expected a non-empty string");
+            return std::nullopt;
+        }
+        return node.Scalar();
+    }
+
+    std::optional<long long> integer(const YAML::Node& node, const std::string& path,
+                                     long long min, long long max, bool required) {
+        if (!node) {
+            if (required) problems.push_back(path + ": missing (expected an integer)");
+            return std::nullopt;
+        }
+        long long value = 0;
+        if (!node.IsScalar() || !YAML::convert<long long>::decode(node, value) || value < min ||
+            value > max) {
+            problems.push_back(path + ": expected an integer in " + std::to_string(min) + ".." +
+                               std::to_string(max) + ", got " + describe(node));
+            return std::nullopt;
+        }
+        return value;
+    }
+
+    std::optional<bool> boolean(const YAML::Node& node, const std::string& path) {
+        if (!node) return std::nullopt;
+        bool value = false;
+        if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value)) {
+            problems.push_back(path + ": expected true or false, got " + describe(node));
+            return std::nullopt;
+        }
+        return value;
+    }
+
+    void only_keys(const YAML::Node& map, const std::string& path,
+                   const std::set<std::string>& allowed) {
+        for (const auto& item : map) {
+            const auto key = item.first.Scalar();
+            if (!allowed.count(key)) {
+                problems.push_back((path.empty() ? "" : path + ".") + key +
+                                   ": unknown key (a typo?)");
+            }
+        }
+    }
+
+    static std::string describe(const YAML::Node& node) {
+        if (node.IsScalar()) return "\"" + node.Scalar() + "\"";
+        if (node.IsSequence()) return "a list";
+        if (node.IsMap()) return "a mapping";
+        return "nothing";
+    }
+};
+
+// Sections owned by later stages; accepted here and validated by their owners.
+const std::set<std::string> kTopLevelKeys = {"station", "root",         "sensors", "sync",
+                                             "registration", "dynamics", "output",  "dds",
+                                             "logging",      "health"};
+const std::set<std::string> kSensorKeys = {"name",           "udp_port", "metadata",
+                                           "source_address", "time_offset_ns", "enabled"};
+
+}  // namespace
+
+ConfigError::ConfigError(const std::string& source, std::vector<std::string> problems)
+    : std::runtime_error(join_problems(source, problems)), problems_(std::move(problems)) {}
+
+std::size_t StationConfig::root_index() const {
+    for (std::size_t i = 0; i < sensors.size(); ++i) {
+        if (sensors[i].name == root) return i;
+    }
+    return 0;
+}
+
+StationConfig parse_station_config(const std::string& yaml_text, const std::string& source_name,
+                                   const std::filesystem::path& base_dir) {
+    YAML::Node doc;
+    try {
+        doc = YAML::Load(yaml_text);
+    } catch (const YAML::Exception& error) {
+        throw ConfigError(source_name, {"not valid YAML: " + std::string(error.what())});
+    }
+    if (!doc.IsMap()) throw ConfigError(source_name, {"(top level): expected a mapping"});
+
+    Reader r;
+    StationConfig config;
+    r.only_keys(doc, "", kTopLevelKeys);
+    if (auto s = r.string(doc["station"], "station", false)) config.station = *s;
+
+    const YAML::Node sensors = doc["sensors"];
+    if (!sensors || !sensors.IsSequence() || sensors.size() == 0) {
+        r.problems.push_back("sensors: expected a non-empty list of sensors");
+    } else {
+        std::set<std::string> names;
+        std::set<std::pair<std::uint16_t, std::string>> endpoints;
+        for (std::size_t i = 0; i < sensors.size(); ++i) {
+            const std::string path = "sensors[" + std::to_string(i) + "]";
+            const YAML::Node node = sensors[i];
+            if (!node.IsMap()) {
+                r.problems.push_back(path + ": expected a mapping");
+                continue;
+            }
+            r.only_keys(node, path, kSensorKeys);
+            SensorConfig sensor;
+            if (auto s = r.string(node["name"], path + ".name", true)) {
+                sensor.name = *s;
+                if (!names.insert(*s).second) {
+                    r.problems.push_back(path + ".name: \"" + *s + "\" is used by another sensor");
+                }
+            }
+            if (auto p = r.integer(node["udp_port"], path + ".udp_port", 1, 65535, true)) {
+                sensor.udp_port = static_cast<std::uint16_t>(*p);
+            }
+            if (auto m = r.string(node["metadata"], path + ".metadata", true)) {
+                std::filesystem::path file = *m;
+                sensor.metadata = file.is_absolute() ? file : (base_dir / file).lexically_normal();
+                std::error_code ec;
+                if (!std::filesystem::is_regular_file(sensor.metadata, ec)) {
+                    r.problems.push_back(path + ".metadata: file not found: " +
+                                         sensor.metadata.string());
+                }
+            }
+            if (auto a = r.string(node["source_address"], path + ".source_address", false)) {
+                in_addr parsed{};
+                if (::inet_pton(AF_INET, a->c_str(), &parsed) != 1) {
+                    r.problems.push_back(path + ".source_address: expected an IPv4 address, got \"" +
+                                         *a + "\"");
+                } else {
+                    sensor.source_address = *a;
+                }
+            }
+            if (auto t = r.integer(node["time_offset_ns"], path + ".time_offset_ns",
+                                   -3600LL * 1000000000LL, 3600LL * 1000000000LL, false)) {
+                sensor.time_offset_ns = *t;
+            }
+            if (auto e = r.boolean(node["enabled"], path + ".enabled")) sensor.enabled = *e;
+            // Two sensors on one port are fine only when their source addresses tell them
+            // apart (or, for non-legacy profiles, their serials; checked against metadata).
+            const auto endpoint = std::make_pair(sensor.udp_port, sensor.source_address.value_or("*"));
+            if (sensor.udp_port != 0 && !endpoints.insert(endpoint).second &&
+                endpoint.second != "*") {
+                r.problems.push_back(path + ".source_address: port " +
+                                     std::to_string(sensor.udp_port) + " and address " +
+                                     endpoint.second + " are used by another sensor");
+            }
+            config.sensors.push_back(std::move(sensor));
+        }
+    }
+
+    if (auto root = r.string(doc["root"], "root", false)) {
+        config.root = *root;
+        bool found = false;
+        for (const auto& s : config.sensors) found = found || s.name == *root;
+        if (!found && !config.sensors.empty()) {
+            r.problems.push_back("root: \"" + *root + "\" is not the name of a configured sensor");
+        }
+    } else if (!config.sensors.empty()) {
+        config.root = config.sensors.front().name;
+    }
+    if (!r.problems.empty()) throw ConfigError(source_name, r.problems);
+    return config;
+}
+
+StationConfig load_station_config(const std::filesystem::path& file) {
+    std::ifstream in(file);
+    if (!in) throw ConfigError(file.string(), {"cannot open the file for reading"});
+    std::ostringstream text;
+    text << in.rdbuf();
+    auto config = parse_station_config(text.str(), file.string(), file.parent_path());
+    config.source_file = file;
+    return config;
+}
+
+std::string to_yaml(const StationConfig& config, const std::filesystem::path& base_dir) {
+    YAML::Emitter out;
+    out << YAML::BeginMap;
+    out << YAML::Key << "station" << YAML::Value << config.station;
+    out << YAML::Key << "root" << YAML::Value << config.root;
+    out << YAML::Key << "sensors" << YAML::Value << YAML::BeginSeq;
+    for (const auto& s : config.sensors) {
+        out << YAML::BeginMap;
+        out << YAML::Key << "name" << YAML::Value << s.name;
+        out << YAML::Key << "udp_port" << YAML::Value << s.udp_port;
+        std::filesystem::path meta = s.metadata;
+        const auto relative = s.metadata.lexically_relative(base_dir);
+        if (!base_dir.empty() && !relative.empty() && *relative.begin() != "..") meta = relative;
+        out << YAML::Key << "metadata" << YAML::Value << meta.string();
+        if (s.source_address) out << YAML::Key << "source_address" << YAML::Value << *s.source_address;
+        if (s.time_offset_ns != 0) out << YAML::Key << "time_offset_ns" << YAML::Value << s.time_offset_ns;
+        if (!s.enabled) out << YAML::Key << "enabled" << YAML::Value << false;
+        out << YAML::EndMap;
+    }
+    out << YAML::EndSeq << YAML::EndMap;
+    return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace lidarfuse::station

@@ -1,0 +1,58 @@
+#pragma once
+// station.yaml: which sensors a station has and where their data comes from. Shared by the
+// simulator (which writes one), `lidarfuse calibrate/fuse` and lidarfused. The schema is
+// documented in config/station.schema.md; parameters of later stages (sync, registration,
+// outputs) live in their own sections, validated by their owners.
+//
+// Loading validates the whole file and throws ConfigError listing every problem with its
+// key path (e.g. `sensors[2].udp_port: expected an integer in 1..65535, got "abc"`).
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace lidarfuse::station {
+
+struct SensorConfig {
+    std::string name;                     // unique; used in poses.csv, tf frames, logs
+    std::uint16_t udp_port = 0;           // lidar data port
+    std::filesystem::path metadata;       // Ouster metadata JSON, absolute after loading
+    std::optional<std::string> source_address;  // IPv4 dotted quad; tells apart shared ports
+    std::int64_t time_offset_ns = 0;      // added to this sensor's timestamps
+    bool enabled = true;
+};
+
+struct StationConfig {
+    std::string station = "station";
+    std::string root;                     // name of the root sensor (defaults to the first)
+    std::vector<SensorConfig> sensors;
+    std::filesystem::path source_file;    // where it was loaded from (empty if built in code)
+
+    // Index of the root sensor in `sensors`.
+    std::size_t root_index() const;
+};
+
+class ConfigError : public std::runtime_error {
+public:
+    ConfigError(const std::string& source, std::vector<std::string> problems);
+    const std::vector<std::string>& problems() const { return problems_; }
+
+private:
+    std::vector<std::string> problems_;
+};
+
+// Parses and validates YAML text. Relative metadata paths resolve against `base_dir`.
+StationConfig parse_station_config(const std::string& yaml_text, const std::string& source_name,
+                                   const std::filesystem::path& base_dir);
+
+// Loads a file; metadata paths resolve against the file's folder.
+StationConfig load_station_config(const std::filesystem::path& file);
+
+// Writes the station section as YAML (metadata paths written relative to `base_dir` when
+// they lie below it). parse_station_config(to_yaml(c, d), ..., d) gives c back.
+std::string to_yaml(const StationConfig& config, const std::filesystem::path& base_dir);
+
+}  // namespace lidarfuse::station
