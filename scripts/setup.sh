@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package lidarfuse needs to build, test and run. Idempotent and
+# non-interactive; uses sudo when not run as root. Nothing is downloaded outside apt.
+set -euo pipefail
+
+packages=(
+    build-essential cmake ninja-build ccache pkg-config git clang libclang-rt-dev
+    libeigen3-dev libnanoflann-dev libceres-dev
+    libpcap-dev nlohmann-json3-dev libembree-dev libssl-dev
+    libspdlog-dev libyaml-cpp-dev
+    cyclonedds-dev cyclonedds-tools libsystemd-dev systemd
+    libgtest-dev libgmock-dev libbenchmark-dev
+    iproute2 procps
+)
+
+sudo_cmd=()
+if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+
+missing=()
+for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ "${#missing[@]}" -eq 0 ]; then
+    echo "setup: all ${#packages[@]} packages already installed"
+    exit 0
+fi
+echo "setup: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update -q
+"${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
