@@ -1,0 +1,85 @@
+#include "daemon/drop_oldest_queue.hpp"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <thread>
+#include <vector>
+
+namespace lidarfuse::daemon {
+namespace {
+
+TEST(DropOldestQueue, FifoAndCapacityRoundsUpToPowerOfTwo) {
+    DropOldestQueue<int> q(3);
+    EXPECT_EQ(q.capacity(), 4u);
+    for (int i = 0; i < 4; ++i) EXPECT_TRUE(q.push(i));
+    for (int i = 0; i < 4; ++i) EXPECT_EQ(q.try_pop().value(), i);
+    EXPECT_FALSE(q.try_pop().has_value());
+}
+
+TEST(DropOldestQueue, FullQueueDropsTheOldestAndCountsIt) {
+    DropOldestQueue<int> q(4);
+    for (int i = 0; i < 4; ++i) q.push(i);
+    EXPECT_FALSE(q.push(4));  // 0 dropped
+    EXPECT_FALSE(q.push(5));  // 1 dropped
+    EXPECT_EQ(q.dropped(), 2u);
+    EXPECT_EQ(q.pushed(), 6u);
+    std::vector<int> out;
+    while (auto v = q.try_pop()) out.push_back(*v);
+    EXPECT_EQ(out, (std::vector<int>{2, 3, 4, 5}));
+}
+
+TEST(DropOldestQueue, MoveOnlyItemsAreNotLeaked) {
+    DropOldestQueue<std::unique_ptr<int>> q(2);
+    for (int i = 0; i < 10; ++i) q.push(std::make_unique<int>(i));
+    EXPECT_EQ(q.dropped(), 8u);
+    EXPECT_EQ(*q.try_pop().value(), 8);
+    // The remaining item is destroyed with the queue (ASan checks for leaks).
+}
+
+// A fast producer and a slower consumer: the consumer sees a strictly increasing
+// sequence (no reordering, no duplicates) and every item is either consumed or counted.
+TEST(DropOldestQueue, ConcurrentProducerConsumerKeepsOrderAndAccounts) {
+    constexpr int kItems = 200000;
+    DropOldestQueue<int> q(64);
+    std::vector<int> seen;
+    seen.reserve(kItems);
+    std::thread consumer([&] {
+        for (;;) {
+            auto v = q.pop_wait(std::chrono::seconds(30));
+            if (!v) {
+                if (q.closed()) break;
+                continue;
+            }
+            seen.push_back(*v);
+            if (seen.size() % 128 == 0) std::this_thread::yield();
+        }
+        while (auto v = q.try_pop()) seen.push_back(*v);
+    });
+    for (int i = 0; i < kItems; ++i) q.push(i);
+    q.close();
+    consumer.join();
+    for (std::size_t i = 1; i < seen.size(); ++i) ASSERT_LT(seen[i - 1], seen[i]);
+    EXPECT_EQ(seen.size() + q.dropped(), static_cast<std::size_t>(kItems));
+    EXPECT_EQ(seen.back(), kItems - 1);  // the newest item is never the one dropped
+}
+
+TEST(DropOldestQueue, CloseWakesAWaitingConsumer) {
+    DropOldestQueue<int> q(8);
+    std::thread consumer([&] { EXPECT_FALSE(q.pop_wait(std::chrono::hours(1)).has_value()); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    q.close();
+    consumer.join();  // would hang for an hour if close() did not wake it
+    EXPECT_TRUE(q.closed());
+}
+
+TEST(DropOldestQueue, PushWakesAWaitingConsumer) {
+    DropOldestQueue<int> q(8);
+    std::thread consumer([&] { EXPECT_EQ(q.pop_wait(std::chrono::hours(1)).value_or(-1), 42); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    q.push(42);
+    consumer.join();
+}
+
+}  // namespace
+}  // namespace lidarfuse::daemon
