@@ -1,0 +1,67 @@
+#pragma once
+// Voxel-grid downsampling (PAPER.md, continuous registration): one point per occupied
+// voxel, the centroid of the points that fell in it.
+//
+// Runs every frame on ~65k points per sensor, so it is O(n) with an open-addressing hash
+// on the integer voxel coordinates and keeps all its buffers between calls: use one
+// VoxelGrid object per thread / sensor and call downsample() each frame (no allocation
+// once the buffers have grown). Output order: voxels in the order their first point
+// appears in the input (deterministic).
+//
+// Not thread safe (it owns scratch buffers); separate objects are independent.
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/point_cloud.hpp"
+
+namespace lidarfuse::core {
+
+struct VoxelGridParams {
+    double voxel_size_m = 1.0;  // edge length of the cubic voxels, > 0
+    // Voxels with fewer points are dropped (their points map to kNoVoxel).
+    int min_points_per_voxel = 1;
+};
+
+// Which input points went into each output voxel (CSR layout). Filled on request.
+struct VoxelIndexMap {
+    static constexpr std::uint32_t kNoVoxel = 0xFFFFFFFFu;
+    // Per input point: the index of its output point, or kNoVoxel (non-finite, out of the
+    // representable grid, or in a voxel dropped by min_points_per_voxel).
+    std::vector<std::uint32_t> voxel_of_point;
+    // Output point v was made from input points point_indices[offsets[v] .. offsets[v+1]).
+    std::vector<std::uint32_t> offsets;
+    std::vector<std::uint32_t> point_indices;
+};
+
+struct VoxelGridStats {
+    std::size_t num_input = 0;
+    std::size_t num_output = 0;
+    std::size_t num_invalid = 0;          // non-finite or beyond the grid's range (~1e6 voxels)
+    std::size_t num_dropped_sparse = 0;   // input points in voxels below min_points_per_voxel
+};
+
+class VoxelGrid {
+public:
+    // `out` gets points only (normals / covariances cleared). `index_map` may be null.
+    VoxelGridStats downsample(const std::vector<Eigen::Vector3d>& points,
+                              const VoxelGridParams& params, PointCloud* out,
+                              VoxelIndexMap* index_map = nullptr);
+
+private:
+    std::vector<std::uint64_t> table_keys_;
+    std::vector<std::uint32_t> table_values_;
+    std::vector<std::uint32_t> voxel_of_point_;
+    std::vector<Eigen::Vector3d> sums_;
+    std::vector<std::uint32_t> counts_;
+    std::vector<std::uint32_t> remap_;
+};
+
+// Convenience: a one-off downsampling with a temporary VoxelGrid.
+PointCloud voxel_downsample(const std::vector<Eigen::Vector3d>& points,
+                            const VoxelGridParams& params);
+
+}  // namespace lidarfuse::core
