@@ -1,0 +1,143 @@
+#include "drivers/pcap/pcap_reader.hpp"
+
+#include <pcap/pcap.h>
+
+#include <stdexcept>
+
+#include "drivers/pcap/frame_decoder.hpp"
+
+namespace lidarfuse::pcap {
+
+struct PcapReader::PcapHandle {
+    pcap_t* pcap = nullptr;
+    ~PcapHandle() {
+        if (pcap) pcap_close(pcap);
+    }
+};
+
+PcapReader::PcapReader(const std::filesystem::path& file, const PcapReaderParams& params)
+    : file_(file), handle_(std::make_unique<PcapHandle>()), reassembler_(params.reassembly) {
+    char errbuf[PCAP_ERRBUF_SIZE] = {};
+    // Nanosecond precision: libpcap scales microsecond files up, so both read alike.
+    handle_->pcap = pcap_open_offline_with_tstamp_precision(
+        file.c_str(), PCAP_TSTAMP_PRECISION_NANO, errbuf);
+    if (!handle_->pcap) {
+        throw std::runtime_error("cannot read capture " + file.string() + ": " + errbuf);
+    }
+    link_type_ = pcap_datalink(handle_->pcap);
+    if (!is_supported_link_type(link_type_)) {
+        const char* name = pcap_datalink_val_to_name(link_type_);
+        throw std::runtime_error("capture " + file.string() + " has link type " +
+                                 std::to_string(link_type_) + " (" + (name ? name : "unknown") +
+                                 "); supported: Ethernet, Linux SLL/SLL2, raw IPv4, loopback");
+    }
+}
+
+PcapReader::~PcapReader() = default;
+
+void PcapReader::sync_reassembly_stats() {
+    const auto& r = reassembler_.stats();
+    stats_.fragments = r.fragments;
+    stats_.reassembled = r.reassembled;
+    stats_.dropped_incomplete = r.dropped_incomplete;
+    stats_.discarded_fragments = r.discarded_fragments;
+}
+
+void PcapReader::finish() {
+    finished_ = true;
+    reassembler_.flush();
+    sync_reassembly_stats();
+}
+
+bool PcapReader::next(UdpDatagram* out) {
+    if (finished_) return false;
+    for (;;) {
+        pcap_pkthdr* header = nullptr;
+        const u_char* frame = nullptr;
+        const int rc = pcap_next_ex(handle_->pcap, &header, &frame);
+        if (rc == PCAP_ERROR_BREAK) {  // end of file
+            finish();
+            return false;
+        }
+        if (rc != 1) {
+            // libpcap reports a short record (header or data) as "truncated dump file".
+            const std::string message = pcap_geterr(handle_->pcap);
+            if (message.find("truncated") != std::string::npos) {
+                stats_.cut_off = 1;
+                warning_ = "capture " + file_.string() + " is cut off after record " +
+                           std::to_string(stats_.records) + ": " + message;
+            } else {
+                stats_.read_errors = 1;
+                warning_ = "capture " + file_.string() + ": read error after record " +
+                           std::to_string(stats_.records) + ": " + message;
+            }
+            finish();
+            return false;
+        }
+        ++stats_.records;
+        if (header->caplen < header->len) {
+            ++stats_.truncated_records;
+            continue;
+        }
+        // With nanosecond precision tv_usec holds nanoseconds.
+        const std::int64_t timestamp_ns =
+            static_cast<std::int64_t>(header->ts.tv_sec) * 1'000'000'000 +
+            static_cast<std::int64_t>(header->ts.tv_usec);
+
+        Ipv4Packet ip;
+        switch (decode_frame(link_type_, frame, header->caplen, &ip)) {
+            case FrameKind::kIpv4:
+                break;
+            case FrameKind::kNotIpv4:
+            case FrameKind::kUnsupportedLink:
+                ++stats_.non_ipv4;
+                continue;
+            case FrameKind::kMalformed:
+                ++stats_.malformed;
+                continue;
+        }
+        if (ip.protocol != kIpProtocolUdp) {
+            ++stats_.non_udp;
+            continue;
+        }
+        const std::uint8_t* ip_payload = ip.payload;
+        std::size_t ip_payload_size = ip.payload_size;
+        bool reassembled = false;
+        if (ip.is_fragment()) {
+            Ipv4Fragment fragment;
+            fragment.timestamp_ns = timestamp_ns;
+            fragment.src_ip = ip.src_ip;
+            fragment.dst_ip = ip.dst_ip;
+            fragment.id = ip.id;
+            fragment.protocol = ip.protocol;
+            fragment.offset_bytes = ip.offset_bytes;
+            fragment.more_fragments = ip.more_fragments;
+            fragment.payload = ip.payload;
+            fragment.size = ip.payload_size;
+            ReassembledDatagram whole;
+            const bool complete = reassembler_.add(fragment, &whole);
+            sync_reassembly_stats();
+            if (!complete) continue;
+            ip_payload = whole.payload;
+            ip_payload_size = whole.size;
+            reassembled = true;
+        }
+        UdpPayload udp;
+        if (!decode_udp(ip_payload, ip_payload_size, &udp)) {
+            ++stats_.malformed;
+            continue;
+        }
+        out->timestamp_ns = timestamp_ns;
+        out->src_ip = ip.src_ip;
+        out->dst_ip = ip.dst_ip;
+        out->src_port = udp.src_port;
+        out->dst_port = udp.dst_port;
+        out->data = udp.data;
+        out->size = udp.size;
+        out->reassembled = reassembled;
+        ++stats_.udp_datagrams;
+        return true;
+    }
+}
+
+}  // namespace lidarfuse::pcap

@@ -1,0 +1,35 @@
+#pragma once
+// One UDP/IPv4 datagram as delivered by PcapReader (whole, or reassembled from fragments).
+
+#include <cstddef>
+#include <cstdint>
+
+namespace lidarfuse::pcap {
+
+struct UdpDatagram {
+    // Capture time of the record that completed the datagram (the last fragment to arrive),
+    // in ns since the Unix epoch, as written by the capturing host.
+    std::int64_t timestamp_ns = 0;
+    std::uint32_t src_ip = 0;  // IPv4 addresses, host byte order (10.5.6.1 = 0x0A050601)
+    std::uint32_t dst_ip = 0;
+    std::uint16_t src_port = 0;
+    std::uint16_t dst_port = 0;
+    const std::uint8_t* data = nullptr;  // UDP payload (no headers); owned by the reader
+    std::size_t size = 0;                // payload bytes
+    bool reassembled = false;            // true when built from IPv4 fragments
+};
+
+// Dotted-quad text of a host-byte-order IPv4 address ("169.254.92.158").
+inline void format_ipv4(std::uint32_t ip, char (&out)[16]) {
+    int n = 0;
+    for (int shift = 24; shift >= 0; shift -= 8) {
+        unsigned v = (ip >> shift) & 0xFFu;
+        if (v >= 100) out[n++] = static_cast<char>('0' + v / 100);
+        if (v >= 10) out[n++] = static_cast<char>('0' + (v / 10) % 10);
+        out[n++] = static_cast<char>('0' + v % 10);
+        if (shift > 0) out[n++] = '.';
+    }
+    out[n] = '\0';
+}
+
+}  // namespace lidarfuse::pcap
