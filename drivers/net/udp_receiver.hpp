@@ -1,0 +1,106 @@
+#pragma once
+// Receives UDP/IPv4 datagrams from one or more ports with recvmmsg batching into a
+// preallocated ring of buffers and hands each one to a callback on the receiving thread.
+//
+// Per socket: non-blocking, a large receive buffer (SO_RCVBUFFORCE when the process may,
+// else SO_RCVBUF capped by net.core.rmem_max; the granted size is read back), kernel
+// receive timestamps (SO_TIMESTAMPNS: CLOCK_REALTIME, ns since the Unix epoch, taken when
+// the packet reached the socket layer), and the kernel's drop counter (SO_RXQ_OVFL: packets
+// dropped because the receive buffer was full). Each datagram carries its source address, so
+// several sensors sharing a port can be told apart.
+//
+// Threading: poll_once()/run() on one thread; stop() and stats() from any thread. stop() is
+// async-signal-safe (an atomic store and a write to an eventfd), and wakes a blocked poll at
+// once. The callback runs on the receiving thread and must be cheap: copy the bytes into a
+// ring and return; it must never wait on later pipeline stages. The data pointer is valid
+// only during the callback. No allocation or exception after construction.
+
+#include <sys/types.h>
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace lidarfuse::net {
+
+struct UdpReceiverParams {
+    std::string bind_address = "0.0.0.0";  // IPv4 address to bind every port to
+    std::vector<std::uint16_t> ports;       // one socket each; 0 = ephemeral (see sockets())
+    std::size_t batch_size = 32;            // datagrams per recvmmsg call
+    std::size_t max_datagram_bytes = 65536; // per buffer; longer datagrams are truncated
+    int requested_rcvbuf_bytes = 32 * 1024 * 1024;
+    int poll_timeout_ms = 100;  // run(): how long one poll may sleep when nothing arrives
+    std::size_t max_batches_per_wakeup = 16;  // per socket, so one busy port cannot starve others
+};
+
+struct ReceivedDatagram {
+    std::size_t socket_index = 0;  // index into UdpReceiverParams::ports
+    std::uint16_t local_port = 0;
+    std::uint32_t src_ip = 0;  // host byte order
+    std::uint16_t src_port = 0;
+    std::int64_t receive_time_ns = 0;  // CLOCK_REALTIME (kernel timestamp; see above)
+    const std::uint8_t* data = nullptr;
+    std::size_t size = 0;
+};
+
+// Counters over all sockets; relaxed atomics, readable from any thread while running.
+struct UdpReceiverStats {
+    std::atomic<std::uint64_t> datagrams{0};  // delivered to the callback
+    std::atomic<std::uint64_t> bytes{0};      // payload bytes delivered
+    std::atomic<std::uint64_t> truncated{0};  // longer than max_datagram_bytes: counted, dropped
+    // Dropped by the kernel for a full receive buffer. The kernel reports its running count
+    // with the next datagram it does deliver, so drops after the last datagram show late.
+    std::atomic<std::uint64_t> kernel_drops{0};
+    std::atomic<std::uint64_t> errors{0};    // failed recvmmsg/poll calls (EINTR excepted)
+    std::atomic<std::uint64_t> batches{0};   // recvmmsg calls that returned data
+    std::atomic<std::uint64_t> wakeups{0};   // polls that returned with work
+};
+
+struct UdpSocketInfo {
+    std::uint16_t port = 0;            // bound port (resolved when 0 was asked)
+    int granted_rcvbuf_bytes = 0;      // SO_RCVBUF read back (the kernel doubles requests)
+    bool rcvbuf_forced = false;        // SO_RCVBUFFORCE worked (CAP_NET_ADMIN)
+};
+
+using DatagramHandler = std::function<void(const ReceivedDatagram&)>;
+
+class UdpReceiver {
+public:
+    // Opens and binds every port; throws std::runtime_error listing every port that failed.
+    explicit UdpReceiver(const UdpReceiverParams& params);
+    ~UdpReceiver();
+    UdpReceiver(const UdpReceiver&) = delete;
+    UdpReceiver& operator=(const UdpReceiver&) = delete;
+
+    // Waits up to `timeout_ms` (-1 = forever) for data or stop(), then drains the ready
+    // sockets. Returns the number of datagrams delivered. Returns 0 at once after stop().
+    std::size_t poll_once(int timeout_ms, const DatagramHandler& handler);
+
+    // poll_once(params.poll_timeout_ms) until stop().
+    void run(const DatagramHandler& handler);
+
+    void stop();
+    bool stopped() const { return stop_.load(std::memory_order_acquire); }
+
+    const std::vector<UdpSocketInfo>& sockets() const { return sockets_; }
+    const UdpReceiverStats& stats() const { return stats_; }
+
+private:
+    struct Batch;
+    std::size_t drain(std::size_t socket_index, const DatagramHandler& handler);
+
+    UdpReceiverParams params_;
+    std::vector<int> fds_;
+    std::vector<UdpSocketInfo> sockets_;
+    std::vector<std::uint32_t> last_drop_count_;  // SO_RXQ_OVFL value seen last, per socket
+    int wake_fd_ = -1;                            // eventfd written by stop()
+    std::unique_ptr<Batch> batch_;
+    std::atomic<bool> stop_{false};
+    UdpReceiverStats stats_;
+};
+
+}  // namespace lidarfuse::net

@@ -1,0 +1,202 @@
+// UdpReceiver on loopback (127.0.0.1, ephemeral ports only): payloads and sources arrive
+// intact, senders sharing a port are told apart, truncation is counted, stop() wakes the loop.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstring>
+#include <future>
+#include <map>
+#include <thread>
+#include <vector>
+
+#include "drivers/net/ipv4_address.hpp"
+#include "drivers/net/udp_receiver.hpp"
+#include "drivers/net/udp_sender.hpp"
+
+namespace lidarfuse::net {
+namespace {
+
+struct Got {
+    std::uint32_t src_ip;
+    std::uint16_t src_port;
+    std::uint16_t local_port;
+    std::size_t socket_index;
+    std::int64_t receive_time_ns;
+    std::vector<std::uint8_t> data;
+};
+
+std::vector<std::uint8_t> payload(std::size_t size, std::uint32_t tag) {
+    std::vector<std::uint8_t> out(size);
+    for (std::size_t i = 0; i < size; ++i) out[i] = static_cast<std::uint8_t>(tag * 7 + i * 3);
+    if (size >= 4) std::memcpy(out.data(), &tag, 4);
+    return out;
+}
+
+UdpReceiverParams loopback_params(std::size_t ports) {
+    UdpReceiverParams p;
+    p.bind_address = "127.0.0.1";
+    p.ports.assign(ports, 0);
+    return p;
+}
+
+// Polls until `count` datagrams arrived or 200 polls of 50 ms passed (data already in the
+// socket buffer arrives on the first poll; this bound only keeps a broken build from hanging).
+std::vector<Got> receive(UdpReceiver& receiver, std::size_t count) {
+    std::vector<Got> got;
+    for (int i = 0; i < 200 && got.size() < count; ++i) {
+        receiver.poll_once(50, [&](const ReceivedDatagram& d) {
+            got.push_back({d.src_ip, d.src_port, d.local_port, d.socket_index, d.receive_time_ns,
+                           std::vector<std::uint8_t>(d.data, d.data + d.size)});
+        });
+    }
+    return got;
+}
+
+TEST(UdpReceiver, ReceivesEveryDatagramWithPayloadAndSource) {
+    UdpReceiverParams params = loopback_params(1);
+    params.batch_size = 8;  // several recvmmsg rounds per wake-up
+    UdpReceiver receiver(params);
+    ASSERT_EQ(receiver.sockets().size(), 1u);
+    const std::uint16_t port = receiver.sockets()[0].port;
+    EXPECT_NE(port, 0);
+    EXPECT_GT(receiver.sockets()[0].granted_rcvbuf_bytes, 0);
+
+    UdpSender sender({"127.0.0.1", 0});
+    constexpr int kCount = 100;
+    std::vector<Got> got;
+    for (int i = 0; i < kCount; ++i) {
+        const auto data = payload(i % 5 == 0 ? 12608 : 48 + i, static_cast<std::uint32_t>(i));
+        ASSERT_TRUE(sender.send_to(kLoopbackIpv4, port, data.data(), data.size()));
+        // Receive after every ten sends, so that even a small rmem_max cannot drop any.
+        if (i % 10 == 9) {
+            const auto part = receive(receiver, 10);
+            got.insert(got.end(), part.begin(), part.end());
+        }
+    }
+    ASSERT_EQ(got.size(), static_cast<std::size_t>(kCount));
+    for (int i = 0; i < kCount; ++i) {
+        EXPECT_EQ(got[i].data, payload(i % 5 == 0 ? 12608 : 48 + i, static_cast<std::uint32_t>(i)));
+        EXPECT_EQ(got[i].src_ip, kLoopbackIpv4);
+        EXPECT_EQ(got[i].src_port, sender.local_port());
+        EXPECT_EQ(got[i].local_port, port);
+        EXPECT_GT(got[i].receive_time_ns, 1'500'000'000'000'000'000LL);  // a kernel wall time
+    }
+    const auto& s = receiver.stats();
+    EXPECT_EQ(s.datagrams.load(), static_cast<std::uint64_t>(kCount));
+    EXPECT_EQ(s.truncated.load(), 0u);
+    EXPECT_EQ(s.kernel_drops.load(), 0u);
+    EXPECT_EQ(s.errors.load(), 0u);
+}
+
+TEST(UdpReceiver, TwoSendersOnOnePortAreToldApartBySource) {
+    UdpReceiver receiver(loopback_params(2));
+    const std::uint16_t port = receiver.sockets()[1].port;
+    UdpSender a({"127.0.0.1", 0});
+    UdpSender b({"127.0.0.2", 0});  // all of 127/8 is loopback on Linux
+    for (std::uint32_t i = 0; i < 20; ++i) {
+        const auto data = payload(100, i);
+        ASSERT_TRUE((i % 2 ? b : a).send_to(kLoopbackIpv4, port, data.data(), data.size()));
+    }
+    const auto got = receive(receiver, 20);
+    ASSERT_EQ(got.size(), 20u);
+    for (std::uint32_t i = 0; i < 20; ++i) {
+        EXPECT_EQ(got[i].socket_index, 1u);
+        EXPECT_EQ(got[i].data, payload(100, i));
+        if (i % 2) {
+            EXPECT_EQ(got[i].src_ip, 0x7F000002u);
+            EXPECT_EQ(got[i].src_port, b.local_port());
+        } else {
+            EXPECT_EQ(got[i].src_ip, 0x7F000001u);
+            EXPECT_EQ(got[i].src_port, a.local_port());
+        }
+    }
+}
+
+TEST(UdpReceiver, SeveralPortsInOneReceiver) {
+    UdpReceiver receiver(loopback_params(3));
+    UdpSender sender({"127.0.0.1", 0});
+    for (std::size_t s = 0; s < 3; ++s) {
+        const auto data = payload(64, static_cast<std::uint32_t>(s));
+        ASSERT_TRUE(sender.send_to(kLoopbackIpv4, receiver.sockets()[s].port, data.data(), data.size()));
+    }
+    auto got = receive(receiver, 3);
+    ASSERT_EQ(got.size(), 3u);
+    std::map<std::size_t, std::vector<std::uint8_t>> by_socket;
+    for (const auto& g : got) {
+        EXPECT_EQ(g.local_port, receiver.sockets()[g.socket_index].port);
+        by_socket[g.socket_index] = g.data;
+    }
+    for (std::size_t s = 0; s < 3; ++s) EXPECT_EQ(by_socket[s], payload(64, static_cast<std::uint32_t>(s)));
+}
+
+TEST(UdpReceiver, OversizedDatagramIsCountedAsTruncatedAndNotDelivered) {
+    UdpReceiverParams params = loopback_params(1);
+    params.max_datagram_bytes = 1024;
+    UdpReceiver receiver(params);
+    UdpSender sender({"127.0.0.1", 0});
+    const auto big = payload(2000, 1), ok = payload(1024, 2);
+    ASSERT_TRUE(sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, big.data(), big.size()));
+    ASSERT_TRUE(sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, ok.data(), ok.size()));
+    const auto got = receive(receiver, 1);
+    ASSERT_EQ(got.size(), 1u);
+    EXPECT_EQ(got[0].data, ok);
+    EXPECT_EQ(receiver.stats().truncated.load(), 1u);
+    EXPECT_EQ(receiver.stats().datagrams.load(), 1u);
+}
+
+TEST(UdpReceiver, KernelDropsAreCounted) {
+    UdpReceiverParams params = loopback_params(1);
+    params.requested_rcvbuf_bytes = 4096;  // the kernel's minimum: a few datagrams at most
+    UdpReceiver receiver(params);
+    UdpSender sender({"127.0.0.1", 0});
+    const auto data = payload(1400, 0);
+    for (int i = 0; i < 200; ++i) {
+        ASSERT_TRUE(sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
+    }
+    const auto got = receive(receiver, 1);
+    ASSERT_GE(got.size(), 1u);
+    // The drop count rides on the next datagram that gets through.
+    ASSERT_TRUE(sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
+    const auto more = receive(receiver, 1);
+    ASSERT_EQ(more.size(), 1u);
+    EXPECT_EQ(receiver.stats().kernel_drops.load() + got.size() + more.size(), 201u);
+}
+
+TEST(UdpReceiver, StopWakesABlockedLoopAtOnce) {
+    UdpReceiverParams params = loopback_params(1);
+    params.poll_timeout_ms = -1;  // only stop() can end the poll
+    UdpReceiver receiver(params);
+    std::promise<void> started;
+    auto running = std::async(std::launch::async, [&] {
+        started.set_value();
+        receiver.run([](const ReceivedDatagram&) {});
+    });
+    started.get_future().wait();
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_EQ(running.wait_for(std::chrono::milliseconds(0)), std::future_status::timeout);
+    receiver.stop();
+    // Generous bound: a missing wake-up would block forever, not for 10 s.
+    EXPECT_EQ(running.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+    EXPECT_TRUE(receiver.stopped());
+    EXPECT_EQ(receiver.poll_once(-1, [](const ReceivedDatagram&) {}), 0u);
+}
+
+TEST(UdpReceiver, BindFailuresListEveryPort) {
+    UdpReceiver first(loopback_params(2));
+    UdpReceiverParams params;
+    params.bind_address = "127.0.0.1";
+    params.ports = {first.sockets()[0].port, first.sockets()[1].port};
+    try {
+        UdpReceiver second(params);
+        FAIL() << "ports in use were bound twice";
+    } catch (const std::runtime_error& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find(":" + std::to_string(params.ports[0])), std::string::npos) << what;
+        EXPECT_NE(what.find(":" + std::to_string(params.ports[1])), std::string::npos) << what;
+    }
+    params.bind_address = "not-an-address";
+    EXPECT_THROW(UdpReceiver bad(params), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace lidarfuse::net
