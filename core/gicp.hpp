@@ -18,7 +18,9 @@
 //
 // H at the solution is the information matrix of T in this tangent order and frame (the
 // pose-graph edge information; see pose_graph.hpp). Its scale follows the unitless
-// covariances: it is relative information, not calibrated metres^-2.
+// covariances: it is relative information, not calibrated metres^-2. H, b, error and the
+// inlier count come from the last linearisation: at the returned T, or (when converged)
+// at most one sub-threshold step before it, which saves a k-d tree pass per call.
 //
 // Threading: the per-iteration reduction runs with `num_threads` OpenMP threads, each with
 // its own H, b and error sums, added at the end in a fixed order (results do not depend on
@@ -90,6 +92,11 @@ struct GicpResult {
     // Eigenvalues of H, ascending (conditioning / degeneracy check: the smallest collapses
     // when a direction is unconstrained, e.g. sliding along a single plane).
     Vector6d H_eigenvalues = Vector6d::Zero();
+    // Eigenvalues of the translation block of H (ascending). Rotation and translation have
+    // different units, so the full spectrum mixes rad^-2 and m^-2; the translation block
+    // alone is the cleaner degeneracy figure (e.g. smallest / largest ~ epsilon of the
+    // covariance regularisation when the scene is a single plane).
+    Eigen::Vector3d H_translation_eigenvalues = Eigen::Vector3d::Zero();
 };
 
 // A registration target: owns the points and covariances and the k-d tree over them, so
@@ -127,17 +134,29 @@ public:
                      const Eigen::Isometry3d& T_init = Eigen::Isometry3d::Identity());
 
 private:
-    struct Linearization;
-    // Correspondence search + H, b, error at T (into the member buffers).
+    // Sums over the correspondences at one pose (also the per-thread partial sums).
+    struct Linearization {
+        Matrix6d H = Matrix6d::Zero();
+        Vector6d b = Vector6d::Zero();
+        double error = 0.0;          // robust
+        double sum_sq_dist_m2 = 0.0;  // Euclidean, for rmse_m
+        std::size_t num_inliers = 0;
+        void reset() { *this = Linearization(); }
+        void add(const Linearization& o);
+    };
+    // Correspondence search + H, b, error at T (correspondences kept in the buffers).
     void linearize(const GicpTarget& target, const PointCloud& source,
                    const Eigen::Isometry3d& T, Linearization* lin);
-    // Robust error over the current correspondences at T (no search).
+    // Robust error over the stored correspondences at T (no k-d tree search).
     double evaluate(const GicpTarget& target, const PointCloud& source,
-                    const Eigen::Isometry3d& T) const;
+                    const Eigen::Isometry3d& T);
+    int num_threads() const;
 
     GicpParams params_;
-    std::vector<std::int32_t> target_index_;  // per source point, -1 = no correspondence
+    std::vector<std::int32_t> target_index_;    // per source point, -1 = no correspondence
     std::vector<Eigen::Matrix3d> mahalanobis_;  // per source point, M_i at the last linearisation
+    std::vector<Linearization> partial_;        // per thread
+    std::vector<double> partial_error_;         // per thread
 };
 
 // One-off convenience wrapper (allocates its buffers).

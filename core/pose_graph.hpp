@@ -81,7 +81,7 @@ public:
     PoseGraph(const PoseGraph&) = delete;
     PoseGraph& operator=(const PoseGraph&) = delete;
 
-    // Adds a node (or overwrites its pose if it exists). Returns false if the id exists.
+    // Adds a node at T_world_node. Returns false (and changes nothing) if the id exists.
     bool add_node(NodeId id, const Eigen::Isometry3d& T_world_node, bool fixed = false);
     // Removes the node and every edge touching it. False if unknown.
     bool remove_node(NodeId id);

@@ -1,0 +1,285 @@
+#include "core/gicp.hpp"
+
+#include <omp.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+
+namespace lidarfuse::core {
+
+const char* to_string(GicpStatus status) {
+    switch (status) {
+        case GicpStatus::kConverged: return "converged";
+        case GicpStatus::kMaxIterations: return "max_iterations";
+        case GicpStatus::kEmptyInput: return "empty_input";
+        case GicpStatus::kMissingCovariances: return "missing_covariances";
+        case GicpStatus::kTooFewCorrespondences: return "too_few_correspondences";
+        case GicpStatus::kSingular: return "singular";
+    }
+    return "unknown";
+}
+
+// ---------------------------------------------------------------------------------------
+// GicpTarget
+
+GicpTarget::GicpTarget() : GicpTarget(PointCloud{}) {}
+
+GicpTarget::GicpTarget(PointCloud cloud, int leaf_max_size)
+    : cloud_(std::make_unique<PointCloud>(std::move(cloud))),
+      tree_(std::make_unique<KdTree>(cloud_->points, leaf_max_size)) {}
+
+GicpTarget::GicpTarget(GicpTarget&&) noexcept = default;
+GicpTarget& GicpTarget::operator=(GicpTarget&&) noexcept = default;
+GicpTarget::~GicpTarget() = default;
+
+// ---------------------------------------------------------------------------------------
+// Robust kernels on the squared Mahalanobis distance s: rho(s) and the IRLS weight rho'(s).
+
+namespace {
+
+struct Kernel {
+    RobustKernel type;
+    double c;   // scale
+    double c2;  // scale^2
+
+    double rho(double s) const {
+        switch (type) {
+            case RobustKernel::kNone: return s;
+            case RobustKernel::kHuber: return s <= c2 ? s : 2.0 * c * std::sqrt(s) - c2;
+            case RobustKernel::kGemanMcClure: return c2 * s / (c2 + s);
+        }
+        return s;
+    }
+    double weight(double s) const {
+        switch (type) {
+            case RobustKernel::kNone: return 1.0;
+            case RobustKernel::kHuber: return s <= c2 ? 1.0 : c / std::sqrt(s);
+            case RobustKernel::kGemanMcClure: {
+                const double d = c2 + s;
+                return c2 * c2 / (d * d);
+            }
+        }
+        return 1.0;
+    }
+};
+
+Kernel make_kernel(const GicpParams& p) {
+    const double c = p.kernel_scale > 0.0 ? p.kernel_scale : 1.0;
+    return Kernel{p.kernel, c, c * c};
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------
+// GicpRegistration
+
+void GicpRegistration::Linearization::add(const Linearization& o) {
+    H += o.H;
+    b += o.b;
+    error += o.error;
+    sum_sq_dist_m2 += o.sum_sq_dist_m2;
+    num_inliers += o.num_inliers;
+}
+
+GicpRegistration::GicpRegistration(const GicpParams& params) : params_(params) {}
+
+int GicpRegistration::num_threads() const { return std::max(1, params_.num_threads); }
+
+void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& source,
+                                 const Eigen::Isometry3d& T, Linearization* lin) {
+    const std::size_t n = source.size();
+    const int threads = num_threads();
+    target_index_.resize(n);
+    mahalanobis_.resize(n);
+    partial_.resize(static_cast<std::size_t>(threads));
+    const Kernel kernel = make_kernel(params_);
+    const double max_d2 =
+        params_.max_correspondence_distance_m * params_.max_correspondence_distance_m;
+    const Eigen::Matrix3d R = T.linear();
+    const Eigen::Vector3d t = T.translation();
+    const auto& target_points = target.cloud().points;
+    const auto& target_covs = target.cloud().covariances;
+    const long long count = static_cast<long long>(n);
+
+#pragma omp parallel num_threads(threads)
+    {
+        Linearization local;
+#pragma omp for schedule(static)
+        for (long long i = 0; i < count; ++i) {
+            const Eigen::Vector3d& a = source.points[i];
+            const Eigen::Vector3d Ta = R * a + t;
+            std::uint32_t j = 0;
+            double d2 = 0.0;
+            if (!target.tree().nearest(Ta, &j, &d2) || d2 > max_d2) {
+                target_index_[i] = -1;
+                continue;
+            }
+            // M = (C_B + R C_A R^T)^-1; skip a correspondence whose combined covariance is
+            // singular (only possible with unregularised, degenerate covariances).
+            const Eigen::Matrix3d RCR =
+                target_covs[j] + R * source.covariances[i] * R.transpose();
+            Eigen::Matrix3d M;
+            bool invertible = false;
+            RCR.computeInverseWithCheck(M, invertible, 1e-12);
+            if (!invertible) {
+                target_index_[i] = -1;
+                continue;
+            }
+            target_index_[i] = static_cast<std::int32_t>(j);
+            mahalanobis_[i] = M;
+
+            const Eigen::Vector3d d = target_points[j] - Ta;
+            const Eigen::Vector3d Md = M * d;
+            const double s = d.dot(Md);
+            const double w = kernel.weight(s);
+            // J = [R [a]x, -R] (see the header).
+            Eigen::Matrix<double, 3, 6> J;
+            J.leftCols<3>() = R * skew(a);
+            J.rightCols<3>() = -R;
+            const Eigen::Matrix<double, 3, 6> MJ = M * J;
+            local.H.noalias() += w * (J.transpose() * MJ);
+            local.b.noalias() += w * (J.transpose() * Md);
+            local.error += kernel.rho(s);
+            local.sum_sq_dist_m2 += d2;
+            ++local.num_inliers;
+        }
+        partial_[static_cast<std::size_t>(omp_get_thread_num())] = local;
+    }
+    // Fixed summation order: the result does not depend on thread timing.
+    lin->reset();
+    for (const auto& p : partial_) lin->add(p);
+}
+
+double GicpRegistration::evaluate(const GicpTarget& target, const PointCloud& source,
+                                  const Eigen::Isometry3d& T) {
+    const int threads = num_threads();
+    partial_error_.assign(static_cast<std::size_t>(threads), 0.0);
+    const Kernel kernel = make_kernel(params_);
+    const auto& target_points = target.cloud().points;
+    const long long count = static_cast<long long>(source.size());
+#pragma omp parallel num_threads(threads)
+    {
+        double local = 0.0;
+#pragma omp for schedule(static)
+        for (long long i = 0; i < count; ++i) {
+            const std::int32_t j = target_index_[i];
+            if (j < 0) continue;
+            const Eigen::Vector3d d = target_points[j] - T * source.points[i];
+            local += kernel.rho(d.dot(mahalanobis_[i] * d));
+        }
+        partial_error_[static_cast<std::size_t>(omp_get_thread_num())] = local;
+    }
+    double sum = 0.0;
+    for (const double e : partial_error_) sum += e;
+    return sum;
+}
+
+GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& source,
+                                   const Eigen::Isometry3d& T_init) {
+    GicpResult result;
+    result.T_target_source = T_init;
+    result.num_source = source.size();
+    if (source.empty() || target.empty()) {
+        result.status = GicpStatus::kEmptyInput;
+        return result;
+    }
+    if (!source.has_covariances() || !target.cloud().has_covariances()) {
+        result.status = GicpStatus::kMissingCovariances;
+        return result;
+    }
+
+    Eigen::Isometry3d T = T_init;
+    Linearization lin;
+    double lambda = params_.lm_initial_lambda;
+    bool last_linearization_current = false;  // lin was computed at T
+    result.status = GicpStatus::kMaxIterations;
+
+    for (int iteration = 0; iteration < params_.max_iterations; ++iteration) {
+        linearize(target, source, T, &lin);
+        last_linearization_current = true;
+        if (lin.num_inliers < params_.min_correspondences) {
+            result.status = GicpStatus::kTooFewCorrespondences;
+            break;
+        }
+        Vector6d delta = Vector6d::Zero();
+        bool stop = false;
+        if (params_.solver == GicpSolver::kGaussNewton) {
+            delta = lin.H.ldlt().solve(-lin.b);
+            if (!delta.allFinite()) {
+                result.status = GicpStatus::kSingular;
+                break;
+            }
+            T = T * se3_exp(delta);
+            last_linearization_current = false;
+        } else {
+            // Levenberg-Marquardt: accept the damped step only if the robust error over
+            // the current correspondences decreases.
+            bool accepted = false;
+            for (int inner = 0; inner < params_.lm_max_inner_iterations; ++inner) {
+                const Matrix6d A = lin.H + lambda * Matrix6d::Identity();
+                delta = A.ldlt().solve(-lin.b);
+                if (!delta.allFinite()) break;
+                const Eigen::Isometry3d T_new = T * se3_exp(delta);
+                if (evaluate(target, source, T_new) <= lin.error) {
+                    T = T_new;
+                    last_linearization_current = false;
+                    lambda = std::max(lambda * 0.1, 1e-12);
+                    accepted = true;
+                    break;
+                }
+                lambda *= 10.0;
+            }
+            if (!delta.allFinite()) {
+                result.status = GicpStatus::kSingular;
+                break;
+            }
+            // No step lowers the error even with heavy damping: T is a local minimum for
+            // these correspondences, which do not change when T does not.
+            if (!accepted) stop = true;
+        }
+        result.iterations = iteration + 1;
+        const bool small_update = delta.head<3>().norm() < params_.rotation_eps_rad &&
+                                  delta.tail<3>().norm() < params_.translation_eps_m;
+        if (stop || small_update) {
+            result.status = GicpStatus::kConverged;
+            break;
+        }
+    }
+
+    // Report H, error and inliers at the final T. After a converged step the last
+    // linearisation is at most one sub-threshold step away; otherwise linearise again.
+    if (!last_linearization_current && result.status != GicpStatus::kConverged) {
+        linearize(target, source, T, &lin);
+    }
+    result.converged = result.status == GicpStatus::kConverged;
+    result.T_target_source = T;
+    result.num_inliers = lin.num_inliers;
+    result.inlier_ratio =
+        static_cast<double>(lin.num_inliers) / static_cast<double>(result.num_source);
+    result.error = lin.error;
+    if (lin.num_inliers > 0) {
+        result.mean_error = lin.error / static_cast<double>(lin.num_inliers);
+        result.rmse_m = std::sqrt(lin.sum_sq_dist_m2 / static_cast<double>(lin.num_inliers));
+    }
+    result.H = 0.5 * (lin.H + lin.H.transpose());  // remove summation asymmetry
+    result.b = lin.b;
+    if (result.H.allFinite()) {
+        Eigen::SelfAdjointEigenSolver<Matrix6d> eig(result.H, Eigen::EigenvaluesOnly);
+        result.H_eigenvalues = eig.eigenvalues();
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig_t(result.H.bottomRightCorner<3, 3>(),
+                                                             Eigen::EigenvaluesOnly);
+        result.H_translation_eigenvalues = eig_t.eigenvalues();
+    }
+    return result;
+}
+
+GicpResult align_gicp(const GicpTarget& target, const PointCloud& source,
+                      const Eigen::Isometry3d& T_init, const GicpParams& params) {
+    GicpRegistration registration(params);
+    return registration.align(target, source, T_init);
+}
+
+}  // namespace lidarfuse::core

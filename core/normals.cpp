@@ -1,0 +1,90 @@
+#include "core/normals.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+
+namespace lidarfuse::core {
+
+Eigen::Matrix3d regularize_plane_covariance(const Eigen::Matrix3d& covariance, double epsilon) {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+    solver.computeDirect(covariance);
+    const Eigen::Matrix3d& U = solver.eigenvectors();  // columns, eigenvalues ascending
+    const Eigen::Vector3d d(epsilon, 1.0, 1.0);
+    return U * d.asDiagonal() * U.transpose();
+}
+
+NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
+                                         const NormalParams& params,
+                                         std::vector<double>* curvature) {
+    NormalStats stats;
+    const std::size_t n = cloud->points.size();
+    stats.num_points = n;
+    if (params.compute_normals) cloud->normals.resize(n);
+    if (params.compute_covariances) cloud->covariances.resize(n);
+    if (curvature) curvature->resize(n);
+    if (n == 0) return stats;
+
+    const std::size_t k = static_cast<std::size_t>(std::max(3, params.k_neighbors));
+    const long long count = static_cast<long long>(n);
+    std::size_t degenerate = 0;
+#pragma omp parallel num_threads(std::max(1, params.num_threads)) reduction(+ : degenerate)
+    {
+        std::vector<std::uint32_t> idx(k);
+        std::vector<double> d2(k);
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+#pragma omp for schedule(static)
+        for (long long i = 0; i < count; ++i) {
+            const Eigen::Vector3d& p = cloud->points[i];
+            const std::size_t found = tree.knn(p, k, idx.data(), d2.data());
+            if (found < 3) {
+                ++degenerate;
+                if (params.compute_normals) cloud->normals[i].setZero();
+                if (params.compute_covariances) cloud->covariances[i].setIdentity();
+                if (curvature) (*curvature)[i] = 1.0 / 3.0;
+                continue;
+            }
+            // Two-pass (mean first) for accuracy far from the origin.
+            Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+            for (std::size_t j = 0; j < found; ++j) mean += cloud->points[idx[j]];
+            mean /= static_cast<double>(found);
+            Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+            for (std::size_t j = 0; j < found; ++j) {
+                const Eigen::Vector3d d = cloud->points[idx[j]] - mean;
+                C.noalias() += d * d.transpose();
+            }
+            C /= static_cast<double>(found);
+            solver.computeDirect(C);
+            const Eigen::Vector3d lambda = solver.eigenvalues().cwiseMax(0.0);
+            const Eigen::Matrix3d& U = solver.eigenvectors();
+            if (params.compute_normals) {
+                Eigen::Vector3d normal = U.col(0);
+                if (params.orient_towards_viewpoint && normal.dot(params.viewpoint - p) < 0.0) {
+                    normal = -normal;
+                }
+                cloud->normals[i] = normal;
+            }
+            if (params.compute_covariances) {
+                if (params.regularize_covariances) {
+                    const Eigen::Vector3d d(params.gicp_epsilon, 1.0, 1.0);
+                    cloud->covariances[i] = U * d.asDiagonal() * U.transpose();
+                } else {
+                    cloud->covariances[i] = C;
+                }
+            }
+            if (curvature) {
+                const double sum = lambda.sum();
+                (*curvature)[i] = sum > 0.0 ? lambda(0) / sum : 1.0 / 3.0;
+            }
+        }
+    }
+    stats.num_degenerate = degenerate;
+    return stats;
+}
+
+NormalStats estimate_normals_covariances(PointCloud* cloud, const NormalParams& params,
+                                         std::vector<double>* curvature) {
+    const KdTree tree(cloud->points);
+    return estimate_normals_covariances(cloud, tree, params, curvature);
+}
+
+}  // namespace lidarfuse::core

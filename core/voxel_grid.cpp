@@ -1,0 +1,149 @@
+#include "core/voxel_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace lidarfuse::core {
+
+namespace {
+
+// Voxel coordinates are packed into 21 bits each (offset binary): +-2^20 voxels per axis,
+// i.e. +-10 km at 1 cm voxels. Keys therefore stay below 2^63, and all-ones marks an empty
+// hash slot.
+constexpr int kBitsPerAxis = 21;
+constexpr std::int64_t kAxisOffset = std::int64_t{1} << (kBitsPerAxis - 1);
+constexpr std::uint64_t kEmptyKey = std::numeric_limits<std::uint64_t>::max();
+
+inline std::uint64_t hash_key(std::uint64_t key) {
+    // Fibonacci hashing (multiply by 2^64 / golden ratio); the table index takes the high
+    // bits, which mix all three packed coordinates.
+    return key * 0x9E3779B97F4A7C15ull;
+}
+
+}  // namespace
+
+VoxelGridStats VoxelGrid::downsample(const std::vector<Eigen::Vector3d>& points,
+                                     const VoxelGridParams& params, PointCloud* out,
+                                     VoxelIndexMap* index_map) {
+    VoxelGridStats stats;
+    stats.num_input = points.size();
+    out->clear();
+    const std::size_t n = points.size();
+    if (index_map) {
+        index_map->voxel_of_point.assign(n, VoxelIndexMap::kNoVoxel);
+        index_map->offsets.assign(1, 0);
+        index_map->point_indices.clear();
+    }
+    if (n == 0 || !(params.voxel_size_m > 0.0) || !std::isfinite(params.voxel_size_m)) {
+        stats.num_invalid = n;
+        return stats;
+    }
+
+    // Open addressing with linear probing, load factor <= 0.5.
+    std::size_t capacity = 16;
+    int shift_bits = 4;
+    while (capacity < 2 * n) {
+        capacity <<= 1;
+        ++shift_bits;
+    }
+    const int hash_shift = 64 - shift_bits;
+    const std::size_t mask = capacity - 1;
+    table_keys_.assign(capacity, kEmptyKey);
+    table_values_.resize(capacity);
+    voxel_of_point_.resize(n);
+    sums_.clear();
+    counts_.clear();
+
+    const double inv_size = 1.0 / params.voxel_size_m;
+    for (std::size_t i = 0; i < n; ++i) {
+        const Eigen::Vector3d& p = points[i];
+        voxel_of_point_[i] = VoxelIndexMap::kNoVoxel;
+        if (!p.allFinite()) {
+            ++stats.num_invalid;
+            continue;
+        }
+        const Eigen::Vector3d c = (p * inv_size).array().floor();
+        if ((c.array().abs() >= static_cast<double>(kAxisOffset)).any()) {
+            ++stats.num_invalid;
+            continue;
+        }
+        const std::uint64_t key =
+            (static_cast<std::uint64_t>(static_cast<std::int64_t>(c.x()) + kAxisOffset)
+             << (2 * kBitsPerAxis)) |
+            (static_cast<std::uint64_t>(static_cast<std::int64_t>(c.y()) + kAxisOffset)
+             << kBitsPerAxis) |
+            static_cast<std::uint64_t>(static_cast<std::int64_t>(c.z()) + kAxisOffset);
+        std::size_t slot = static_cast<std::size_t>(hash_key(key) >> hash_shift);
+        std::uint32_t voxel;
+        while (true) {
+            const std::uint64_t k = table_keys_[slot];
+            if (k == key) {
+                voxel = table_values_[slot];
+                break;
+            }
+            if (k == kEmptyKey) {
+                voxel = static_cast<std::uint32_t>(sums_.size());
+                table_keys_[slot] = key;
+                table_values_[slot] = voxel;
+                sums_.emplace_back(Eigen::Vector3d::Zero());
+                counts_.push_back(0);
+                break;
+            }
+            slot = (slot + 1) & mask;
+        }
+        voxel_of_point_[i] = voxel;
+        sums_[voxel] += p;
+        ++counts_[voxel];
+    }
+
+    const std::size_t num_voxels = sums_.size();
+    const std::uint32_t min_points =
+        static_cast<std::uint32_t>(std::max(1, params.min_points_per_voxel));
+    remap_.resize(num_voxels);
+    out->points.reserve(num_voxels);
+    for (std::size_t v = 0; v < num_voxels; ++v) {
+        if (counts_[v] >= min_points) {
+            remap_[v] = static_cast<std::uint32_t>(out->points.size());
+            out->points.push_back(sums_[v] / static_cast<double>(counts_[v]));
+        } else {
+            remap_[v] = VoxelIndexMap::kNoVoxel;
+            stats.num_dropped_sparse += counts_[v];
+        }
+    }
+    stats.num_output = out->points.size();
+
+    if (index_map) {
+        // Counting sort of the input indices by output voxel (CSR).
+        auto& offsets = index_map->offsets;
+        offsets.assign(stats.num_output + 1, 0);
+        for (std::size_t i = 0; i < n; ++i) {
+            const std::uint32_t v = voxel_of_point_[i];
+            if (v == VoxelIndexMap::kNoVoxel) continue;
+            const std::uint32_t o = remap_[v];
+            index_map->voxel_of_point[i] = o;
+            if (o != VoxelIndexMap::kNoVoxel) ++offsets[o + 1];
+        }
+        for (std::size_t v = 0; v < stats.num_output; ++v) offsets[v + 1] += offsets[v];
+        index_map->point_indices.resize(offsets.back());
+        // Fill using the (already final) offsets as cursors, then restore them.
+        for (std::size_t i = 0; i < n; ++i) {
+            const std::uint32_t o = index_map->voxel_of_point[i];
+            if (o == VoxelIndexMap::kNoVoxel) continue;
+            index_map->point_indices[offsets[o]++] = static_cast<std::uint32_t>(i);
+        }
+        for (std::size_t v = stats.num_output; v > 0; --v) offsets[v] = offsets[v - 1];
+        offsets[0] = 0;
+    }
+    return stats;
+}
+
+PointCloud voxel_downsample(const std::vector<Eigen::Vector3d>& points,
+                            const VoxelGridParams& params) {
+    VoxelGrid grid;
+    PointCloud out;
+    grid.downsample(points, params, &out);
+    return out;
+}
+
+}  // namespace lidarfuse::core

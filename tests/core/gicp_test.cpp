@@ -1,0 +1,228 @@
+#include "core/gicp.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <random>
+
+#include "core/normals.hpp"
+#include "tests/core/synthetic_scene.hpp"
+
+namespace lidarfuse::core {
+namespace {
+
+PointCloud with_covariances(std::vector<Eigen::Vector3d> points) {
+    PointCloud cloud;
+    cloud.points = std::move(points);
+    NormalParams params;
+    params.k_neighbors = 15;
+    params.num_threads = 2;
+    estimate_normals_covariances(&cloud, params);
+    return cloud;
+}
+
+void expect_finite(const GicpResult& r) {
+    EXPECT_TRUE(r.T_target_source.matrix().allFinite());
+    EXPECT_TRUE(r.H.allFinite());
+    EXPECT_TRUE(r.b.allFinite());
+    EXPECT_TRUE(std::isfinite(r.error));
+    EXPECT_TRUE(std::isfinite(r.inlier_ratio));
+}
+
+class GicpScene : public ::testing::Test {
+protected:
+    void SetUp() override {
+        std::mt19937 rng(42);
+        target_points_ = test::make_structured_scene(rng);
+        target_ = GicpTarget(with_covariances(target_points_));
+    }
+    std::vector<Eigen::Vector3d> target_points_;
+    GicpTarget target_;
+};
+
+TEST_F(GicpScene, IdentityWhenSourceEqualsTarget) {
+    const PointCloud source = with_covariances(target_points_);
+    const GicpResult r = align_gicp(target_, source, Eigen::Isometry3d::Identity());
+    ASSERT_TRUE(r.converged) << to_string(r.status);
+    EXPECT_LT(r.T_target_source.translation().norm(), 1e-9);
+    EXPECT_LT(rotation_error_rad(r.T_target_source, Eigen::Isometry3d::Identity()), 1e-9);
+    EXPECT_EQ(r.num_inliers, source.size());
+    EXPECT_DOUBLE_EQ(r.inlier_ratio, 1.0);
+    EXPECT_LT(r.rmse_m, 1e-9);
+    EXPECT_LE(r.iterations, 2);
+}
+
+// Source = the target's points seen from another pose: exact correspondences exist, so
+// the optimum is the true transform to numerical precision.
+TEST_F(GicpScene, RecoversKnownTransformsWithoutNoise) {
+    std::mt19937 rng(3);
+    GicpParams params;
+    params.max_correspondence_distance_m = 3.0;
+    params.max_iterations = 60;
+    params.translation_eps_m = 1e-6;
+    params.rotation_eps_rad = 1e-7;
+    GicpRegistration registration(params);
+    for (int trial = 0; trial < 6; ++trial) {
+        const double t_m = 0.2 + 0.16 * trial;              // up to 1 m
+        const double angle = (2.0 + 1.6 * trial) * M_PI / 180;  // up to 10 degrees
+        const Eigen::Isometry3d T_true = test::random_transform(rng, t_m, angle);
+        const PointCloud source =
+            with_covariances(test::transformed(T_true.inverse(), target_points_));
+        for (const GicpSolver solver : {GicpSolver::kLevenbergMarquardt, GicpSolver::kGaussNewton}) {
+            params.solver = solver;
+            registration.set_params(params);
+            const GicpResult r = registration.align(target_, source, Eigen::Isometry3d::Identity());
+            expect_finite(r);
+            EXPECT_TRUE(r.converged) << "trial " << trial << " " << to_string(r.status);
+            EXPECT_LT(translation_error_m(r.T_target_source, T_true), 1e-3) << "trial " << trial;
+            EXPECT_LT(rotation_error_deg(r.T_target_source, T_true), 0.01) << "trial " << trial;
+            EXPECT_GT(r.inlier_ratio, 0.99);
+        }
+    }
+}
+
+// Independently sampled source with 2 cm range-like noise: sampling and noise limit the
+// accuracy; bounds a few times the noise divided by sqrt(points per constrained plane).
+TEST_F(GicpScene, RecoversTransformWithIndependentSamplingAndNoise) {
+    std::mt19937 rng(5);
+    const Eigen::Isometry3d T_true = test::random_transform(rng, 0.8, 8.0 * M_PI / 180);
+    std::vector<Eigen::Vector3d> world = test::make_structured_scene(rng);
+    test::add_gaussian_noise(rng, 0.02, &world);
+    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), world));
+    GicpParams params;
+    params.max_correspondence_distance_m = 3.0;
+    params.max_iterations = 60;
+    const GicpResult r = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
+    expect_finite(r);
+    EXPECT_TRUE(r.converged) << to_string(r.status);
+    EXPECT_LT(translation_error_m(r.T_target_source, T_true), 0.01);
+    EXPECT_LT(rotation_error_deg(r.T_target_source, T_true), 0.05);
+}
+
+// 20% of the source replaced by uniform clutter: the robust kernels keep the estimate.
+TEST_F(GicpScene, RobustKernelsTolerateOutliers) {
+    std::mt19937 rng(9);
+    const Eigen::Isometry3d T_true = test::random_transform(rng, 0.3, 3.0 * M_PI / 180);
+    std::vector<Eigen::Vector3d> world = target_points_;
+    std::uniform_real_distribution<double> u(-15.0, 15.0), h(0.0, 6.0);
+    for (std::size_t i = 0; i < world.size(); i += 5) world[i] = Eigen::Vector3d(u(rng), u(rng), h(rng));
+    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), world));
+    for (const RobustKernel kernel : {RobustKernel::kHuber, RobustKernel::kGemanMcClure}) {
+        GicpParams params;
+        params.max_correspondence_distance_m = 1.5;
+        params.kernel = kernel;
+        params.kernel_scale = 1.0;
+        params.max_iterations = 60;
+        const GicpResult r = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
+        expect_finite(r);
+        EXPECT_TRUE(r.converged) << to_string(r.status);
+        EXPECT_LT(translation_error_m(r.T_target_source, T_true), 0.01);
+        EXPECT_LT(rotation_error_deg(r.T_target_source, T_true), 0.05);
+        EXPECT_LT(r.inlier_ratio, 0.95);  // the clutter is not all matched
+    }
+}
+
+TEST_F(GicpScene, ThreadCountDoesNotChangeTheResult) {
+    std::mt19937 rng(13);
+    const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
+    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), target_points_));
+    GicpParams params;
+    params.max_correspondence_distance_m = 2.0;
+    params.num_threads = 1;
+    const GicpResult r1 = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
+    params.num_threads = 2;
+    const GicpResult r2 = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
+    EXPECT_EQ(r1.iterations, r2.iterations);
+    EXPECT_EQ(r1.num_inliers, r2.num_inliers);
+    EXPECT_LT((r1.T_target_source.matrix() - r2.T_target_source.matrix()).norm(), 1e-9);
+}
+
+TEST_F(GicpScene, OneTargetServesSeveralSourcesAndRegistrationIsReusable) {
+    std::mt19937 rng(17);
+    GicpParams params;
+    params.max_correspondence_distance_m = 2.0;
+    GicpRegistration registration(params);
+    for (int i = 0; i < 3; ++i) {
+        const Eigen::Isometry3d T_true = test::random_transform(rng, 0.4, 4.0 * M_PI / 180);
+        const PointCloud source =
+            with_covariances(test::transformed(T_true.inverse(), target_points_));
+        const GicpResult reused = registration.align(target_, source);
+        const GicpResult fresh = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
+        EXPECT_LT(translation_error_m(reused.T_target_source, T_true), 1e-3);
+        EXPECT_LT((reused.T_target_source.matrix() - fresh.T_target_source.matrix()).norm(), 1e-12);
+        EXPECT_EQ(reused.iterations, fresh.iterations);
+    }
+    // A moved target keeps working (points stay at a fixed address inside).
+    GicpTarget moved = std::move(target_);
+    const PointCloud source = with_covariances(target_points_);
+    EXPECT_TRUE(registration.align(moved, source).converged);
+}
+
+TEST_F(GicpScene, HessianIsSymmetricPositiveDefiniteForStructure) {
+    const PointCloud source = with_covariances(target_points_);
+    const GicpResult r = align_gicp(target_, source, Eigen::Isometry3d::Identity());
+    EXPECT_LT((r.H - r.H.transpose()).norm(), 1e-12 * r.H.norm());
+    Eigen::SelfAdjointEigenSolver<Matrix6d> eig(r.H);
+    EXPECT_TRUE(r.H_eigenvalues.isApprox(eig.eigenvalues(), 1e-9));
+    EXPECT_GT(r.H_eigenvalues(0), 0.0);
+    // Every translation direction is constrained by some wall or the ground: the
+    // translation block is far from the ~epsilon (1e-3) ratio of a single plane.
+    const Eigen::Vector3d& et = r.H_translation_eigenvalues;
+    EXPECT_GT(et(0) / et(2), 2e-2) << et.transpose();
+}
+
+TEST(Gicp, SinglePlaneIsReportedAsDegenerate) {
+    std::mt19937 rng(21);
+    std::vector<Eigen::Vector3d> plane;
+    test::sample_rectangle(rng, {-10, -10, 0}, {20, 0, 0}, {0, 20, 0}, 3000, &plane);
+    const GicpTarget target(with_covariances(plane));
+    Eigen::Isometry3d T_true = Eigen::Isometry3d::Identity();
+    T_true.translation() = Eigen::Vector3d(0.3, -0.2, 0.1);
+    std::vector<Eigen::Vector3d> other;
+    test::sample_rectangle(rng, {-10, -10, 0}, {20, 0, 0}, {0, 20, 0}, 3000, &other);
+    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), other));
+    const GicpResult r = align_gicp(target, source, Eigen::Isometry3d::Identity());
+    expect_finite(r);
+    // The out-of-plane parts (z, roll, pitch) are recovered ...
+    EXPECT_NEAR(r.T_target_source.translation().z(), 0.1, 1e-3);
+    // ... but in-plane translation and yaw are not constrained: three eigenvalues collapse.
+    EXPECT_GE(r.H_eigenvalues(0), -1e-9 * r.H_eigenvalues(5));  // PSD up to rounding
+    const Eigen::Vector3d& et = r.H_translation_eigenvalues;
+    EXPECT_LT(et(1) / et(2), 5e-3) << et.transpose();
+    EXPECT_GT(et(1), 0.0);
+}
+
+TEST(Gicp, EmptyAndTinyInputsFailCleanly) {
+    std::mt19937 rng(1);
+    const GicpTarget target(with_covariances(test::make_structured_scene(rng, 1.0)));
+    const GicpTarget empty_target;
+    const PointCloud empty_source;
+    GicpResult r = align_gicp(target, empty_source, Eigen::Isometry3d::Identity());
+    EXPECT_FALSE(r.converged);
+    EXPECT_EQ(r.status, GicpStatus::kEmptyInput);
+    expect_finite(r);
+
+    const PointCloud three = with_covariances({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+    r = align_gicp(target, three, Eigen::Isometry3d::Identity());
+    EXPECT_FALSE(r.converged);
+    EXPECT_EQ(r.status, GicpStatus::kTooFewCorrespondences);
+    expect_finite(r);
+    r = align_gicp(empty_target, three, Eigen::Isometry3d::Identity());
+    EXPECT_EQ(r.status, GicpStatus::kEmptyInput);
+
+    PointCloud no_cov;
+    no_cov.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    r = align_gicp(target, no_cov, Eigen::Isometry3d::Identity());
+    EXPECT_EQ(r.status, GicpStatus::kMissingCovariances);
+
+    // No overlap at all: too few correspondences, the initial guess is returned unchanged.
+    Eigen::Isometry3d far = Eigen::Isometry3d::Identity();
+    far.translation() = Eigen::Vector3d(500, 0, 0);
+    r = align_gicp(target, with_covariances(test::make_structured_scene(rng, 1.0)), far);
+    EXPECT_EQ(r.status, GicpStatus::kTooFewCorrespondences);
+    EXPECT_TRUE(r.T_target_source.isApprox(far));
+    EXPECT_EQ(r.num_inliers, 0u);
+}
+
+}  // namespace
+}  // namespace lidarfuse::core
