@@ -10,6 +10,7 @@
 // and work for any pixel type. `out` must not alias `in`.
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace lidarfuse::ouster {
@@ -48,6 +49,22 @@ void restagger(const T* in, int height, int width, const std::vector<int>& shift
         }
     }
 }
+
+// Instantiated once in destagger.cpp for the LidarScan pixel types.
+extern template void destagger<std::uint8_t>(const std::uint8_t*, int, int,
+                                             const std::vector<int>&, std::uint8_t*);
+extern template void destagger<std::uint16_t>(const std::uint16_t*, int, int,
+                                              const std::vector<int>&, std::uint16_t*);
+extern template void destagger<std::uint32_t>(const std::uint32_t*, int, int,
+                                              const std::vector<int>&, std::uint32_t*);
+extern template void destagger<float>(const float*, int, int, const std::vector<int>&, float*);
+extern template void restagger<std::uint8_t>(const std::uint8_t*, int, int,
+                                             const std::vector<int>&, std::uint8_t*);
+extern template void restagger<std::uint16_t>(const std::uint16_t*, int, int,
+                                              const std::vector<int>&, std::uint16_t*);
+extern template void restagger<std::uint32_t>(const std::uint32_t*, int, int,
+                                              const std::vector<int>&, std::uint32_t*);
+extern template void restagger<float>(const float*, int, int, const std::vector<int>&, float*);
 
 // Destaggered column that staggered column `measurement_id` of `row` lands in.
 inline int destaggered_column(int measurement_id, int row, int width,

@@ -9,16 +9,17 @@
 //    transforms at the top level plus a `data_format` object; the reduced form that only
 //    holds the two beam angle arrays and lidar_mode is accepted too.
 // Defaults (applied only when a key is absent; each one is listed in `defaults_applied`):
-//  - lidar_origin_to_beam_origin_mm: 12.163 (gen-1 OS-1; all other product lines ship n)
+//  - lidar_origin_to_beam_origin_mm by prod_line: "OS-0-" 27.67, "OS-1-" 15.806, "OS-2-"
+//    13.762, otherwise (gen-1 OS-1, or no prod_line) 12.163
 //  - beam_to_lidar_transform: identity with x translation = lidar_origin_to_beam_origin_mm
 //  - lidar_to_sensor_transform: diag(-1, -1, 1), z translation 36.18 mm
 //  - imu_to_sensor_transform: identity with translation (6.253, -11.775, 7.645) mm
-//  - columns_per_packet 16, pixels_per_column = number of beams, column_window [0, W-1],
-//    udp_profile_lidar / udp_profile_imu LEGACY, ports 7502 / 7503, azimuth window
-//    [0, 360000] mdeg
-//  - pixel_shift_by_row: round(azimuth_deg * W / 360) per row (matches the shifts that
-//    sensors report, e.g. 4.16 deg at 1024 columns -> 12; for the gen-1 OS-1-64 reduced
-//    file at 1024x10 this gives the 9/3/-3/-9 pattern).
+//  - columns_per_packet 16, pixels_per_column = number of beam altitude angles,
+//    column_window [0, W-1], udp_profile_lidar / udp_profile_imu LEGACY, ports 7502 / 7503,
+//    azimuth window [0, 360000] mdeg, fps from lidar_mode
+//  - pixel_shift_by_row: for 64 rows the SDK's gen-1 table for the mode, the pattern
+//    {3s, 2s, s, 0} repeated with s = 3 W / 512 (1024 columns: 18, 12, 6, 0); for other
+//    row counts derived from the beams: round(azimuth_deg * W / 360).
 //
 // Errors: parsing collects every problem with its JSON path and throws one MetadataError
 // listing all of them (e.g. `beam_intrinsics.beam_altitude_angles: expected 64 numbers,
@@ -146,5 +147,11 @@ Eigen::Matrix4d default_imu_to_sensor_transform();
 // round(azimuth_deg * columns_per_frame / 360) for every beam.
 std::vector<int> pixel_shift_from_azimuths(const std::vector<double>& beam_azimuth_angles_deg,
                                            int columns_per_frame);
+// The default applied when pixel_shift_by_row is absent (see the top of this file); zeros
+// when neither rule applies (azimuth count differs from the row count).
+std::vector<int> default_pixel_shift_by_row(const std::vector<double>& beam_azimuth_angles_deg,
+                                            int pixels_per_column, int columns_per_frame);
+// n by product line (see the top of this file).
+double default_lidar_origin_to_beam_origin_mm(const std::string& prod_line);
 
 }  // namespace lidarfuse::ouster

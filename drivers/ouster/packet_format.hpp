@@ -14,8 +14,8 @@
 //                         @16, countdown_shot_limiting u8 @17, thermal_shutdown u4 @18,
 //                         shot_limiting u4 @19); column = 12 B header (timestamp u64,
 //                         measurement_id u16, status u16, bit 0 = valid) + pixels;
-//                         32 B packet footer whose last 8 B hold a CRC-64 on FW >= 3.0
-//                         (zero on older firmware).
+//                         32 B packet footer whose last 8 B hold a CRC-64 (filled by
+//                         FW 2.5+ in the sample captures; zero on older firmware).
 //   FUSA header type:     as STANDARD except packet_type u8 @0, init_id u24 @1,
 //                         frame_id u32 @4, prod_sn u40 @11.
 // Pixel fields (values returned after masking and the profile's upshift):
@@ -122,8 +122,16 @@ public:
     const FieldSpec& spec(Field f) const { return layout_->fields[static_cast<int>(f)]; }
     bool has_crc() const { return header_type() != HeaderType::kLegacy; }
 
-    // Size checks, and for non-legacy formats the packet_type byte(s): 0x1 for lidar data.
+    // Size checks; for non-legacy formats also the packet_type (0x1 for lidar data) and,
+    // when an expected serial is known (from SensorInfo or set_expected_serial), the header
+    // prod_sn; for LEGACY that column 0's measurement_id is below columns_per_frame (when
+    // known). A STANDARD and a FUSA packet can have the same size (16,640 B): the
+    // STANDARD u16 packet_type rejects FUSA packets, and the serial check rejects STANDARD
+    // packets read as FUSA.
     PacketKind classify(const std::uint8_t* data, std::size_t size) const;
+    // 40-bit serial the header must carry for classify() to accept it; 0 = do not check.
+    void set_expected_serial(std::uint64_t serial) { expected_serial_ = serial; }
+    std::uint64_t expected_serial() const { return expected_serial_; }
 
     // --- packet header (all need a full lidar packet) ---
     // LEGACY: 0 (no packet header).
@@ -253,6 +261,8 @@ private:
     std::size_t column_size_;
     std::size_t packet_footer_size_;
     std::size_t packet_size_;
+    std::uint64_t expected_serial_ = 0;
+    int columns_per_frame_ = 0;  // 0 = unknown (no measurement_id check)
 };
 
 }  // namespace lidarfuse::ouster

@@ -1,0 +1,518 @@
+// Metadata JSON parsing: locate every key for the document's form, read it with type
+// checks (collecting problems with their JSON paths), apply Ouster's defaults for absent
+// keys, then run the semantic checks shared with validate_sensor_info().
+
+#include "drivers/ouster/metadata.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "drivers/ouster/metadata_checks.hpp"
+
+namespace lidarfuse::ouster {
+namespace {
+
+using nlohmann::json;
+
+std::string join_problems(const std::string& source, const std::vector<std::string>& problems) {
+    std::ostringstream out;
+    out << source << ": invalid Ouster metadata (" << problems.size() << " problem"
+        << (problems.size() == 1 ? "" : "s") << ")";
+    for (const std::string& p : problems) out << "\n  " << p;
+    return out.str();
+}
+
+std::string type_name(const json& v) {
+    if (v.is_null()) return "null";
+    if (v.is_boolean()) return "a boolean";
+    if (v.is_number()) return "a number";
+    if (v.is_string()) return "a string";
+    if (v.is_array()) return "an array";
+    return "an object";
+}
+
+// Short rendering of a JSON value for messages (strings quoted, long values cut).
+std::string show(const json& v) {
+    std::string s = v.dump();
+    if (s.size() > 40) s = s.substr(0, 37) + "...";
+    return s;
+}
+
+// Reads typed values at dotted paths, collecting problems. `bad` remembers paths whose
+// value was present but unusable, so the semantic checks do not report them twice.
+class Reader {
+public:
+    Reader(const json& root, std::vector<std::string>* problems, std::set<std::string>* bad)
+        : root_(root), problems_(problems), bad_(bad) {}
+
+    const json* find(const std::string& path) const {
+        const json* node = &root_;
+        std::size_t start = 0;
+        while (start <= path.size()) {
+            const std::size_t dot = path.find('.', start);
+            const std::string key =
+                path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+            if (!node->is_object()) return nullptr;
+            const auto it = node->find(key);
+            if (it == node->end()) return nullptr;
+            node = &*it;
+            if (dot == std::string::npos) break;
+            start = dot + 1;
+        }
+        return node->is_null() ? nullptr : node;
+    }
+    bool has(const std::string& path) const { return find(path) != nullptr; }
+
+    void problem(const std::string& path, const std::string& message) {
+        problems_->push_back(path + ": " + message);
+        bad_->insert(path);
+    }
+
+    bool string(const std::string& path, std::string* out) {
+        const json* v = find(path);
+        if (v == nullptr) return false;
+        if (!v->is_string()) {
+            problem(path, "expected a string, got " + type_name(*v) + " " + show(*v));
+            return false;
+        }
+        *out = v->get<std::string>();
+        return true;
+    }
+
+    // A string, or an integer written without quotes (old files store prod_sn as number).
+    bool string_or_integer(const std::string& path, std::string* out) {
+        const json* v = find(path);
+        if (v == nullptr) return false;
+        if (v->is_number_unsigned()) {
+            *out = std::to_string(v->get<std::uint64_t>());
+            return true;
+        }
+        return string(path, out);
+    }
+
+    bool number(const std::string& path, double* out) {
+        const json* v = find(path);
+        if (v == nullptr) return false;
+        if (!v->is_number()) {
+            problem(path, "expected a number, got " + type_name(*v) + " " + show(*v));
+            return false;
+        }
+        const double d = v->get<double>();
+        if (!std::isfinite(d)) {
+            problem(path, "expected a finite number, got " + show(*v));
+            return false;
+        }
+        *out = d;
+        return true;
+    }
+
+    bool integer(const std::string& path, long long lo, long long hi, long long* out) {
+        const json* v = find(path);
+        if (v == nullptr) return false;
+        return integer_value(path, *v, lo, hi, out);
+    }
+
+    template <typename T>
+    bool integer_as(const std::string& path, long long lo, long long hi, T* out) {
+        long long value = 0;
+        if (!integer(path, lo, hi, &value)) return false;
+        *out = static_cast<T>(value);
+        return true;
+    }
+
+    // Array of numbers of any length (the length is a semantic check).
+    bool numbers(const std::string& path, std::vector<double>* out) {
+        const json* v = find(path);
+        if (v == nullptr) return false;
+        if (!v->is_array()) {
+            problem(path, "expected an array of numbers, got " + type_name(*v));
+            return false;
+        }
+        std::vector<double> values;
+        values.reserve(v->size());
+        bool ok = true;
+        for (std::size_t i = 0; i < v->size(); ++i) {
+            const json& e = (*v)[i];
+            if (!e.is_number() || !std::isfinite(e.get<double>())) {
+                problems_->push_back(path + "[" + std::to_string(i) +
+                                     "]: expected a finite number, got " + type_name(e) + " " +
+                                     show(e));
+                ok = false;
+                continue;
+            }
+            values.push_back(e.get<double>());
+        }
+        if (!ok) {
+            bad_->insert(path);
+            return false;
+        }
+        *out = std::move(values);
+        return true;
+    }
+
+    bool integers(const std::string& path, long long lo, long long hi, std::vector<int>* out) {
+        const json* v = find(path);
+        if (v == nullptr) return false;
+        if (!v->is_array()) {
+            problem(path, "expected an array of integers, got " + type_name(*v));
+            return false;
+        }
+        std::vector<int> values;
+        bool ok = true;
+        for (std::size_t i = 0; i < v->size(); ++i) {
+            long long value = 0;
+            if (!integer_value(path + "[" + std::to_string(i) + "]", (*v)[i], lo, hi, &value)) {
+                ok = false;
+                continue;
+            }
+            values.push_back(static_cast<int>(value));
+        }
+        if (!ok) {
+            bad_->insert(path);
+            return false;
+        }
+        *out = std::move(values);
+        return true;
+    }
+
+    // 16 numbers, row-major 4x4.
+    bool matrix4(const std::string& path, Eigen::Matrix4d* out) {
+        std::vector<double> values;
+        if (!numbers(path, &values)) return false;
+        if (values.size() != 16) {
+            problem(path, "expected 16 numbers (row-major 4x4), got " +
+                              std::to_string(values.size()));
+            return false;
+        }
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c) (*out)(r, c) = values[static_cast<std::size_t>(r * 4 + c)];
+        return true;
+    }
+
+private:
+    bool integer_value(const std::string& path, const json& v, long long lo, long long hi,
+                       long long* out) {
+        long long value = 0;
+        if (v.is_number_integer()) {
+            if (v.is_number_unsigned() &&
+                v.get<std::uint64_t>() > static_cast<std::uint64_t>(
+                                             std::numeric_limits<long long>::max())) {
+                problem(path, "integer " + show(v) + " out of range");
+                return false;
+            }
+            value = v.get<long long>();
+        } else if (v.is_number_float() && std::isfinite(v.get<double>()) &&
+                   std::floor(v.get<double>()) == v.get<double>() &&
+                   std::fabs(v.get<double>()) < 9e15) {
+            value = static_cast<long long>(v.get<double>());
+        } else {
+            problem(path, "expected an integer, got " + type_name(v) + " " + show(v));
+            return false;
+        }
+        if (value < lo || value > hi) {
+            problem(path, "expected an integer in " + std::to_string(lo) + ".." +
+                              std::to_string(hi) + ", got " + std::to_string(value));
+            return false;
+        }
+        *out = value;
+        return true;
+    }
+
+    const json& root_;
+    std::vector<std::string>* problems_;
+    std::set<std::string>* bad_;
+};
+
+// Where each logical key lives in either document form.
+detail::MetadataPaths paths_for(MetadataForm form) {
+    detail::MetadataPaths p;
+    if (form == MetadataForm::kNested) {
+        p.sensor = "sensor_info.";
+        p.beam = "beam_intrinsics.";
+        p.format = "lidar_data_format.";
+        p.config = "config_params.";
+        p.lidar_to_sensor = "lidar_intrinsics.lidar_to_sensor_transform";
+        p.imu_to_sensor = "imu_intrinsics.imu_to_sensor_transform";
+    } else {
+        p.format = "data_format.";
+        p.lidar_to_sensor = "lidar_to_sensor_transform";
+        p.imu_to_sensor = "imu_to_sensor_transform";
+    }
+    return p;
+}
+
+constexpr const char* kNestedSections[] = {"sensor_info",      "beam_intrinsics",
+                                           "lidar_intrinsics", "imu_intrinsics",
+                                           "lidar_data_format", "config_params"};
+
+SensorInfo parse_root(const json& root, const std::string& source) {
+    std::vector<std::string> problems;
+    std::set<std::string> bad;
+    if (!root.is_object()) {
+        throw MetadataError(source, {"(root): expected a JSON object, got " + type_name(root)});
+    }
+    Reader r(root, &problems, &bad);
+
+    SensorInfo info;
+    int nested_sections = 0;
+    for (const char* s : kNestedSections) {
+        if (root.contains(s)) {
+            ++nested_sections;
+            if (!root[s].is_object()) r.problem(s, "expected an object, got " + type_name(root[s]));
+        }
+    }
+    info.form = nested_sections > 0 ? MetadataForm::kNested : MetadataForm::kLegacyFlat;
+    const detail::MetadataPaths p = paths_for(info.form);
+    if (info.form == MetadataForm::kNested) {
+        for (const char* s : {"sensor_info", "beam_intrinsics"}) {
+            if (!root.contains(s)) r.problem(s, "missing (required in the nested form)");
+        }
+    }
+    auto absent = [&](const std::string& path) {
+        if (!r.has(path)) info.defaults_applied.push_back(path);
+        return !r.has(path);
+    };
+
+    // Identity.
+    r.string_or_integer(p.sensor + "prod_sn", &info.prod_sn);
+    r.string(p.sensor + "prod_line", &info.prod_line);
+    r.string(p.sensor + "prod_pn", &info.prod_pn);
+    r.string(p.sensor + "build_rev", &info.build_rev);
+    r.string(p.sensor + "image_rev", &info.image_rev);
+    r.string(p.sensor + "status", &info.status);
+    r.integer_as(p.sensor + "initialization_id", 0, 0xFFFFFF, &info.init_id);
+
+    // Mode: lidar_mode, else columns_per_frame (+ fps) from the data format.
+    const bool have_mode = r.string(p.config + "lidar_mode", &info.lidar_mode);
+    std::optional<std::array<int, 2>> mode;
+    if (have_mode) {
+        mode = parse_lidar_mode(info.lidar_mode);
+        if (!mode) {
+            r.problem(p.config + "lidar_mode",
+                      "unknown mode \"" + info.lidar_mode +
+                          "\" (expected 512x10, 512x20, 1024x10, 1024x20, 2048x10 or 4096x5)");
+        }
+    } else if (!r.has(p.config + "lidar_mode") && !r.has(p.format + "columns_per_frame")) {
+        r.problem(p.config + "lidar_mode",
+                  "missing (and no " + p.format + "columns_per_frame either)");
+    }
+    if (mode) {
+        info.columns_per_frame = (*mode)[0];
+        info.frames_per_second = (*mode)[1];
+    }
+    int cpf = 0;
+    if (r.integer_as(p.format + "columns_per_frame", 1, 65535, &cpf)) {
+        if (mode && cpf != (*mode)[0]) {
+            r.problem(p.format + "columns_per_frame",
+                      std::to_string(cpf) + " contradicts " + p.config + "lidar_mode \"" +
+                          info.lidar_mode + "\"");
+        }
+        info.columns_per_frame = cpf;
+        if (!have_mode) info.lidar_mode.clear();
+    }
+    int fps = 0;
+    if (r.integer_as(p.format + "fps", 1, 1000, &fps)) {
+        if (mode && fps != (*mode)[1]) {
+            r.problem(p.format + "fps", std::to_string(fps) + " contradicts " + p.config +
+                                            "lidar_mode \"" + info.lidar_mode + "\"");
+        }
+        info.frames_per_second = fps;
+    }
+    if (!have_mode && info.lidar_mode.empty() && cpf > 0) {
+        info.lidar_mode = std::to_string(cpf) + "x" + std::to_string(info.frames_per_second);
+        if (!parse_lidar_mode(info.lidar_mode)) info.lidar_mode.clear();
+    }
+
+    // Beam intrinsics (required).
+    if (!r.numbers(p.beam + "beam_altitude_angles", &info.beam_altitude_angles_deg) &&
+        !r.has(p.beam + "beam_altitude_angles")) {
+        r.problem(p.beam + "beam_altitude_angles", "missing");
+    }
+    if (!r.numbers(p.beam + "beam_azimuth_angles", &info.beam_azimuth_angles_deg) &&
+        !r.has(p.beam + "beam_azimuth_angles")) {
+        r.problem(p.beam + "beam_azimuth_angles", "missing");
+    }
+
+    // Data format.
+    if (absent(p.format + "pixels_per_column")) {
+        info.pixels_per_column = static_cast<int>(info.beam_altitude_angles_deg.size());
+    } else {
+        r.integer_as(p.format + "pixels_per_column", 1, 4096, &info.pixels_per_column);
+    }
+    const bool cpp_in_format = r.has(p.format + "columns_per_packet");
+    const bool cpp_in_config =
+        info.form == MetadataForm::kNested && r.has(p.config + "columns_per_packet");
+    if (!cpp_in_format && !cpp_in_config) info.defaults_applied.push_back(p.format + "columns_per_packet");
+    int cpp_config = 0;
+    if (cpp_in_config) {
+        r.integer_as(p.config + "columns_per_packet", 1, 65535, &cpp_config);
+        info.columns_per_packet = cpp_config > 0 ? cpp_config : info.columns_per_packet;
+    }
+    if (cpp_in_format &&
+        r.integer_as(p.format + "columns_per_packet", 1, 65535, &info.columns_per_packet) &&
+        cpp_config > 0 && cpp_config != info.columns_per_packet) {
+        r.problem(p.format + "columns_per_packet",
+                  std::to_string(info.columns_per_packet) + " contradicts " + p.config +
+                      "columns_per_packet " + std::to_string(cpp_config));
+    }
+
+    auto read_profile = [&](const std::string& path, UdpProfileLidar* out) {
+        std::string name;
+        if (!r.string(path, &name)) return false;
+        const auto prof = udp_profile_lidar_from_string(name);
+        if (!prof) {
+            r.problem(path, "unknown UDP lidar profile \"" + name + "\"");
+            return false;
+        }
+        *out = *prof;
+        return true;
+    };
+    UdpProfileLidar prof_format = UdpProfileLidar::kLegacy;
+    UdpProfileLidar prof_config = UdpProfileLidar::kLegacy;
+    const bool have_prof_format = read_profile(p.format + "udp_profile_lidar", &prof_format);
+    const bool have_prof_config =
+        info.form == MetadataForm::kNested && read_profile(p.config + "udp_profile_lidar", &prof_config);
+    if (have_prof_format && have_prof_config && prof_format != prof_config) {
+        r.problem(p.format + "udp_profile_lidar",
+                  std::string(to_string(prof_format)) + " contradicts " + p.config +
+                      "udp_profile_lidar " + to_string(prof_config));
+    }
+    info.udp_profile_lidar = have_prof_format ? prof_format
+                             : have_prof_config ? prof_config
+                                                : UdpProfileLidar::kLegacy;
+    if (!r.has(p.format + "udp_profile_lidar") && !r.has(p.config + "udp_profile_lidar")) {
+        info.defaults_applied.push_back(p.format + "udp_profile_lidar");
+    }
+    std::string imu_name;
+    if (r.string(p.format + "udp_profile_imu", &imu_name) ||
+        (info.form == MetadataForm::kNested && r.string(p.config + "udp_profile_imu", &imu_name))) {
+        const auto imu = udp_profile_imu_from_string(imu_name);
+        if (!imu) {
+            r.problem(p.format + "udp_profile_imu", "unknown UDP IMU profile \"" + imu_name + "\"");
+        } else {
+            info.udp_profile_imu = *imu;
+        }
+    }
+
+    if (absent(p.format + "column_window")) {
+        info.column_window = {0, info.columns_per_frame - 1};
+    } else {
+        std::vector<int> w;
+        if (r.integers(p.format + "column_window", 0, 65535, &w)) {
+            if (w.size() != 2) {
+                r.problem(p.format + "column_window",
+                          "expected 2 integers [first, last], got " + std::to_string(w.size()));
+            } else {
+                info.column_window = {w[0], w[1]};
+            }
+        }
+    }
+    if (absent(p.format + "pixel_shift_by_row")) {
+        info.pixel_shift_by_row = default_pixel_shift_by_row(
+            info.beam_azimuth_angles_deg, info.pixels_per_column, info.columns_per_frame);
+    } else {
+        r.integers(p.format + "pixel_shift_by_row", -65535, 65535, &info.pixel_shift_by_row);
+    }
+
+    // Beam origin and transforms.
+    const bool have_n = r.number(p.beam + "lidar_origin_to_beam_origin_mm",
+                                 &info.lidar_origin_to_beam_origin_mm);
+    if (absent(p.beam + "lidar_origin_to_beam_origin_mm")) {
+        info.lidar_origin_to_beam_origin_mm = default_lidar_origin_to_beam_origin_mm(info.prod_line);
+    }
+    if (absent(p.beam + "beam_to_lidar_transform")) {
+        info.beam_to_lidar_transform = Eigen::Matrix4d::Identity();
+        info.beam_to_lidar_transform(0, 3) = info.lidar_origin_to_beam_origin_mm;
+    } else if (r.matrix4(p.beam + "beam_to_lidar_transform", &info.beam_to_lidar_transform) &&
+               have_n) {
+        const double n_from_matrix =
+            std::hypot(info.beam_to_lidar_transform(0, 3), info.beam_to_lidar_transform(2, 3));
+        if (std::fabs(n_from_matrix - info.lidar_origin_to_beam_origin_mm) > 1e-3) {
+            std::ostringstream msg;
+            msg << "translation gives a beam origin offset of " << n_from_matrix
+                << " mm, contradicting " << p.beam << "lidar_origin_to_beam_origin_mm "
+                << info.lidar_origin_to_beam_origin_mm;
+            r.problem(p.beam + "beam_to_lidar_transform", msg.str());
+        }
+    }
+    if (absent(p.lidar_to_sensor)) {
+        info.lidar_to_sensor_transform = default_lidar_to_sensor_transform();
+    } else {
+        r.matrix4(p.lidar_to_sensor, &info.lidar_to_sensor_transform);
+    }
+    if (absent(p.imu_to_sensor)) {
+        info.imu_to_sensor_transform = default_imu_to_sensor_transform();
+    } else {
+        r.matrix4(p.imu_to_sensor, &info.imu_to_sensor_transform);
+    }
+
+    // Network / timing configuration (top level in the flat form).
+    if (absent(p.config + "udp_port_lidar")) {
+        info.udp_port_lidar = 7502;
+    } else {
+        r.integer_as(p.config + "udp_port_lidar", 0, 65535, &info.udp_port_lidar);
+    }
+    if (absent(p.config + "udp_port_imu")) {
+        info.udp_port_imu = 7503;
+    } else {
+        r.integer_as(p.config + "udp_port_imu", 0, 65535, &info.udp_port_imu);
+    }
+    if (!r.string(p.config + "udp_dest", &info.udp_dest)) r.string(p.config + "udp_ip", &info.udp_dest);
+    r.string(p.config + "timestamp_mode", &info.timestamp_mode);
+    if (!absent(p.config + "azimuth_window")) {
+        std::vector<int> w;
+        if (r.integers(p.config + "azimuth_window", 0, 360000, &w)) {
+            if (w.size() != 2) {
+                r.problem(p.config + "azimuth_window",
+                          "expected 2 integers [start, end] in millidegrees, got " +
+                              std::to_string(w.size()));
+            } else {
+                info.azimuth_window_mdeg = {w[0], w[1]};
+            }
+        }
+    }
+
+    detail::check_semantics(info, p, bad, &problems);
+    if (!problems.empty()) throw MetadataError(source, std::move(problems));
+    return info;
+}
+
+}  // namespace
+
+MetadataError::MetadataError(const std::string& source, std::vector<std::string> problems)
+    : std::runtime_error(join_problems(source, problems)),
+      source_(source),
+      problems_(std::move(problems)) {}
+
+SensorInfo parse_metadata(const std::string& json_text, const std::string& source_name) {
+    json root;
+    try {
+        root = json::parse(json_text);
+    } catch (const json::parse_error& e) {
+        std::ostringstream msg;
+        msg << "malformed JSON at byte " << e.byte << ": " << e.what();
+        throw MetadataError(source_name, {msg.str()});
+    }
+    return parse_root(root, source_name);
+}
+
+SensorInfo load_metadata(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw MetadataError(path.string(), {"cannot open the file for reading"});
+    std::ostringstream text;
+    text << in.rdbuf();
+    if (in.bad()) throw MetadataError(path.string(), {"read error"});
+    return parse_metadata(text.str(), path.string());
+}
+
+std::vector<std::string> validate_sensor_info(const SensorInfo& info) {
+    std::vector<std::string> problems;
+    detail::check_semantics(info, detail::member_paths(), {}, &problems);
+    return problems;
+}
+
+}  // namespace lidarfuse::ouster
