@@ -1,0 +1,99 @@
+#include "core/normals.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <random>
+
+#include "tests/core/synthetic_scene.hpp"
+
+namespace lidarfuse::core {
+namespace {
+
+TEST(Normals, PlaneNormalsCurvatureAndRegularisedCovariance) {
+    std::mt19937 rng(3);
+    PointCloud cloud;
+    // A tilted plane through (0, 0, 5) with normal n.
+    const Eigen::Vector3d n = Eigen::Vector3d(0.2, -0.3, 1.0).normalized();
+    const Eigen::Vector3d u = n.unitOrthogonal(), v = n.cross(u);
+    test::sample_rectangle(rng, Eigen::Vector3d(0, 0, 5) - 5 * u - 5 * v, 10 * u, 10 * v, 2000,
+                           &cloud.points);
+    NormalParams params;
+    params.num_threads = 2;
+    std::vector<double> curvature;
+    const NormalStats stats = estimate_normals_covariances(&cloud, params, &curvature);
+    EXPECT_EQ(stats.num_degenerate, 0u);
+    ASSERT_TRUE(cloud.has_normals());
+    ASSERT_TRUE(cloud.has_covariances());
+    ASSERT_EQ(curvature.size(), cloud.size());
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+        // Oriented towards the viewpoint (origin, below the plane): n . (0 - p) > 0.
+        EXPECT_GT(cloud.normals[i].dot(-cloud.points[i]), 0.0);
+        EXPECT_NEAR(std::abs(cloud.normals[i].dot(n)), 1.0, 1e-9);
+        EXPECT_LT(curvature[i], 1e-9);
+        // Regularised: eigenvalues (eps, 1, 1) with the eps direction along the normal.
+        EXPECT_NEAR(n.dot(cloud.covariances[i] * n), params.gicp_epsilon, 1e-9);
+        EXPECT_NEAR(u.dot(cloud.covariances[i] * u), 1.0, 1e-9);
+        EXPECT_NEAR(cloud.covariances[i].trace(), 2.0 + params.gicp_epsilon, 1e-9);
+    }
+}
+
+TEST(Normals, IsotropicBlobHasHighCurvatureAndRawCovarianceOption) {
+    std::mt19937 rng(4);
+    std::normal_distribution<double> g(0.0, 0.1);
+    PointCloud cloud;
+    for (int i = 0; i < 3000; ++i) cloud.points.emplace_back(g(rng), g(rng), g(rng));
+    NormalParams params;
+    params.k_neighbors = 30;
+    params.regularize_covariances = false;
+    params.compute_normals = false;
+    std::vector<double> curvature;
+    estimate_normals_covariances(&cloud, params, &curvature);
+    EXPECT_TRUE(cloud.normals.empty());
+    double mean = 0.0;
+    for (const double c : curvature) mean += c;
+    mean /= static_cast<double>(curvature.size());
+    EXPECT_GT(mean, 0.1);  // far from a plane's 0 (max 1/3)
+    EXPECT_LE(*std::max_element(curvature.begin(), curvature.end()), 1.0 / 3.0 + 1e-12);
+    // Raw covariances are neighbourhood scatter: small, not the (eps, 1, 1) shape.
+    EXPECT_LT(cloud.covariances[0].trace(), 0.1);
+}
+
+TEST(Normals, ThreadCountDoesNotChangeTheResult) {
+    std::mt19937 rng(5);
+    PointCloud a;
+    a.points = test::make_structured_scene(rng, 1.0);
+    PointCloud b = a;
+    NormalParams params;
+    params.num_threads = 1;
+    estimate_normals_covariances(&a, params);
+    params.num_threads = 2;
+    estimate_normals_covariances(&b, params);
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        EXPECT_EQ(a.normals[i], b.normals[i]);
+        EXPECT_EQ(a.covariances[i], b.covariances[i]);
+    }
+}
+
+TEST(Normals, TinyCloudsAreDegenerateButFinite) {
+    PointCloud cloud;
+    cloud.points = {{0, 0, 0}, {1, 0, 0}};
+    std::vector<double> curvature;
+    const NormalStats stats = estimate_normals_covariances(&cloud, NormalParams{}, &curvature);
+    EXPECT_EQ(stats.num_degenerate, 2u);
+    EXPECT_EQ(cloud.normals[0], Eigen::Vector3d::Zero());
+    EXPECT_TRUE(cloud.covariances[1].isIdentity());
+    EXPECT_DOUBLE_EQ(curvature[0], 1.0 / 3.0);
+    PointCloud empty;
+    EXPECT_EQ(estimate_normals_covariances(&empty, NormalParams{}).num_points, 0u);
+}
+
+TEST(Normals, RegularizePlaneCovariance) {
+    Eigen::Matrix3d C = Eigen::Vector3d(4.0, 0.01, 2.0).asDiagonal();
+    const Eigen::Matrix3d R = regularize_plane_covariance(C, 1e-3);
+    EXPECT_TRUE(R.isApprox(Eigen::Vector3d(1.0, 1e-3, 1.0).asDiagonal().toDenseMatrix(), 1e-12));
+}
+
+}  // namespace
+}  // namespace lidarfuse::core

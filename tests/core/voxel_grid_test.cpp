@@ -1,0 +1,100 @@
+#include "core/voxel_grid.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <random>
+#include <tuple>
+
+namespace lidarfuse::core {
+namespace {
+
+using Key = std::tuple<long, long, long>;
+
+Key key_of(const Eigen::Vector3d& p, double size) {
+    return {static_cast<long>(std::floor(p.x() / size)), static_cast<long>(std::floor(p.y() / size)),
+            static_cast<long>(std::floor(p.z() / size))};
+}
+
+TEST(VoxelGrid, CentroidsMatchABruteForceReference) {
+    std::mt19937 rng(1);
+    std::uniform_real_distribution<double> u(-20.0, 20.0);
+    std::vector<Eigen::Vector3d> pts(20000);
+    for (auto& p : pts) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+    const double size = 1.3;
+    std::map<Key, std::pair<Eigen::Vector3d, int>> ref;
+    for (const auto& p : pts) {
+        auto& e = ref.try_emplace(key_of(p, size), Eigen::Vector3d::Zero(), 0).first->second;
+        e.first += p;
+        ++e.second;
+    }
+    VoxelGrid grid;
+    PointCloud out;
+    VoxelIndexMap map;
+    const VoxelGridStats stats = grid.downsample(pts, {size, 1}, &out, &map);
+    ASSERT_EQ(out.size(), ref.size());
+    EXPECT_EQ(stats.num_output, ref.size());
+    EXPECT_EQ(stats.num_invalid, 0u);
+    for (std::size_t v = 0; v < out.size(); ++v) {
+        // Every centroid is the mean of its voxel's points, and the index map lists exactly
+        // those points.
+        ASSERT_LT(map.offsets[v], map.offsets[v + 1]);
+        const Key k = key_of(pts[map.point_indices[map.offsets[v]]], size);
+        const auto& e = ref.at(k);
+        EXPECT_LT((out.points[v] - e.first / e.second).norm(), 1e-12);
+        EXPECT_EQ(static_cast<int>(map.offsets[v + 1] - map.offsets[v]), e.second);
+        for (std::uint32_t j = map.offsets[v]; j < map.offsets[v + 1]; ++j) {
+            EXPECT_EQ(key_of(pts[map.point_indices[j]], size), k);
+            EXPECT_EQ(map.voxel_of_point[map.point_indices[j]], v);
+        }
+    }
+    EXPECT_EQ(map.offsets.back(), pts.size());
+}
+
+TEST(VoxelGrid, NegativeCoordinatesFloorCorrectly) {
+    // -0.1 and 0.1 are in different 1 m voxels (floor, not truncation).
+    const std::vector<Eigen::Vector3d> pts = {{-0.1, 0.5, 0.5}, {0.1, 0.5, 0.5}, {0.9, 0.5, 0.5}};
+    const PointCloud out = voxel_downsample(pts, {1.0, 1});
+    ASSERT_EQ(out.size(), 2u);
+    EXPECT_TRUE(out.points[0].isApprox(Eigen::Vector3d(-0.1, 0.5, 0.5)));
+    EXPECT_TRUE(out.points[1].isApprox(Eigen::Vector3d(0.5, 0.5, 0.5)));
+}
+
+TEST(VoxelGrid, MinPointsInvalidPointsAndReuse) {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    std::vector<Eigen::Vector3d> pts = {{0.1, 0.1, 0.1}, {0.2, 0.2, 0.2}, {0.3, 0.1, 0.2},
+                                        {5.5, 5.5, 5.5}, {nan, 0, 0},     {1e30, 0, 0}};
+    VoxelGrid grid;
+    PointCloud out;
+    VoxelIndexMap map;
+    VoxelGridStats s = grid.downsample(pts, {1.0, 2}, &out, &map);
+    ASSERT_EQ(out.size(), 1u);
+    EXPECT_TRUE(out.points[0].isApprox(Eigen::Vector3d(0.2, 0.4 / 3, 0.5 / 3)));
+    EXPECT_EQ(s.num_invalid, 2u);
+    EXPECT_EQ(s.num_dropped_sparse, 1u);
+    EXPECT_EQ(map.voxel_of_point[3], VoxelIndexMap::kNoVoxel);
+    EXPECT_EQ(map.voxel_of_point[4], VoxelIndexMap::kNoVoxel);
+    EXPECT_EQ(map.voxel_of_point[0], 0u);
+    // Reuse with a different input and voxel size: no stale state.
+    s = grid.downsample({{0, 0, 0}, {3, 3, 3}}, {0.5, 1}, &out, &map);
+    EXPECT_EQ(out.size(), 2u);
+    EXPECT_EQ(map.voxel_of_point.size(), 2u);
+    // Empty input and an invalid voxel size.
+    EXPECT_EQ(grid.downsample({}, {1.0, 1}, &out).num_output, 0u);
+    EXPECT_TRUE(out.empty());
+    EXPECT_EQ(grid.downsample(pts, {0.0, 1}, &out).num_output, 0u);
+}
+
+TEST(VoxelGrid, OutputOrderIsFirstAppearance) {
+    const std::vector<Eigen::Vector3d> pts = {{5, 0, 0}, {1, 0, 0}, {5.2, 0, 0}, {-3, 0, 0}};
+    const PointCloud out = voxel_downsample(pts, {1.0, 1});
+    ASSERT_EQ(out.size(), 3u);
+    EXPECT_NEAR(out.points[0].x(), 5.1, 1e-12);
+    EXPECT_NEAR(out.points[1].x(), 1.0, 1e-12);
+    EXPECT_NEAR(out.points[2].x(), -3.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace lidarfuse::core
