@@ -1,0 +1,70 @@
+#pragma once
+// Per-sensor background model (PAPER.md, "Dynamic objects"): change detection between the
+// reference scan (frame 0) and the current one marks dynamic points; they raise a score in
+// their voxel of a sparse 3-D grid in the reference sensor frame, and every frame all
+// scores are attenuated, so only regions that keep changing (the lanes, the sidewalks)
+// stay dynamic. The regions are 3-D voxels, not angular cells, so that the wall behind a
+// passing truck is not condemned with it. Attenuation is applied lazily (score and the
+// frame it was last raised), so a frame costs O(points), not O(cells). Registration then uses the points that are neither flagged now nor in a cell
+// whose score is above the threshold.
+//
+// One object per sensor; not thread safe. Frames: everything in the reference sensor
+// frame (the caller maps the current scan with its pose estimate T_{i,0}^{i,n-1}).
+
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/change_detection.hpp"
+
+namespace lidarfuse::core {
+
+struct BackgroundModelParams {
+    ChangeDetectionParams change;
+    double attenuation = 0.9;       // score *= attenuation every frame
+    double increment = 1.0;         // added to a cell per frame when a point in it changed
+    double max_score = 10.0;
+    double dynamic_threshold = 0.5; // voxels above it are dynamic
+    double voxel_size_m = 0.5;
+};
+
+struct BackgroundUpdate {
+    std::vector<std::uint8_t> dynamic;           // per current point: 1 = dynamic
+    std::vector<std::uint8_t> reference_dynamic; // per reference point: removed since frame 0
+    std::size_t num_dynamic = 0;
+    std::size_t num_reference_dynamic = 0;
+};
+
+class BackgroundModel {
+public:
+    explicit BackgroundModel(const BackgroundModelParams& params = {});
+
+    void set_reference(const std::vector<Eigen::Vector3d>& reference_points);
+    bool has_reference() const { return detector_.has_reference(); }
+
+    // One frame: attenuate, detect changes, raise the scores of changed cells, classify.
+    void update(const std::vector<Eigen::Vector3d>& current_in_reference_frame,
+                BackgroundUpdate* out);
+
+    double score_at(const Eigen::Vector3d& p_in_reference_frame) const;
+
+private:
+    struct Voxel {
+        double score = 0.0;        // as of frame `frame`
+        std::uint64_t frame = 0;   // last raised
+    };
+    std::uint64_t key_of(const Eigen::Vector3d& p) const;
+    double score_of(std::uint64_t key) const;  // attenuated to the current frame
+    void raise(const Eigen::Vector3d& p);
+
+    BackgroundModelParams params_;
+    ChangeDetector detector_;
+    std::unordered_map<std::uint64_t, Voxel> voxels_;
+    std::uint64_t frame_ = 0;
+    std::vector<Eigen::Vector3d> reference_points_;
+    ChangeDetectionResult changes_;
+};
+
+}  // namespace lidarfuse::core

@@ -1,0 +1,105 @@
+#pragma once
+// Change detection between two scans of one sensor in spherical coordinates (Underwood,
+// Gillsjo, Bailey, Vlaskine 2013, "Explicit 3D change detection using ray-tracing in
+// spherical coordinates"), as PAPER.md's dynamic-object removal uses it.
+//
+// Both scans are expressed in the same frame: the reference scan's sensor frame (the
+// caller pre-aligns the current scan with its pose estimate). A point is a change when the
+// other scan saw THROUGH it: every measurement of the other scan inside a small cone around
+// the point's ray lies farther than the point by more than range_threshold_m. So
+//   added[i]   (current point i): empty space in the reference -> something arrived
+//   removed[j] (reference point j): empty space now -> something left
+// Cones without any measurement of the other scan give no evidence (no flag): a sky or
+// out-of-range ray is never taken as proof of empty space.
+//
+// The cone is a window of +-cone_bins cells in an azimuth x elevation grid; the minimum
+// range over the window is precomputed once per scan (separable min filter), so each point
+// costs O(1). Grid and buffers are reused between calls.
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace lidarfuse::core {
+
+struct SphericalGridParams {
+    int azimuth_bins = 1024;            // 0.35 deg at 1024: one OS1 column
+    int elevation_bins = 192;           // over the span below
+    double min_elevation_deg = -60.0;   // rays outside the span are not examined
+    double max_elevation_deg = 60.0;
+};
+
+// The azimuth x elevation cells of a sensor frame.
+class SphericalGrid {
+public:
+    explicit SphericalGrid(const SphericalGridParams& params = {});
+    // Cell of a point; false when outside the elevation span, at the origin or not finite.
+    bool cell_of(const Eigen::Vector3d& p, int* az, int* el, double* range_m) const;
+    int index(int az, int el) const { return el * params_.azimuth_bins + az; }
+    std::size_t cells() const;
+    const SphericalGridParams& params() const { return params_; }
+
+private:
+    SphericalGridParams params_;
+    double az_scale_, el_scale_, el_min_rad_;
+};
+
+// Per cell: the nearest range of the points whose rays fall in it (metres), +inf if none.
+class SphericalRangeImage {
+public:
+    explicit SphericalRangeImage(const SphericalGridParams& params = {});
+    void build(const std::vector<Eigen::Vector3d>& points_in_sensor_frame);
+    bool cell_of(const Eigen::Vector3d& p, int* az, int* el, double* range_m) const {
+        return grid_.cell_of(p, az, el, range_m);
+    }
+    // Minimum range over the (2 * cone_bins + 1)^2 window around each cell, wrapping in
+    // azimuth; call after build(), before window_min().
+    void compute_window_min(int cone_bins);
+    double window_min(int az, int el) const { return window_min_[grid_.index(az, el)]; }
+    double nearest(int az, int el) const { return nearest_[grid_.index(az, el)]; }
+    const SphericalGrid& grid() const { return grid_; }
+
+private:
+    SphericalGrid grid_;
+    std::vector<double> nearest_;
+    std::vector<double> scratch_;
+    std::vector<double> window_min_;
+};
+
+struct ChangeDetectionParams {
+    SphericalGridParams grid;
+    int cone_bins = 1;                // cone half-width in cells (about 0.35-0.6 deg)
+    double range_threshold_m = 0.5;   // "significant" range change, well above noise
+};
+
+struct ChangeDetectionResult {
+    std::vector<std::uint8_t> added;    // per current point
+    std::vector<std::uint8_t> removed;  // per reference point
+    std::size_t num_added = 0;
+    std::size_t num_removed = 0;
+};
+
+// Keeps both range images between calls; one object per sensor (not thread safe).
+class ChangeDetector {
+public:
+    explicit ChangeDetector(const ChangeDetectionParams& params = {});
+    const ChangeDetectionParams& params() const { return params_; }
+
+    // Sets the reference scan (points in its sensor frame); built once, reused per frame.
+    void set_reference(const std::vector<Eigen::Vector3d>& reference_points);
+    bool has_reference() const { return has_reference_; }
+
+    // `current_in_reference_frame`: the current scan mapped into the reference sensor frame.
+    void detect(const std::vector<Eigen::Vector3d>& current_in_reference_frame,
+                ChangeDetectionResult* result);
+
+private:
+    ChangeDetectionParams params_;
+    SphericalRangeImage reference_image_;
+    SphericalRangeImage current_image_;
+    std::vector<Eigen::Vector3d> reference_points_;
+    bool has_reference_ = false;
+};
+
+}  // namespace lidarfuse::core

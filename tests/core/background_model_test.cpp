@@ -1,0 +1,84 @@
+#include "core/background_model.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace lidarfuse::core {
+namespace {
+
+// Rays of an OS1-like 512 x 64 scan from 2 m above the ground at z = -2, a wall at 25 m,
+// and optionally a "vehicle" (a 4 x 2 x 1.5 m box) centred at x = vehicle_x on y in [-1, 1].
+std::vector<Eigen::Vector3d> scan(double vehicle_x, bool with_vehicle, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> noise(0.0, 0.03);
+    std::vector<Eigen::Vector3d> points;
+    for (int row = 0; row < 64; ++row) {
+        const double el = (16.6 - row * 33.2 / 63) * M_PI / 180;
+        for (int col = 0; col < 512; ++col) {
+            const double az = col * 2 * M_PI / 512;
+            const Eigen::Vector3d d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+            double t = 25.0 / std::cos(el);
+            if (d.z() < 0) t = std::min(t, 2.0 / -d.z());
+            if (with_vehicle && d.x() > 0) {
+                // Front face of the box at x = vehicle_x - 2 (the side the sensor sees).
+                const double tx = (vehicle_x - 2) / d.x();
+                const Eigen::Vector3d p = d * tx;
+                if (std::abs(p.y()) <= 1 && p.z() >= -2 && p.z() <= -0.5) t = std::min(t, tx);
+            }
+            points.push_back(d * (t + noise(rng)));
+        }
+    }
+    return points;
+}
+
+// A vehicle driving through a lane marks that lane dynamic; the score fades once traffic
+// stops, and the static scene never becomes dynamic.
+TEST(BackgroundModel, LaneBecomesDynamicThenFades) {
+    BackgroundModel model;
+    model.set_reference(scan(0, false, 1));
+    BackgroundUpdate update;
+    std::size_t dynamic_seen = 0;
+    for (int f = 0; f < 20; ++f) {
+        const auto current = scan(8 + 0.2 * f, true, 10 + f);
+        model.update(current, &update);
+        dynamic_seen += update.num_dynamic;
+        // The wall and far ground stay static.
+        for (std::size_t i = 0; i < current.size(); ++i) {
+            if (current[i].norm() > 20) {
+                ASSERT_FALSE(update.dynamic[i]) << "frame " << f;
+            }
+        }
+    }
+    EXPECT_GT(dynamic_seen, 200u);
+    // The lane the vehicle crossed keeps a raised score just after it leaves ...
+    EXPECT_GT(model.score_at(Eigen::Vector3d(9.0, 0, -1)), 0.5);
+    for (int f = 0; f < 40; ++f) model.update(scan(0, false, 100 + f), &update);
+    // ... and fades once the lane stays empty.
+    EXPECT_LT(model.score_at(Eigen::Vector3d(9.0, 0, -1)), 0.5);
+    EXPECT_EQ(update.num_dynamic, 0u);
+}
+
+// A vehicle present at frame 0 that later leaves: its reference points are marked, so the
+// registration target of the first frame loses them.
+TEST(BackgroundModel, VehicleInTheReferenceFrameIsMarkedWhenItLeaves) {
+    BackgroundModel model;
+    const auto reference = scan(10, true, 1);
+    model.set_reference(reference);
+    BackgroundUpdate update;
+    model.update(scan(0, false, 2), &update);
+    std::size_t marked_on_vehicle = 0;
+    for (std::size_t j = 0; j < reference.size(); ++j) {
+        const auto& p = reference[j];
+        if (update.reference_dynamic[j]) {
+            // Only the face, and what shares its 0.5 m voxels, may be marked.
+            ASSERT_NEAR(p.x(), 8.0, 0.55);
+            ++marked_on_vehicle;
+        }
+    }
+    EXPECT_GT(marked_on_vehicle, 20u);
+}
+
+}  // namespace
+}  // namespace lidarfuse::core
