@@ -35,8 +35,8 @@
 namespace lidarfuse::ouster {
 
 struct FrameWindowParams {
-    std::size_t frames_in_flight = 2;  // reorder window, in frames (>= 1)
-    unsigned frame_id_bits = 16;       // 16 (LEGACY, STANDARD headers) or 32 (FUSA)
+    std::size_t frames_in_flight = 2;       // reorder window, in frames (>= 1)
+    unsigned frame_id_bits = 16;            // 16 (LEGACY, STANDARD headers) or 32 (FUSA)
     std::uint32_t restart_gap_frames = 64;  // further back than this = sensor restart
 };
 
@@ -48,6 +48,7 @@ struct AssemblyCounters {
     std::uint64_t imu_packets = 0;        // recognised IMU packets (skipped)
     std::uint64_t bad_size = 0;           // neither lidar nor IMU size for this sensor
     std::uint64_t bad_profile = 0;        // right size, header does not fit the metadata
+    std::uint64_t crc_valid = 0;          // CRC-64 footer present and right
     std::uint64_t crc_errors = 0;         // CRC-64 footer present and wrong (dropped)
     std::uint64_t late_packets = 0;       // frame already emitted or outside the window
     std::uint64_t duplicate_packets = 0;  // every column of the packet already arrived
@@ -55,8 +56,8 @@ struct AssemblyCounters {
     std::uint64_t bad_columns = 0;        // measurement_id >= columns_per_frame
     std::uint64_t frames_complete = 0;
     std::uint64_t frames_incomplete = 0;
-    std::uint64_t resets = 0;             // init_id / serial change or restart detected
-    std::uint64_t missing_columns = 0;    // expected columns absent from emitted frames
+    std::uint64_t resets = 0;           // init_id / serial change or restart detected
+    std::uint64_t missing_columns = 0;  // expected columns absent from emitted frames
 };
 
 class FrameWindow {

@@ -22,13 +22,20 @@ void allocate_if(bool wanted, std::size_t n, std::vector<T>& v) {
 
 const char* field_name(ScanField f) {
     switch (f) {
-        case ScanField::kRange: return "RANGE";
-        case ScanField::kRange2: return "RANGE2";
-        case ScanField::kSignal: return "SIGNAL";
-        case ScanField::kSignal2: return "SIGNAL2";
-        case ScanField::kReflectivity: return "REFLECTIVITY";
-        case ScanField::kReflectivity2: return "REFLECTIVITY2";
-        case ScanField::kNearIr: return "NEAR_IR";
+        case ScanField::kRange:
+            return "RANGE";
+        case ScanField::kRange2:
+            return "RANGE2";
+        case ScanField::kSignal:
+            return "SIGNAL";
+        case ScanField::kSignal2:
+            return "SIGNAL2";
+        case ScanField::kReflectivity:
+            return "REFLECTIVITY";
+        case ScanField::kReflectivity2:
+            return "REFLECTIVITY2";
+        case ScanField::kNearIr:
+            return "NEAR_IR";
     }
     return "UNKNOWN";
 }
@@ -48,8 +55,8 @@ LidarScan::LidarScan(const LidarScanLayout& layout) : layout_(layout) {
     window_ = layout.column_window.value_or(ColumnWindow{0, w - 1});
     if (window_.first >= w || window_.last >= w) {
         throw std::invalid_argument("LidarScan: column window [" + std::to_string(window_.first) +
-                                    ", " + std::to_string(window_.last) +
-                                    "] outside a frame of " + std::to_string(w) + " columns");
+                                    ", " + std::to_string(window_.last) + "] outside a frame of " +
+                                    std::to_string(w) + " columns");
     }
     expected_columns_ = window_.size(layout.columns);
 
@@ -89,26 +96,40 @@ void LidarScan::reset() {
 
 const void* LidarScan::field_data(ScanField f) const {
     switch (f) {
-        case ScanField::kRange: return range_mm.data();
-        case ScanField::kRange2: return range2_mm.data();
-        case ScanField::kSignal: return signal.data();
-        case ScanField::kSignal2: return signal2.data();
-        case ScanField::kReflectivity: return reflectivity.data();
-        case ScanField::kReflectivity2: return reflectivity2.data();
-        case ScanField::kNearIr: return near_ir.data();
+        case ScanField::kRange:
+            return range_mm.data();
+        case ScanField::kRange2:
+            return range2_mm.data();
+        case ScanField::kSignal:
+            return signal.data();
+        case ScanField::kSignal2:
+            return signal2.data();
+        case ScanField::kReflectivity:
+            return reflectivity.data();
+        case ScanField::kReflectivity2:
+            return reflectivity2.data();
+        case ScanField::kNearIr:
+            return near_ir.data();
     }
     return nullptr;
 }
 
 std::size_t LidarScan::field_bytes(ScanField f) const {
     switch (f) {
-        case ScanField::kRange: return range_mm.size() * sizeof(std::uint32_t);
-        case ScanField::kRange2: return range2_mm.size() * sizeof(std::uint32_t);
-        case ScanField::kSignal: return signal.size() * sizeof(std::uint16_t);
-        case ScanField::kSignal2: return signal2.size() * sizeof(std::uint16_t);
-        case ScanField::kReflectivity: return reflectivity.size();
-        case ScanField::kReflectivity2: return reflectivity2.size();
-        case ScanField::kNearIr: return near_ir.size() * sizeof(std::uint16_t);
+        case ScanField::kRange:
+            return range_mm.size() * sizeof(std::uint32_t);
+        case ScanField::kRange2:
+            return range2_mm.size() * sizeof(std::uint32_t);
+        case ScanField::kSignal:
+            return signal.size() * sizeof(std::uint16_t);
+        case ScanField::kSignal2:
+            return signal2.size() * sizeof(std::uint16_t);
+        case ScanField::kReflectivity:
+            return reflectivity.size();
+        case ScanField::kReflectivity2:
+            return reflectivity2.size();
+        case ScanField::kNearIr:
+            return near_ir.size() * sizeof(std::uint16_t);
     }
     return 0;
 }
@@ -123,6 +144,19 @@ bool LidarScan::mark_received(std::size_t col) {
     received[col] = 1;
     if (window_.contains(static_cast<std::uint32_t>(col))) ++received_expected_;
     return true;
+}
+
+std::vector<ScanArrayView> digest_arrays(const LidarScan& scan) {
+    std::vector<ScanArrayView> out;
+    for (ScanField f : kAllScanFields) {
+        if (scan.has(f)) out.push_back({field_name(f), scan.field_data(f), scan.field_bytes(f)});
+    }
+    out.push_back(
+        {"TIMESTAMP", scan.timestamp_ns.data(), scan.timestamp_ns.size() * sizeof(std::uint64_t)});
+    out.push_back({"MEASUREMENT_ID", scan.measurement_id.data(),
+                   scan.measurement_id.size() * sizeof(std::uint16_t)});
+    out.push_back({"STATUS", scan.status.data(), scan.status.size() * sizeof(std::uint64_t)});
+    return out;
 }
 
 }  // namespace lidarfuse::ouster

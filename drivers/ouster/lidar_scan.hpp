@@ -34,10 +34,9 @@ enum class ScanField : std::uint8_t {
 constexpr std::uint32_t field_bit(ScanField f) { return 1u << static_cast<unsigned>(f); }
 // Ouster's upper-case field name ("RANGE", "SIGNAL2", ...), as used in the digest files.
 const char* field_name(ScanField f);
-constexpr ScanField kAllScanFields[] = {ScanField::kRange,        ScanField::kRange2,
-                                        ScanField::kSignal,       ScanField::kSignal2,
-                                        ScanField::kReflectivity, ScanField::kReflectivity2,
-                                        ScanField::kNearIr};
+constexpr ScanField kAllScanFields[] = {
+    ScanField::kRange,        ScanField::kRange2,        ScanField::kSignal, ScanField::kSignal2,
+    ScanField::kReflectivity, ScanField::kReflectivity2, ScanField::kNearIr};
 
 // Inclusive range of measurement ids (columns) the sensor fills with data: Ouster's
 // column_window [first, last]. first > last means the window wraps through column 0
@@ -53,8 +52,8 @@ struct ColumnWindow {
 };
 
 struct LidarScanLayout {
-    std::size_t rows = 0;     // pixels_per_column (H)
-    std::size_t columns = 0;  // columns_per_frame (W)
+    std::size_t rows = 0;                                 // pixels_per_column (H)
+    std::size_t columns = 0;                              // columns_per_frame (W)
     std::uint32_t fields = field_bit(ScanField::kRange);  // bit set of field_bit()
     // Columns the sensor fills; nullopt means the whole frame [0, columns - 1].
     std::optional<ColumnWindow> column_window;
@@ -105,8 +104,8 @@ public:
     // Column fields, W each, indexed by measurement_id.
     std::vector<std::uint64_t> timestamp_ns;
     std::vector<std::uint16_t> measurement_id;
-    std::vector<std::uint64_t> status;    // widened from u16 (u32 in LEGACY)
-    std::vector<std::uint8_t> received;   // 1 when a packet delivered this column
+    std::vector<std::uint64_t> status;   // widened from u16 (u32 in LEGACY)
+    std::vector<std::uint8_t> received;  // 1 when a packet delivered this column
 
     // Header values of the packets that built this frame.
     std::uint32_t frame_id = 0;  // 16-bit on STANDARD/LEGACY headers, 32-bit on FUSA
@@ -121,5 +120,17 @@ private:
     std::size_t expected_columns_ = 0;
     std::size_t received_expected_ = 0;
 };
+
+// One array of a scan as raw bytes, named as in Ouster's digest files.
+struct ScanArrayView {
+    const char* name;  // "RANGE", ..., "TIMESTAMP", "MEASUREMENT_ID", "STATUS"
+    const void* data;
+    std::size_t bytes;
+};
+
+// The arrays of Ouster's digest convention (SOURCES.md): every pixel field the scan has,
+// in ScanField order, then TIMESTAMP (u64[W]), MEASUREMENT_ID (u16[W]) and STATUS
+// (u64[W]). Bytes are the host's little-endian representation, as the digests expect.
+std::vector<ScanArrayView> digest_arrays(const LidarScan& scan);
 
 }  // namespace lidarfuse::ouster

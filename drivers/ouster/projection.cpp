@@ -1,0 +1,45 @@
+#include "drivers/ouster/projection.hpp"
+
+namespace lidarfuse::ouster {
+
+bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionParams& params,
+                  ScanCloud* out) {
+    out->cloud.clear();
+    out->pixel_index.clear();
+    out->frame_id = scan.frame_id;
+    out->rows = scan.rows();
+    out->columns = scan.columns();
+    out->column_timestamp_ns.assign(scan.timestamp_ns.begin(), scan.timestamp_ns.end());
+
+    const std::vector<std::uint32_t>& range = params.second_return ? scan.range2_mm : scan.range_mm;
+    const std::size_t w = scan.columns();
+    const std::size_t n = scan.rows() * w;
+    if (range.size() != n || static_cast<std::size_t>(lut.width) != w ||
+        static_cast<std::size_t>(lut.height) != scan.rows() ||
+        static_cast<std::size_t>(lut.direction.rows()) != n ||
+        static_cast<std::size_t>(lut.offset.rows()) != n) {
+        return false;
+    }
+    out->cloud.points.reserve(n);
+    if (params.keep_pixel_index) out->pixel_index.reserve(n);
+
+    const double* dir = lut.direction.data();  // row-major (H*W) x 3
+    const double* off = lut.offset.data();
+    const std::uint32_t min_range = params.min_range_mm > 0 ? params.min_range_mm : 1;
+    for (std::size_t row = 0; row < scan.rows(); ++row) {
+        const std::size_t base = row * w;
+        for (std::size_t col = 0; col < w; ++col) {
+            const std::size_t i = base + col;
+            const std::uint32_t r_mm = range[i];
+            if (r_mm < min_range || !scan.received[col]) continue;
+            const double r_m = r_mm * 1e-3;
+            const double* d = dir + 3 * i;
+            const double* o = off + 3 * i;
+            out->cloud.points.emplace_back(o[0] + r_m * d[0], o[1] + r_m * d[1], o[2] + r_m * d[2]);
+            if (params.keep_pixel_index) out->pixel_index.push_back(static_cast<std::uint32_t>(i));
+        }
+    }
+    return true;
+}
+
+}  // namespace lidarfuse::ouster

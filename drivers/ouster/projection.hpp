@@ -1,0 +1,52 @@
+#pragma once
+// LidarScan -> point cloud in the Ouster sensor frame (metres), through the per-pixel
+// xyz lookup table of xyz_lut.hpp (p = offset + range_m * direction).
+//
+// One point per pixel with a return (range > 0) in a column that arrived; pixels are
+// visited in staggered row-major order (row * W + measurement_id), so the output order is
+// deterministic. Optionally each point keeps its pixel index, from which its row, column
+// and acquisition time (the column timestamp) follow, for deskewing.
+//
+// project_scan() reuses the capacity of `out`: after the first frame of a sensor it does
+// not allocate. Thread safety: pure functions; the LUT is read-only.
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/point_cloud.hpp"
+#include "drivers/ouster/lidar_scan.hpp"
+#include "drivers/ouster/xyz_lut.hpp"
+
+namespace lidarfuse::ouster {
+
+struct ProjectionParams {
+    bool second_return = false;      // project range2 (dual profiles) instead of range
+    std::uint32_t min_range_mm = 1;  // returns closer than this are dropped (0 = no return)
+    bool keep_pixel_index = true;    // fill ScanCloud::pixel_index
+};
+
+struct ScanCloud {
+    core::PointCloud cloud;  // sensor frame, metres
+    // Staggered pixel index (row * columns + measurement_id) of every point, when kept.
+    std::vector<std::uint32_t> pixel_index;
+    // Copy of the scan's per-column timestamps (ns, sensor clock), indexed by
+    // measurement_id: point i was measured at column_timestamp_ns[pixel_index[i] % columns].
+    std::vector<std::uint64_t> column_timestamp_ns;
+    std::uint32_t frame_id = 0;
+    std::size_t rows = 0;
+    std::size_t columns = 0;
+
+    std::size_t row_of(std::size_t point) const { return pixel_index[point] / columns; }
+    std::size_t column_of(std::size_t point) const { return pixel_index[point] % columns; }
+    std::uint64_t timestamp_ns_of(std::size_t point) const {
+        return column_timestamp_ns[column_of(point)];
+    }
+};
+
+// Projects `scan` into `out` (previous contents replaced). The LUT must have the scan's
+// H x W; a mismatch, or a second return the scan lacks, yields an empty cloud and false.
+bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionParams& params,
+                  ScanCloud* out);
+
+}  // namespace lidarfuse::ouster

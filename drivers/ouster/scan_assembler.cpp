@@ -1,0 +1,155 @@
+#include "drivers/ouster/scan_assembler.hpp"
+
+#include <stdexcept>
+#include <string>
+
+namespace lidarfuse::ouster {
+
+namespace {
+
+// Footer word of firmware that does not compute the CRC-64 (seen in the FW 2.3 and 2.4
+// sample captures: bytes de c0 00 00 ef be ad de).
+constexpr std::uint64_t kUnfilledCrcMarker = 0xDEADBEEF0000C0DEull;
+
+FrameWindowParams window_params(const ScanAssemblerParams& params, const PacketFormat& format) {
+    FrameWindowParams p = params.window;
+    p.frame_id_bits = format.header_type() == HeaderType::kFusa ? 32 : 16;
+    return p;
+}
+
+}  // namespace
+
+const char* to_string(PacketOutcome outcome) {
+    switch (outcome) {
+        case PacketOutcome::kAssembled:
+            return "assembled";
+        case PacketOutcome::kImu:
+            return "imu";
+        case PacketOutcome::kWrongSize:
+            return "wrong_size";
+        case PacketOutcome::kWrongProfile:
+            return "wrong_profile";
+        case PacketOutcome::kCrcError:
+            return "crc_error";
+        case PacketOutcome::kLate:
+            return "late";
+        case PacketOutcome::kDuplicate:
+            return "duplicate";
+    }
+    return "unknown";
+}
+
+std::uint32_t scan_fields(UdpProfileLidar profile) {
+    const ProfileLayout& layout = profile_layout(profile);
+    // packet_format's Field and ScanField list the same channels in the same order.
+    static_assert(
+        static_cast<int>(Field::kNearIr) == static_cast<int>(ScanField::kNearIr) &&
+            static_cast<int>(Field::kRange2) == static_cast<int>(ScanField::kRange2) &&
+            static_cast<int>(Field::kReflectivity2) == static_cast<int>(ScanField::kReflectivity2),
+        "Field and ScanField must stay in the same order");
+    std::uint32_t bits = 0;
+    for (int f = 0; f < kFieldCount; ++f) {
+        if (layout.fields[f].present()) bits |= 1u << f;
+    }
+    return bits;
+}
+
+LidarScanLayout scan_layout(const SensorInfo& info) {
+    LidarScanLayout layout;
+    if (info.pixels_per_column <= 0 || info.columns_per_frame <= 0) {
+        throw std::invalid_argument("scan layout of sensor " + info.prod_sn +
+                                    ": pixels_per_column and columns_per_frame must be "
+                                    "positive");
+    }
+    layout.rows = static_cast<std::size_t>(info.pixels_per_column);
+    layout.columns = static_cast<std::size_t>(info.columns_per_frame);
+    layout.fields = scan_fields(info.udp_profile_lidar);
+    const int w = info.columns_per_frame;
+    const auto& cw = info.column_window;
+    if (cw[0] < 0 || cw[1] < 0 || cw[0] >= w || cw[1] >= w) {
+        throw std::invalid_argument("scan layout of sensor " + info.prod_sn + ": column_window [" +
+                                    std::to_string(cw[0]) + ", " + std::to_string(cw[1]) +
+                                    "] outside 0.." + std::to_string(w - 1));
+    }
+    layout.column_window =
+        ColumnWindow{static_cast<std::uint32_t>(cw[0]), static_cast<std::uint32_t>(cw[1])};
+    return layout;
+}
+
+ScanAssembler::ScanAssembler(const SensorInfo& info, const ScanAssemblerParams& params, EmitFn emit)
+    : format_(info),
+      layout_(scan_layout(info)),
+      params_(params),
+      window_(layout_, window_params(params, format_), std::move(emit), &counters_) {}
+
+PacketOutcome ScanAssembler::add_packet(const std::uint8_t* data, std::size_t size) {
+    ++counters_.packets;
+    switch (format_.classify(data, size)) {
+        case PacketKind::kLidar:
+            break;
+        case PacketKind::kImu:
+            ++counters_.imu_packets;
+            return PacketOutcome::kImu;
+        case PacketKind::kWrongSize:
+            ++counters_.bad_size;
+            return PacketOutcome::kWrongSize;
+        case PacketKind::kWrongProfile:
+            ++counters_.bad_profile;
+            return PacketOutcome::kWrongProfile;
+    }
+    if (params_.check_crc && format_.has_crc()) {
+        switch (format_.check_crc(data)) {
+            case CrcStatus::kValid:
+                ++counters_.crc_valid;
+                break;
+            case CrcStatus::kInvalid:
+                // FW 2.2-2.4 fill the CRC field with a fixed marker, not a CRC.
+                if (format_.stored_crc(data) == kUnfilledCrcMarker) break;
+                ++counters_.crc_errors;
+                return PacketOutcome::kCrcError;
+            case CrcStatus::kAbsent:
+            case CrcStatus::kNotApplicable:
+                break;
+        }
+    }
+    ++counters_.lidar_packets;
+
+    LidarScan* scan =
+        window_.scan_for(format_.frame_id(data), format_.init_id(data), format_.prod_sn(data));
+    if (!scan) return PacketOutcome::kLate;
+
+    const std::ptrdiff_t stride = static_cast<std::ptrdiff_t>(layout_.columns);
+    std::size_t written = 0;
+    for (int i = 0; i < format_.columns_per_packet(); ++i) {
+        const std::uint8_t* col = format_.column(data, i);
+        const std::uint16_t m = format_.column_measurement_id(col);
+        if (!window_.claim_column(*scan, m)) continue;
+        ++written;
+        scan->timestamp_ns[m] = format_.column_timestamp_ns(col);
+        scan->measurement_id[m] = m;
+        scan->status[m] = format_.column_status(col);
+        // Fields the scan lacks are empty vectors: the profile lacks them too.
+        if (!scan->range_mm.empty())
+            format_.read_column(col, Field::kRange, &scan->range_mm[m], stride);
+        if (!scan->range2_mm.empty())
+            format_.read_column(col, Field::kRange2, &scan->range2_mm[m], stride);
+        if (!scan->signal.empty())
+            format_.read_column(col, Field::kSignal, &scan->signal[m], stride);
+        if (!scan->signal2.empty())
+            format_.read_column(col, Field::kSignal2, &scan->signal2[m], stride);
+        if (!scan->reflectivity.empty()) {
+            format_.read_column(col, Field::kReflectivity, &scan->reflectivity[m], stride);
+        }
+        if (!scan->reflectivity2.empty()) {
+            format_.read_column(col, Field::kReflectivity2, &scan->reflectivity2[m], stride);
+        }
+        if (!scan->near_ir.empty())
+            format_.read_column(col, Field::kNearIr, &scan->near_ir[m], stride);
+    }
+    window_.packet_done(*scan, written);
+    return written > 0 ? PacketOutcome::kAssembled : PacketOutcome::kDuplicate;
+}
+
+void ScanAssembler::flush() { window_.flush(); }
+
+}  // namespace lidarfuse::ouster
