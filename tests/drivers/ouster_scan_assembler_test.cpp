@@ -1,0 +1,408 @@
+// ScanAssembler on synthetic packets written with PacketFormat's encoder: every profile's
+// fields land at the right pixel, wrap-around, reordering, duplicates, late packets,
+// init_id changes, loss, azimuth windows, IMU / wrong size / wrong serial / bad CRC
+// packets, no allocation per packet, and the projection of an assembled scan.
+// (The frame bookkeeping alone is tested on bare headers in ouster_frame_window_test.)
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdint>
+#include <cstdlib>
+#include <new>
+#include <vector>
+
+#include "drivers/ouster/packet_format.hpp"
+#include "drivers/ouster/projection.hpp"
+#include "drivers/ouster/scan_assembler.hpp"
+#include "drivers/ouster/xyz_lut.hpp"
+
+// Counts heap allocations while `g_count_allocations` is set (zero-allocation test). The
+// replacement pairs malloc/free by design; GCC cannot see that through inlining.
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+namespace {
+std::atomic<bool> g_count_allocations{false};
+std::atomic<long> g_allocations{0};
+}  // namespace
+
+void* operator new(std::size_t size) {
+    if (g_count_allocations.load(std::memory_order_relaxed)) ++g_allocations;
+    if (void* p = std::malloc(size ? size : 1)) return p;
+    throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace lidarfuse::ouster {
+namespace {
+
+constexpr std::uint64_t kSerial = 992210000957ull;
+constexpr std::uint32_t kInitId = 0x123456;
+
+SensorInfo make_info(UdpProfileLidar profile, int rows = 16, int columns = 64,
+                     std::array<int, 2> window = {-1, -1}) {
+    SensorInfo info;
+    info.prod_sn = std::to_string(kSerial);
+    info.udp_profile_lidar = profile;
+    info.pixels_per_column = rows;
+    info.columns_per_frame = columns;
+    info.columns_per_packet = 8;
+    info.column_window = window[0] < 0 ? std::array<int, 2>{0, columns - 1} : window;
+    info.init_id = kInitId;
+    for (int r = 0; r < rows; ++r) {
+        info.beam_altitude_angles_deg.push_back(15.0 - 2.0 * r);
+        info.beam_azimuth_angles_deg.push_back(r % 2 ? 1.5 : -1.5);
+    }
+    info.pixel_shift_by_row.assign(static_cast<std::size_t>(rows), 0);
+    return info;
+}
+
+// Deterministic pixel values every profile can represent exactly.
+std::uint32_t range_of(int row, int mid, std::uint32_t frame) {
+    return 8u * static_cast<std::uint32_t>((row * 7 + mid + static_cast<int>(frame)) % 4000 + 1);
+}
+std::uint32_t range2_of(int row, int mid) {
+    return 8u * static_cast<std::uint32_t>(row + mid + 100);
+}
+std::uint32_t signal_of(int row, int mid) { return static_cast<std::uint32_t>(row * 100 + mid); }
+std::uint32_t refl_of(int row, int mid) {
+    return static_cast<std::uint32_t>((row * 3 + mid) % 256);
+}
+std::uint32_t nir_of(int row, int mid) {
+    return 16u * static_cast<std::uint32_t>((row + mid) % 256);
+}
+
+class PacketWriter {
+public:
+    explicit PacketWriter(const SensorInfo& info)
+        : info_(info), format_(info), buffer_(format_.lidar_packet_size(), 0) {}
+
+    // The packet with columns [first_col, first_col + columns_per_packet) of `frame`.
+    // Columns outside `valid` (a window) get status 0 and zero data, as sensors send them.
+    const std::vector<std::uint8_t>& packet(std::uint32_t frame, int first_col,
+                                            std::uint32_t init_id = kInitId,
+                                            std::uint64_t serial = kSerial) {
+        std::fill(buffer_.begin(), buffer_.end(), 0);
+        std::uint8_t* pkt = buffer_.data();
+        format_.set_packet_type(pkt, PacketFormat::kLidarPacketType);
+        format_.set_frame_id(pkt, frame);
+        format_.set_init_id(pkt, init_id);
+        format_.set_prod_sn(pkt, serial);
+        const ColumnWindow window{static_cast<std::uint32_t>(info_.column_window[0]),
+                                  static_cast<std::uint32_t>(info_.column_window[1])};
+        const bool legacy = format_.header_type() == HeaderType::kLegacy;
+        for (int i = 0; i < format_.columns_per_packet(); ++i) {
+            std::uint8_t* col = format_.column(pkt, i);
+            const int mid = (first_col + i) % info_.columns_per_frame;
+            format_.set_column_measurement_id(col, static_cast<std::uint16_t>(mid));
+            format_.set_column_timestamp_ns(col, 1'000'000'000ull * frame + 1000ull * mid);
+            if (legacy) format_.set_column_frame_id(col, static_cast<std::uint16_t>(frame));
+            if (!window.contains(static_cast<std::uint32_t>(mid))) continue;
+            format_.set_column_status(col, legacy ? 0xFFFFFFFFu : 1u);
+            for (int row = 0; row < format_.pixels_per_column(); ++row) {
+                std::uint8_t* px = format_.pixel(col, row);
+                format_.set_field(px, Field::kRange, range_of(row, mid, frame));
+                format_.set_field(px, Field::kRange2, range2_of(row, mid));
+                format_.set_field(px, Field::kSignal, signal_of(row, mid));
+                format_.set_field(px, Field::kSignal2, signal_of(row, mid) + 1);
+                format_.set_field(px, Field::kReflectivity, refl_of(row, mid));
+                format_.set_field(px, Field::kReflectivity2, 255 - refl_of(row, mid));
+                format_.set_field(px, Field::kNearIr, nir_of(row, mid));
+            }
+        }
+        format_.write_crc(pkt);
+        return buffer_;
+    }
+    const PacketFormat& format() const { return format_; }
+
+private:
+    SensorInfo info_;
+    PacketFormat format_;
+    std::vector<std::uint8_t> buffer_;
+};
+
+struct Frame {
+    std::uint32_t frame_id;
+    bool complete;
+    double completeness;
+};
+
+// An assembler with a writer for the same sensor; records every emitted frame and keeps a
+// copy of the last one.
+struct Rig {
+    explicit Rig(const SensorInfo& info, ScanAssemblerParams params = {})
+        : writer(info), assembler(info, params, [this](const LidarScan& s) {
+              frames.push_back({s.frame_id, s.complete(), s.completeness()});
+              last = s;
+          }) {
+        frames.reserve(64);
+    }
+    PacketOutcome send(std::uint32_t frame, int first_col, std::uint32_t init_id = kInitId,
+                       std::uint64_t serial = kSerial) {
+        const auto& p = writer.packet(frame, first_col, init_id, serial);
+        return assembler.add_packet(p.data(), p.size());
+    }
+    void send_frame(std::uint32_t frame, int columns = 64) {
+        for (int c = 0; c < columns; c += 8) send(frame, c);
+    }
+
+    PacketWriter writer;
+    ScanAssembler assembler;
+    std::vector<Frame> frames;
+    LidarScan last;
+};
+
+class EveryProfile : public ::testing::TestWithParam<UdpProfileLidar> {};
+
+TEST_P(EveryProfile, FullFrameLandsAtTheRightPixelsWithUpshifts) {
+    const auto info = make_info(GetParam());
+    Rig rig(info);
+    rig.send_frame(1234);
+    ASSERT_EQ(rig.frames.size(), 1u);
+    EXPECT_TRUE(rig.frames[0].complete);
+    const LidarScan& s = rig.last;
+    const PacketFormat& f = rig.writer.format();
+    EXPECT_EQ(s.frame_id, 1234u);
+    EXPECT_EQ(s.packets, 8u);
+    EXPECT_EQ(s.has(ScanField::kRange2), f.has_field(Field::kRange2));
+    EXPECT_EQ(s.has(ScanField::kSignal), f.has_field(Field::kSignal));
+    EXPECT_EQ(s.has(ScanField::kNearIr), f.has_field(Field::kNearIr));
+    const bool legacy = f.header_type() == HeaderType::kLegacy;
+    for (int mid = 0; mid < 64; ++mid) {
+        EXPECT_EQ(s.measurement_id[mid], mid);
+        EXPECT_EQ(s.timestamp_ns[mid], 1234'000'000'000ull + 1000ull * mid);
+        EXPECT_EQ(s.status[mid], legacy ? 0xFFFFFFFFull : 1ull);
+        if (!legacy) {
+            EXPECT_EQ(s.init_id, kInitId);
+        }
+        for (int row = 0; row < 16; ++row) {
+            const std::size_t i = static_cast<std::size_t>(row) * 64 + mid;
+            ASSERT_EQ(s.range_mm[i], range_of(row, mid, 1234)) << row << "," << mid;
+            EXPECT_EQ(s.reflectivity[i], refl_of(row, mid));
+            if (s.has(ScanField::kRange2)) {
+                EXPECT_EQ(s.range2_mm[i], range2_of(row, mid));
+            }
+            if (s.has(ScanField::kSignal)) {
+                EXPECT_EQ(s.signal[i], signal_of(row, mid));
+            }
+            if (s.has(ScanField::kSignal2)) {
+                EXPECT_EQ(s.signal2[i], signal_of(row, mid) + 1);
+            }
+            if (s.has(ScanField::kReflectivity2)) {
+                EXPECT_EQ(s.reflectivity2[i], 255 - refl_of(row, mid));
+            }
+            if (s.has(ScanField::kNearIr)) {
+                EXPECT_EQ(s.near_ir[i], nir_of(row, mid));
+            }
+        }
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Profiles, EveryProfile,
+                         ::testing::Values(UdpProfileLidar::kLegacy,
+                                           UdpProfileLidar::kRng19Rfl8Sig16Nir16,
+                                           UdpProfileLidar::kRng15Rfl8Nir8,
+                                           UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual,
+                                           UdpProfileLidar::kFusaRng15Rfl8Nir8Dual));
+
+TEST(ScanAssembler, SixteenBitWrapAroundWithoutSpuriousLoss) {
+    Rig rig(make_info(UdpProfileLidar::kRng19Rfl8Sig16Nir16));
+    for (std::uint32_t f : {65534u, 65535u, 0u, 1u}) rig.send_frame(f);
+    ASSERT_EQ(rig.frames.size(), 4u);
+    EXPECT_EQ(rig.frames[2].frame_id, 0u);
+    const auto& c = rig.assembler.counters();
+    EXPECT_EQ(c.frames_complete, 4u);
+    EXPECT_EQ(c.late_packets + c.missing_columns + c.resets + c.frames_incomplete, 0u);
+}
+
+TEST(ScanAssembler, FusaFrameIdsAreThirtyTwoBits) {
+    Rig rig(make_info(UdpProfileLidar::kFusaRng15Rfl8Nir8Dual));
+    for (std::uint32_t f : {70000u, 0xFFFFFFFFu, 0u}) rig.send_frame(f);
+    ASSERT_EQ(rig.frames.size(), 3u);
+    EXPECT_EQ(rig.frames[0].frame_id, 70000u);  // would be 4464 if cut to 16 bits
+    EXPECT_EQ(rig.frames[2].frame_id, 0u);
+    EXPECT_EQ(rig.assembler.counters().frames_complete, 3u);
+    EXPECT_EQ(rig.assembler.counters().late_packets, 0u);
+}
+
+TEST(ScanAssembler, ReorderDuplicatesAndLatePackets) {
+    Rig rig(make_info(UdpProfileLidar::kRng15Rfl8Nir8));
+    for (int c : {8, 0, 24, 16, 32, 40, 48}) rig.send(10, c);
+    EXPECT_EQ(rig.send(11, 0), PacketOutcome::kAssembled);  // next frame starts early
+    EXPECT_EQ(rig.send(10, 8), PacketOutcome::kDuplicate);
+    EXPECT_EQ(rig.send(10, 56), PacketOutcome::kAssembled);  // completes 10
+    ASSERT_EQ(rig.frames.size(), 1u);
+    EXPECT_TRUE(rig.frames[0].complete);
+    EXPECT_EQ(rig.send(10, 56), PacketOutcome::kLate);
+    EXPECT_EQ(rig.send(9, 0), PacketOutcome::kLate);
+    const auto& c = rig.assembler.counters();
+    EXPECT_EQ(c.duplicate_packets, 1u);
+    EXPECT_EQ(c.duplicate_columns, 8u);
+    EXPECT_EQ(c.late_packets, 2u);
+    EXPECT_EQ(c.lidar_packets, 12u);
+}
+
+TEST(ScanAssembler, InitIdChangeMidFrameResets) {
+    Rig rig(make_info(UdpProfileLidar::kRng19Rfl8Sig16Nir16));
+    rig.send(300, 0);
+    rig.send(300, 8);
+    rig.send(0, 0, kInitId + 1);
+    ASSERT_EQ(rig.frames.size(), 1u);
+    EXPECT_EQ(rig.frames[0].frame_id, 300u);
+    EXPECT_DOUBLE_EQ(rig.frames[0].completeness, 0.25);
+    for (int c = 8; c < 64; c += 8) rig.send(0, c, kInitId + 1);
+    ASSERT_EQ(rig.frames.size(), 2u);
+    EXPECT_TRUE(rig.frames[1].complete);
+    EXPECT_EQ(rig.last.init_id, kInitId + 1);
+    EXPECT_EQ(rig.assembler.counters().resets, 1u);
+}
+
+TEST(ScanAssembler, MissingPacketsLeaveInvalidColumnsAndLowerCompleteness) {
+    Rig rig(make_info(UdpProfileLidar::kLegacy));
+    for (int c = 0; c < 64; c += 8) {
+        if (c != 16 && c != 40) rig.send(5, c);
+    }
+    rig.send_frame(6);
+    ASSERT_EQ(rig.frames.size(), 2u);
+    EXPECT_DOUBLE_EQ(rig.frames[0].completeness, 48.0 / 64.0);
+    EXPECT_EQ(rig.assembler.counters().missing_columns, 16u);
+    rig.send(7, 0);
+    rig.assembler.flush();
+    ASSERT_EQ(rig.frames.size(), 3u);
+    const LidarScan& s = rig.last;  // frame 7: only columns 0..7
+    EXPECT_EQ(s.received[7], 1);
+    EXPECT_EQ(s.received[8], 0);
+    EXPECT_EQ(s.status[8], 0u);
+    EXPECT_EQ(s.range_mm[8], 0u);
+}
+
+TEST(ScanAssembler, WindowWrappingThroughZeroIsNotLoss) {
+    // Like windowed_frame2: window [56, 9] of 64 columns; the sensor sends the packets
+    // overlapping it (0..15 and 56..63), with status 0 outside the window.
+    Rig rig(make_info(UdpProfileLidar::kRng15Rfl8Nir8, 16, 64, {56, 9}));
+    rig.send(20, 0);
+    rig.send(20, 8);
+    EXPECT_TRUE(rig.frames.empty());
+    rig.send(20, 56);
+    ASSERT_EQ(rig.frames.size(), 1u);
+    EXPECT_TRUE(rig.frames[0].complete);
+    EXPECT_EQ(rig.last.expected_columns(), 18u);
+    EXPECT_EQ(rig.last.status[10], 0u);  // received, outside the window
+    EXPECT_EQ(rig.last.status[9], 1u);
+    EXPECT_EQ(rig.assembler.counters().missing_columns, 0u);
+    EXPECT_EQ(rig.assembler.counters().frames_incomplete, 0u);
+}
+
+TEST(ScanAssembler, ImuWrongSizeWrongSerialAndBadCrcAreSkippedAndCounted) {
+    Rig rig(make_info(UdpProfileLidar::kRng19Rfl8Sig16Nir16));
+    const std::vector<std::uint8_t> imu(48, 0xAB);
+    EXPECT_EQ(rig.assembler.add_packet(imu.data(), imu.size()), PacketOutcome::kImu);
+    auto pkt = rig.writer.packet(3, 0);
+    EXPECT_EQ(rig.assembler.add_packet(pkt.data(), pkt.size() - 1), PacketOutcome::kWrongSize);
+    pkt.push_back(0);
+    EXPECT_EQ(rig.assembler.add_packet(pkt.data(), pkt.size()), PacketOutcome::kWrongSize);
+    EXPECT_EQ(rig.assembler.add_packet(nullptr, 0), PacketOutcome::kWrongSize);
+    EXPECT_EQ(rig.send(3, 0, kInitId, kSerial + 1), PacketOutcome::kWrongProfile);
+    auto corrupt = rig.writer.packet(3, 0);
+    corrupt[100] ^= 0x01;
+    EXPECT_EQ(rig.assembler.add_packet(corrupt.data(), corrupt.size()), PacketOutcome::kCrcError);
+    // Firmware that does not fill the CRC: zero, or the FW 2.3 marker. Both are accepted.
+    auto unfilled = rig.writer.packet(3, 8);
+    const std::size_t crc_at = unfilled.size() - 8;
+    std::fill(unfilled.begin() + static_cast<std::ptrdiff_t>(crc_at), unfilled.end(), 0);
+    EXPECT_EQ(rig.assembler.add_packet(unfilled.data(), unfilled.size()),
+              PacketOutcome::kAssembled);
+    auto marker = rig.writer.packet(3, 16);
+    const std::uint8_t kMarker[8] = {0xde, 0xc0, 0x00, 0x00, 0xef, 0xbe, 0xad, 0xde};
+    std::copy(kMarker, kMarker + 8, marker.begin() + static_cast<std::ptrdiff_t>(crc_at));
+    EXPECT_EQ(rig.assembler.add_packet(marker.data(), marker.size()), PacketOutcome::kAssembled);
+
+    const auto& c = rig.assembler.counters();
+    EXPECT_EQ(c.packets, 8u);
+    EXPECT_EQ(c.imu_packets, 1u);
+    EXPECT_EQ(c.bad_size, 3u);
+    EXPECT_EQ(c.bad_profile, 1u);
+    EXPECT_EQ(c.crc_errors, 1u);
+    EXPECT_EQ(c.lidar_packets, 2u);
+    EXPECT_TRUE(rig.frames.empty());
+    rig.assembler.flush();
+    ASSERT_EQ(rig.frames.size(), 1u);
+    EXPECT_DOUBLE_EQ(rig.frames[0].completeness, 16.0 / 64.0);  // the dropped ones are missing
+
+    ScanAssemblerParams no_crc;
+    no_crc.check_crc = false;
+    Rig lenient(make_info(UdpProfileLidar::kRng19Rfl8Sig16Nir16), no_crc);
+    EXPECT_EQ(lenient.assembler.add_packet(corrupt.data(), corrupt.size()),
+              PacketOutcome::kAssembled);
+}
+
+TEST(ScanAssembler, NoAllocationPerPacketInSteadyState) {
+    Rig rig(make_info(UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, 32, 128));
+    std::vector<std::vector<std::uint8_t>> packets;
+    for (std::uint32_t f = 0; f < 12; ++f) {
+        for (int c = 0; c < 128; c += 8) {
+            if (f == 7 && c == 64) continue;  // one loss, so the eviction path runs too
+            packets.push_back(rig.writer.packet(f, c));
+        }
+    }
+    packets.push_back(packets[3]);  // a late packet
+    std::size_t i = 0;
+    for (; i < 32; ++i) rig.assembler.add_packet(packets[i].data(), packets[i].size());
+    g_allocations = 0;
+    g_count_allocations = true;
+    for (; i < packets.size(); ++i) rig.assembler.add_packet(packets[i].data(), packets[i].size());
+    rig.assembler.flush();
+    g_count_allocations = false;
+    EXPECT_EQ(g_allocations.load(), 0);
+    EXPECT_EQ(rig.assembler.counters().frames_complete, 11u);
+    EXPECT_EQ(rig.assembler.counters().frames_incomplete, 1u);
+    EXPECT_EQ(rig.assembler.counters().late_packets, 1u);
+}
+
+TEST(ScanAssembler, RejectsAColumnWindowOutsideTheFrame) {
+    EXPECT_THROW(ScanAssembler(make_info(UdpProfileLidar::kLegacy, 16, 64, {0, 64}), {}, nullptr),
+                 std::invalid_argument);
+}
+
+TEST(Projection, OnePointPerReturnAtTheLookupTablePosition) {
+    const auto info = make_info(UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual);
+    Rig rig(info);
+    for (int c = 0; c < 64; c += 8) {
+        if (c != 24) rig.send(2, c);
+    }
+    rig.assembler.flush();
+    const LidarScan& s = rig.last;
+    const XyzLut lut = make_xyz_lut(info);
+    ScanCloud out;
+    ASSERT_TRUE(project_scan(s, lut, {}, &out));
+    ASSERT_EQ(out.cloud.size(), 16u * 56u);  // every pixel of the 7 packets has a return
+    ASSERT_EQ(out.pixel_index.size(), out.cloud.size());
+    for (std::size_t k = 0; k < out.cloud.size(); k += 37) {
+        const int row = static_cast<int>(out.row_of(k));
+        const int col = static_cast<int>(out.column_of(k));
+        EXPECT_FALSE(col >= 24 && col < 32);
+        const Eigen::Vector3d expected = lut.point(row, col, range_of(row, col, 2));
+        EXPECT_LT((out.cloud.points[k] - expected).norm(), 1e-9);
+        EXPECT_EQ(out.timestamp_ns_of(k), 2'000'000'000ull + 1000ull * col);
+    }
+    ProjectionParams second;
+    second.second_return = true;
+    second.min_range_mm = 8u * 150u;  // drops returns closer than 1.2 m
+    ASSERT_TRUE(project_scan(s, lut, second, &out));
+    std::size_t expected_second = 0;
+    for (int row = 0; row < 16; ++row) {
+        for (int col = 0; col < 64; ++col) {
+            if ((col < 24 || col >= 32) && range2_of(row, col) >= 8u * 150u) ++expected_second;
+        }
+    }
+    EXPECT_EQ(out.cloud.size(), expected_second);
+
+    Rig single(make_info(UdpProfileLidar::kRng15Rfl8Nir8));
+    single.send_frame(1);
+    EXPECT_FALSE(project_scan(single.last, lut, second, &out));  // no second return
+    EXPECT_TRUE(out.cloud.empty());
+    const XyzLut wrong = make_xyz_lut(make_info(UdpProfileLidar::kRng15Rfl8Nir8, 16, 128));
+    EXPECT_FALSE(project_scan(single.last, wrong, {}, &out));
+}
+
+}  // namespace
+}  // namespace lidarfuse::ouster
