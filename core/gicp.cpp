@@ -94,7 +94,9 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
     const int threads = num_threads();
     target_index_.resize(n);
     mahalanobis_.resize(n);
-    partial_.resize(static_cast<std::size_t>(threads));
+    // Zeroed every call: the team can be smaller than asked (nested inside another
+    // parallel region), and unused slots must not keep an earlier call's sums.
+    partial_.assign(static_cast<std::size_t>(threads), Linearization());
     const Kernel kernel = make_kernel(params_);
     const double max_d2 =
         params_.max_correspondence_distance_m * params_.max_correspondence_distance_m;
@@ -104,7 +106,7 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
     const auto& target_covs = target.cloud().covariances;
     const long long count = static_cast<long long>(n);
 
-#pragma omp parallel num_threads(threads)
+#pragma omp parallel num_threads(threads) if (threads > 1)
     {
         Linearization local;
 #pragma omp for schedule(static)
@@ -160,7 +162,7 @@ double GicpRegistration::evaluate(const GicpTarget& target, const PointCloud& so
     const Kernel kernel = make_kernel(params_);
     const auto& target_points = target.cloud().points;
     const long long count = static_cast<long long>(source.size());
-#pragma omp parallel num_threads(threads)
+#pragma omp parallel num_threads(threads) if (threads > 1)
     {
         double local = 0.0;
 #pragma omp for schedule(static)

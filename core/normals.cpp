@@ -27,7 +27,8 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
     const std::size_t k = static_cast<std::size_t>(std::max(3, params.k_neighbors));
     const long long count = static_cast<long long>(n);
     std::size_t degenerate = 0;
-#pragma omp parallel num_threads(std::max(1, params.num_threads)) reduction(+ : degenerate)
+#pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1) \
+    reduction(+ : degenerate)
     {
         std::vector<std::uint32_t> idx(k);
         std::vector<double> d2(k);

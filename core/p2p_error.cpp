@@ -19,7 +19,7 @@ P2pErrorResult p2p_error(const std::vector<Eigen::Vector3d>& source_points,
     std::vector<double> partial_sum(static_cast<std::size_t>(threads), 0.0);
     std::vector<std::size_t> partial_count(static_cast<std::size_t>(threads), 0);
     const long long count = static_cast<long long>(source_points.size());
-#pragma omp parallel num_threads(threads)
+#pragma omp parallel num_threads(threads) if (threads > 1)
     {
         double sum = 0.0;
         std::size_t within = 0;

@@ -75,7 +75,7 @@ std::size_t remove_statistical_outliers(const PointCloud& in,
     const KdTree tree(in.points);
     std::vector<double> mean_distance(n, 0.0);
     const long long count = static_cast<long long>(n);
-#pragma omp parallel num_threads(std::max(1, params.num_threads))
+#pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1)
     {
         // k + 1: the query point is its own nearest neighbour.
         std::vector<std::uint32_t> idx(k + 1);
@@ -110,7 +110,7 @@ std::size_t remove_radius_outliers(const PointCloud& in, const RadiusOutlierPara
         const std::size_t needed = static_cast<std::size_t>(std::max(0, params.min_neighbors)) + 1;
         const double r2 = params.radius_m * params.radius_m;
         const long long count = static_cast<long long>(n);
-#pragma omp parallel num_threads(std::max(1, params.num_threads))
+#pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1)
         {
             // A knn query of `needed` points is cheaper than a full radius search: the point
             // stays if its needed-th nearest neighbour lies within the radius.

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <Eigen/Eigenvalues>
 #include <random>
 
@@ -135,6 +137,29 @@ TEST_F(GicpScene, ThreadCountDoesNotChangeTheResult) {
     EXPECT_EQ(r1.iterations, r2.iterations);
     EXPECT_EQ(r1.num_inliers, r2.num_inliers);
     EXPECT_LT((r1.T_target_source.matrix() - r2.T_target_source.matrix()).norm(), 1e-9);
+}
+
+// Inside another parallel region (the initial registration runs pairs in parallel), the
+// inner team may be smaller than num_threads; per-thread sums left over from an earlier
+// call with a full team must not leak into the result.
+TEST_F(GicpScene, NestedInAParallelRegionGivesTheSameResult) {
+    std::mt19937 rng(19);
+    const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
+    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), target_points_));
+    GicpParams params;
+    params.max_correspondence_distance_m = 2.0;
+    params.num_threads = 2;
+    GicpRegistration registration(params);
+    const GicpResult outside = registration.align(target_, source);
+    GicpResult inside;
+#pragma omp parallel num_threads(2)
+    {
+        if (omp_get_thread_num() == 0) inside = registration.align(target_, source);
+    }
+    EXPECT_EQ(outside.num_inliers, inside.num_inliers);
+    EXPECT_LT(translation_error_m(inside.T_target_source, T_true), 1e-3);
+    EXPECT_LT((outside.T_target_source.matrix() - inside.T_target_source.matrix()).norm(), 1e-9);
+    EXPECT_LT((outside.H - inside.H).norm(), 1e-6 * outside.H.norm());
 }
 
 TEST_F(GicpScene, OneTargetServesSeveralSourcesAndRegistrationIsReusable) {
