@@ -14,14 +14,14 @@ namespace lidarfuse::core {
 struct FeatureMatchingParams {
     // Keep a match only if the source's nearest target is also the target's nearest
     // source.
-    bool mutual = true;
+    bool mutual = false;
     // Lowe's ratio test: keep a match only if d1 <= ratio * d2 (distances to the nearest
     // and second nearest target). 1 disables the test.
     double ratio = 1.0;
     // When > 1 and `mutual` is off, every source keypoint contributes its
     // `candidates_per_source` nearest targets (more recall for RANSAC; the ratio test then
     // applies to the first only).
-    int candidates_per_source = 1;
+    int candidates_per_source = 3;
     // Descriptor distances above this are dropped (histogram units; <= 0: no bound).
     double max_descriptor_distance = 0.0;
 };

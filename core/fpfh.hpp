@@ -29,7 +29,7 @@ using FpfhDescriptor = Eigen::Matrix<float, kFpfhSize, 1>;
 struct FpfhParams {
     // Neighbourhood radius for both the SPFH and the weighting step (m). Rusu suggests a
     // radius a few times the sampling distance.
-    double radius_m = 1.5;
+    double radius_m = 3.0;
     int num_threads = 1;
 };
 

@@ -22,7 +22,7 @@ namespace lidarfuse::core {
 
 struct OctreeDownsampleParams {
     // Coarsest voxel edge (m): no output point represents a larger cube.
-    double max_voxel_size_m = 2.0;
+    double max_voxel_size_m = 1.0;
     // Finest voxel edge (m): voxels at this size are never split. The actual finest edge is
     // max_voxel_size_m / 2^k for the largest k keeping it >= min_voxel_size_m.
     double min_voxel_size_m = 0.25;

@@ -19,8 +19,8 @@ namespace lidarfuse::core {
 
 struct RansacParams {
     // A correspondence is an inlier when |T * source - target| <= this (m).
-    double inlier_threshold_m = 0.5;
-    int max_iterations = 100000;
+    double inlier_threshold_m = 1.0;
+    int max_iterations = 20000;
     // Stop once the probability of having drawn one all-inlier sample exceeds this.
     double confidence = 0.999;
     // Pre-rejection: every edge of the sample triangle must satisfy

@@ -27,7 +27,7 @@ struct SiftKeypointParams {
     int octaves = 3;
     int scales_per_octave = 3;
     // Minimum |DoG| of curvature (curvature is lambda_min / sum(lambda), in [0, 1/3]).
-    double min_contrast = 0.005;
+    double min_contrast = 0.001;
     // Octave clouds with fewer points than this end the pyramid.
     int min_points_per_octave = 16;
     int num_threads = 1;

@@ -42,7 +42,9 @@ TEST(OctreeDownsample, PlaneStaysCoarse) {
     PointCloud plane;
     testing::sample_rectangle(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(16, 0, 0),
                               Eigen::Vector3d(0, 16, 0), 0.1, Eigen::Vector3d::UnitZ(), &plane);
-    OctreeDownsampleParams params;  // 2 m coarsest, 0.25 m finest
+    OctreeDownsampleParams params;
+    params.max_voxel_size_m = 2.0;
+    params.min_voxel_size_m = 0.25;
     const OctreeDownsampleResult r = octree_downsample(plane, {}, params);
     // 16 m x 16 m at 2 m: about 64 voxels (the bounding box adds at most one more row).
     EXPECT_LE(r.cloud.size(), 81u);
@@ -60,9 +62,10 @@ TEST(OctreeDownsample, DetailGetsFineVoxelsAndNormalsAreUnit) {
                               Eigen::Vector3d(0, 16, 0), 0.1, Eigen::Vector3d::UnitZ(), &cloud);
     // A small box: its edges and corners have normals that disagree.
     testing::sample_box(Eigen::Vector3d(0.3, 0.3, 0.0), Eigen::Vector3d(1.0, 1.4, 1.2), 0.05, &cloud);
-    // Flip half of the normals: the sign must not matter, and the output keeps the majority.
     std::vector<double> curvature(cloud.size(), 0.01);
     OctreeDownsampleParams params;
+    params.max_voxel_size_m = 2.0;
+    params.min_voxel_size_m = 0.25;
     const OctreeDownsampleResult r = octree_downsample(cloud, curvature, params);
     ASSERT_FALSE(r.cloud.empty());
     ASSERT_EQ(r.cloud.normals.size(), r.cloud.size());
@@ -96,7 +99,9 @@ TEST(OctreeDownsample, OrientationFollowsTheMajority) {
     testing::sample_rectangle(Eigen::Vector3d(0.1, 0.1, 0.5), Eigen::Vector3d(1.5, 0, 0),
                               Eigen::Vector3d(0, 1.5, 0), 0.1, -Eigen::Vector3d::UnitZ(), &plane);
     for (std::size_t i = 0; i < plane.size(); i += 4) plane.normals[i] = Eigen::Vector3d::UnitZ();
-    const OctreeDownsampleResult r = octree_downsample(plane);
+    OctreeDownsampleParams params;
+    params.max_voxel_size_m = 2.0;
+    const OctreeDownsampleResult r = octree_downsample(plane, {}, params);
     ASSERT_EQ(r.cloud.size(), 1u);
     EXPECT_NEAR(r.cloud.normals[0].z(), -1.0, 1e-9);
     EXPECT_TRUE(r.curvature.empty());

@@ -53,6 +53,7 @@ TEST(SiftKeypoints, FindsBoxEdgesAndNothingOnTheGround) {
     SiftKeypointParams params;
     params.min_scale_m = 0.25;
     params.octaves = 2;
+    params.min_contrast = 0.005;
     params.num_threads = 2;
     const SiftKeypointResult r = detect_sift_keypoints(s.cloud.points, s.curvature, params);
     ASSERT_GE(r.indices.size(), 4u);

@@ -188,3 +188,16 @@ inline void sample_box(const Eigen::Vector3d& min_corner, const Eigen::Vector3d&
 }
 
 }  // namespace lidarfuse::testing
+
+namespace lidarfuse::testing {
+
+// Four roadside sensors in street_scene(): 5-6 m high, tilted down 6-12 degrees, with
+// relative yaws up to 180 degrees; every one overlaps every other.
+inline std::vector<Eigen::Isometry3d> street_sensor_poses() {
+    return {sensor_pose(0.0, 0.0, 6.0, 0.0, 8.0),
+            sensor_pose(8.0, 6.0, 5.0, 180.0, 6.0, 1.0),
+            sensor_pose(-11.0, -2.0, 5.5, -100.0, 10.0),
+            sensor_pose(3.0, -11.0, 6.0, 75.0, 12.0, -1.5)};
+}
+
+}  // namespace lidarfuse::testing

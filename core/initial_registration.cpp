@@ -1,0 +1,223 @@
+#include "core/initial_registration.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include "core/se3.hpp"
+
+namespace lidarfuse::core {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Poses of the sensors reachable from the root over the good pairs, by a maximum spanning
+// tree (Prim, edge weight = p2p support): the pose graph's starting point. Unreached
+// sensors get no entry (has[i] false).
+void spanning_tree_poses(std::size_t n, const std::vector<PairResult>& pairs,
+                         const std::vector<bool>& edge_ok, std::vector<Eigen::Isometry3d>* poses,
+                         std::vector<bool>* has) {
+    poses->assign(n, Eigen::Isometry3d::Identity());
+    has->assign(n, false);
+    if (n == 0) return;
+    (*has)[0] = true;
+    while (true) {
+        const PairResult* best = nullptr;
+        for (std::size_t e = 0; e < pairs.size(); ++e) {
+            const PairResult& p = pairs[e];
+            if (!edge_ok[e] || (*has)[p.source] == (*has)[p.target]) continue;
+            if (best == nullptr || p.p2p_inliers > best->p2p_inliers) best = &p;
+        }
+        if (best == nullptr) return;
+        if ((*has)[best->target]) {
+            (*poses)[best->source] = (*poses)[best->target] * best->T_target_source;
+            (*has)[best->source] = true;
+        } else {
+            (*poses)[best->target] = (*poses)[best->source] * best->T_target_source.inverse();
+            (*has)[best->target] = true;
+        }
+    }
+}
+
+SensorRegistrationStatus from_features(SensorFeatureStatus status) {
+    switch (status) {
+        case SensorFeatureStatus::kOk: return SensorRegistrationStatus::kRegistered;
+        case SensorFeatureStatus::kEmptyCloud: return SensorRegistrationStatus::kEmptyCloud;
+        case SensorFeatureStatus::kPlaneOnly: return SensorRegistrationStatus::kDegenerate;
+        case SensorFeatureStatus::kTooFewKeypoints: return SensorRegistrationStatus::kTooFewKeypoints;
+    }
+    return SensorRegistrationStatus::kEmptyCloud;
+}
+
+}  // namespace
+
+const char* to_string(SensorRegistrationStatus status) {
+    switch (status) {
+        case SensorRegistrationStatus::kRegistered: return "registered";
+        case SensorRegistrationStatus::kEmptyCloud: return "empty cloud";
+        case SensorRegistrationStatus::kTooFewKeypoints: return "too few keypoints";
+        case SensorRegistrationStatus::kDegenerate: return "degenerate: plane only";
+        case SensorRegistrationStatus::kNoConsistentCorrespondences: return "no consistent correspondences";
+        case SensorRegistrationStatus::kNotConnectedToRoot: return "not connected to the root sensor";
+    }
+    return "unknown";
+}
+
+std::size_t InitialRegistrationResult::num_registered() const {
+    return static_cast<std::size_t>(std::count_if(
+        sensors.begin(), sensors.end(), [](const SensorRegistration& s) { return s.registered; }));
+}
+
+InitialRegistrationParams default_initial_registration_params() {
+    InitialRegistrationParams params;
+    params.pair.p2p_cutoff_m = params.features.octree.max_voxel_size_m;
+    return params;
+}
+
+InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds,
+                                           const InitialRegistrationParams& params) {
+    const auto start_total = Clock::now();
+    InitialRegistrationResult result;
+    const std::size_t n = clouds.size();
+    const int threads = std::max(1, params.num_threads);
+    result.sensors.resize(n);
+    if (n == 0) return result;
+
+    // Steps 2-4 per sensor, sensors in parallel.
+    auto start = Clock::now();
+    std::vector<SensorFeatures> features(n);
+    {
+        const int outer = std::min<int>(threads, static_cast<int>(n));
+        SensorFeatureParams feature_params = params.features;
+        feature_params.num_threads = std::max(1, threads / outer);
+#pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
+        for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+            features[i] = compute_sensor_features(clouds[i], feature_params, params.min_keypoints);
+        }
+    }
+    result.timings.features_s = seconds_since(start);
+
+    // Steps 5-8 for every pair i > j, pairs in parallel.
+    start = Clock::now();
+    for (std::size_t i = 1; i < n; ++i) {
+        for (std::size_t j = 0; j < i; ++j) {
+            PairResult pair;
+            pair.source = static_cast<int>(i);
+            pair.target = static_cast<int>(j);
+            result.pairs.push_back(pair);
+        }
+    }
+    {
+        const auto n_pairs = static_cast<std::int64_t>(result.pairs.size());
+        const int outer = static_cast<int>(std::max<std::int64_t>(1, std::min<std::int64_t>(threads, n_pairs)));
+        PairRegistrationParams pair_params = params.pair;
+        pair_params.num_threads = std::max(1, threads / outer);
+#pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
+        for (std::int64_t e = 0; e < n_pairs; ++e) {
+            const int i = result.pairs[e].source;
+            const int j = result.pairs[e].target;
+            result.pairs[e] = register_pair(features[i], features[j], i, j, pair_params);
+        }
+    }
+    result.timings.pairs_s = seconds_since(start);
+
+    // Step 9: pose graph over the good pairs, root fixed; drop edges that break cycle
+    // consistency, one at a time (the worst first), and solve again.
+    start = Clock::now();
+    std::vector<bool> edge_ok(result.pairs.size());
+    for (std::size_t e = 0; e < result.pairs.size(); ++e) {
+        edge_ok[e] = result.pairs[e].status == PairStatus::kOk;
+    }
+    std::vector<Eigen::Isometry3d> poses;
+    std::vector<bool> reached;
+    while (true) {
+        spanning_tree_poses(n, result.pairs, edge_ok, &poses, &reached);
+        PoseGraphParams graph_params = params.pose_graph;
+        graph_params.num_threads = threads;
+        PoseGraph graph(graph_params);
+        for (std::size_t i = 0; i < n; ++i) {
+            if (reached[i]) graph.add_node(static_cast<PoseGraph::NodeId>(i), poses[i], i == 0);
+        }
+        std::vector<std::pair<std::size_t, PoseGraph::EdgeId>> edges;
+        for (std::size_t e = 0; e < result.pairs.size(); ++e) {
+            const PairResult& p = result.pairs[e];
+            if (!edge_ok[e] || !reached[p.source] || !reached[p.target]) continue;
+            const PoseGraph::EdgeId id =
+                graph.add_edge(p.target, p.source, p.T_target_source, p.information);
+            if (id < 0) {
+                result.pairs[e].status = PairStatus::kDegenerate;
+                edge_ok[e] = false;
+                continue;
+            }
+            edges.emplace_back(e, id);
+        }
+        if (edges.empty()) break;
+        result.pose_graph = graph.optimize();
+        if (!result.pose_graph.usable) break;  // keep the spanning-tree poses
+        std::size_t worst = result.pairs.size();
+        double worst_excess = 1.0;
+        for (const auto& [e, id] : edges) {
+            const auto residual = graph.edge_residual(id);
+            if (!residual) continue;
+            const double excess = std::max(residual->translation_m / params.max_edge_translation_m,
+                                           residual->rotation_deg / params.max_edge_rotation_deg);
+            if (excess > worst_excess) {
+                worst_excess = excess;
+                worst = e;
+            }
+        }
+        if (worst == result.pairs.size()) {
+            for (std::size_t i = 0; i < n; ++i) {
+                if (reached[i]) poses[i] = orthonormalized(*graph.node_pose(static_cast<PoseGraph::NodeId>(i)));
+            }
+            break;
+        }
+        result.pairs[worst].status = PairStatus::kRejectedByPoseGraph;
+        edge_ok[worst] = false;
+    }
+    result.timings.pose_graph_s = seconds_since(start);
+
+    // Per-sensor outcome, with the reason when unregistered.
+    for (std::size_t i = 0; i < n; ++i) {
+        SensorRegistration& s = result.sensors[i];
+        const SensorFeatures& f = features[i];
+        s.num_input_points = f.num_input_points;
+        s.num_preprocessed_points = f.num_preprocessed_points;
+        s.num_downsampled_points = f.octree.cloud.size();
+        s.num_keypoints = f.keypoints.size();
+        s.timings = f.timings;
+        if (i == 0 && f.status == SensorFeatureStatus::kOk) {
+            s.registered = true;  // the root defines the frame
+            s.status = SensorRegistrationStatus::kRegistered;
+            continue;
+        }
+        if (f.status != SensorFeatureStatus::kOk) {
+            s.status = from_features(f.status);
+            continue;
+        }
+        if (reached[i]) {
+            s.registered = true;
+            s.status = SensorRegistrationStatus::kRegistered;
+            s.T_root_sensor = poses[i];
+            continue;
+        }
+        // A pair that failed for weak constraints is a failed match too: the sensor's own
+        // degeneracy (plane only) was ruled out by its features.
+        bool any_ok = false;
+        for (std::size_t e = 0; e < result.pairs.size(); ++e) {
+            const PairResult& p = result.pairs[e];
+            if (p.source != static_cast<int>(i) && p.target != static_cast<int>(i)) continue;
+            any_ok = any_ok || edge_ok[e];
+        }
+        s.status = any_ok ? SensorRegistrationStatus::kNotConnectedToRoot
+                          : SensorRegistrationStatus::kNoConsistentCorrespondences;
+    }
+    result.timings.total_s = seconds_since(start_total);
+    return result;
+}
+
+}  // namespace lidarfuse::core

@@ -1,0 +1,92 @@
+#pragma once
+// The paper's initial registration (PAPER.md steps 2-9): the extrinsics of n LiDARs from
+// one synchronised frame, with no initial guess beyond "not mounted upside down".
+//
+//   for every sensor:        pre-process -> normals -> octree -> SIFT-3D -> FPFH
+//                            (sensor_features.hpp)
+//   for every pair i > j:    match -> RANSAC -> Kabsch -> up-vector check -> G-ICP ->
+//                            wrong-majority guard scored by the p2p error
+//                            (pair_registration.hpp)
+//   over all good pairs:     pose graph (Ceres, Huber, information = G-ICP Hessian), root
+//                            sensor 0 fixed; sensors that do not overlap the root are
+//                            reached through others. Pairs that disagree with the solved
+//                            poses by more than the edge tolerances are dropped and the
+//                            graph solved again (our addition: a cycle-consistency check).
+//
+// Input clouds are in their own sensor frames (sensor at the origin). Output poses are
+// T_root_sensor (root = sensor 0). A sensor that cannot be registered gets a reason and no
+// pose; the others are unaffected. Deterministic for fixed params (seeded RANSAC; results
+// do not depend on the thread count). Threads: `num_threads` OpenMP threads, spread over
+// sensors and pairs.
+
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <vector>
+
+#include "core/pair_registration.hpp"
+#include "core/point_cloud.hpp"
+#include "core/pose_graph.hpp"
+#include "core/sensor_features.hpp"
+
+namespace lidarfuse::core {
+
+struct InitialRegistrationParams {
+    SensorFeatureParams features{};
+    PairRegistrationParams pair{};
+    PoseGraphParams pose_graph{};
+    std::size_t min_keypoints = 8;
+    // Cycle check: an edge whose measurement disagrees with the optimised poses by more
+    // than this is dropped (m, deg).
+    double max_edge_translation_m = 0.25;
+    double max_edge_rotation_deg = 1.0;
+    int num_threads = 1;
+};
+
+// Sets the parameters the paper ties together: r_c = the largest octree voxel size.
+InitialRegistrationParams default_initial_registration_params();
+
+enum class SensorRegistrationStatus {
+    kRegistered,
+    kEmptyCloud,                  // no points (after pre-processing)
+    kTooFewKeypoints,             // too little structure for descriptors
+    kDegenerate,                  // sees a plane only
+    kNoConsistentCorrespondences, // no pair with another sensor survived RANSAC / G-ICP
+    kNotConnectedToRoot,          // registered against others, but no path to the root
+};
+
+const char* to_string(SensorRegistrationStatus status);
+
+struct SensorRegistration {
+    bool registered = false;
+    SensorRegistrationStatus status = SensorRegistrationStatus::kEmptyCloud;
+    // Valid only when registered (identity otherwise, never an estimate).
+    Eigen::Isometry3d T_root_sensor = Eigen::Isometry3d::Identity();
+    std::size_t num_input_points = 0;
+    std::size_t num_preprocessed_points = 0;
+    std::size_t num_downsampled_points = 0;
+    std::size_t num_keypoints = 0;
+    SensorFeatureTimings timings;
+};
+
+// Wall-clock seconds per stage (the per-sensor and per-pair stages run in parallel; their
+// CPU sums are in SensorRegistration::timings and PairResult::timings).
+struct InitialRegistrationTimings {
+    double features_s = 0.0;
+    double pairs_s = 0.0;
+    double pose_graph_s = 0.0;
+    double total_s = 0.0;
+};
+
+struct InitialRegistrationResult {
+    std::vector<SensorRegistration> sensors;
+    std::vector<PairResult> pairs;  // every pair i > j, in order (1,0), (2,0), (2,1), ...
+    PoseGraphSummary pose_graph;
+    InitialRegistrationTimings timings;
+    std::size_t num_registered() const;
+};
+
+InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds,
+                                           const InitialRegistrationParams& params =
+                                               default_initial_registration_params());
+
+}  // namespace lidarfuse::core

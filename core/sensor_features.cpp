@@ -1,0 +1,121 @@
+#include "core/sensor_features.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <chrono>
+
+#include "core/voxel_grid.hpp"
+
+namespace lidarfuse::core {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Second largest eigenvalue of (1/N) sum n n^T: ~0 when every normal is parallel.
+double normal_spread(const std::vector<Eigen::Vector3d>& normals) {
+    if (normals.empty()) return 0.0;
+    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+    for (const Eigen::Vector3d& n : normals) scatter += n * n.transpose();
+    scatter /= static_cast<double>(normals.size());
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter, Eigen::EigenvaluesOnly);
+    return solver.eigenvalues()(1);
+}
+
+}  // namespace
+
+const char* to_string(SensorFeatureStatus status) {
+    switch (status) {
+        case SensorFeatureStatus::kOk: return "ok";
+        case SensorFeatureStatus::kEmptyCloud: return "empty cloud";
+        case SensorFeatureStatus::kPlaneOnly: return "degenerate: plane only";
+        case SensorFeatureStatus::kTooFewKeypoints: return "too few keypoints";
+    }
+    return "unknown";
+}
+
+SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeatureParams& params,
+                                       std::size_t min_keypoints) {
+    SensorFeatures out;
+    out.num_input_points = cloud.size();
+    const int threads = std::max(1, params.num_threads);
+
+    // Step 2: pre-processing. Only positions are carried (normals are computed after).
+    auto start = Clock::now();
+    PointCloud positions;
+    positions.points = cloud.points;
+    PointCloud cropped;
+    filter_range(positions, params.range, &cropped);
+    PointCloud clean;
+    if (params.remove_outliers && cropped.size() > static_cast<std::size_t>(params.outliers.k_neighbors)) {
+        StatisticalOutlierParams outliers = params.outliers;
+        outliers.num_threads = threads;
+        remove_statistical_outliers(cropped, outliers, &clean);
+    } else {
+        clean = std::move(cropped);
+    }
+    out.num_preprocessed_points = clean.size();
+    out.timings.preprocess_s = seconds_since(start);
+    if (clean.size() < static_cast<std::size_t>(std::max(params.normals.k_neighbors, 3))) return out;
+
+    // Normals (towards the sensor) and curvature, once per cloud.
+    start = Clock::now();
+    NormalParams normal_params = params.normals;
+    normal_params.compute_normals = true;
+    normal_params.compute_covariances = false;
+    normal_params.num_threads = threads;
+    std::vector<double> curvature;
+    estimate_normals_covariances(&clean, normal_params, &curvature);
+    out.timings.normals_s = seconds_since(start);
+
+    // Step 3: normal-adaptive octree.
+    start = Clock::now();
+    out.octree = octree_downsample(clean, curvature, params.octree);
+    out.normal_spread = normal_spread(out.octree.cloud.normals);
+    out.timings.octree_s = seconds_since(start);
+
+    // The G-ICP / p2p cloud (also built for failed sensors: cheap, and keeps the result
+    // uniform).
+    start = Clock::now();
+    VoxelGridParams voxel;
+    voxel.voxel_size_m = params.gicp_voxel_size_m;
+    PointCloud gicp_cloud = voxel_downsample(clean.points, voxel);
+    NormalParams cov_params;
+    cov_params.k_neighbors = params.gicp_k_neighbors;
+    cov_params.compute_normals = false;
+    cov_params.compute_covariances = true;
+    cov_params.num_threads = threads;
+    if (gicp_cloud.size() >= 3) estimate_normals_covariances(&gicp_cloud, cov_params);
+    out.gicp = GicpTarget(std::move(gicp_cloud));
+    out.timings.gicp_cloud_s = seconds_since(start);
+
+    if (out.octree.cloud.size() < 3) return out;  // kEmptyCloud
+    if (out.normal_spread < params.min_normal_spread) {
+        out.status = SensorFeatureStatus::kPlaneOnly;
+        return out;
+    }
+
+    // Step 4: SIFT-3D keypoints on curvature, FPFH at them, both on the octree cloud.
+    start = Clock::now();
+    SiftKeypointParams sift = params.sift;
+    sift.num_threads = threads;
+    out.keypoints = detect_sift_keypoints(out.octree.cloud.points, out.octree.curvature, sift).indices;
+    out.timings.keypoints_s = seconds_since(start);
+    if (out.keypoints.size() < min_keypoints) {
+        out.status = SensorFeatureStatus::kTooFewKeypoints;
+        return out;
+    }
+    start = Clock::now();
+    FpfhParams fpfh = params.fpfh;
+    fpfh.num_threads = threads;
+    out.descriptors = compute_fpfh(out.octree.cloud, out.keypoints, fpfh);
+    for (std::uint32_t k : out.keypoints) out.keypoint_points.push_back(out.octree.cloud.points[k]);
+    out.timings.fpfh_s = seconds_since(start);
+    out.status = SensorFeatureStatus::kOk;
+    return out;
+}
+
+}  // namespace lidarfuse::core

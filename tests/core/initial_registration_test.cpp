@@ -1,0 +1,129 @@
+#include "core/initial_registration.hpp"
+
+#include <gtest/gtest.h>
+
+#include "core/se3.hpp"
+#include "tests/core/synthetic_lidar_scene.hpp"
+
+namespace lidarfuse::core {
+namespace {
+
+// Scans of the street scene from the given poses (sensor frames), 512 columns to stay fast
+// under sanitizers, range noise sigma 3 cm (3 sigma = 10 cm, as in the paper).
+std::vector<PointCloud> scan_all(const testing::Scene& scene,
+                                 const std::vector<Eigen::Isometry3d>& T_world_sensor) {
+    testing::ScanPattern pattern;
+    pattern.columns = 512;
+    pattern.range_noise_sigma_m = 0.03;
+    std::vector<PointCloud> clouds;
+    for (std::size_t i = 0; i < T_world_sensor.size(); ++i) {
+        clouds.push_back(testing::scan_scene(scene, T_world_sensor[i], pattern, 100 + static_cast<std::uint32_t>(i)));
+    }
+    return clouds;
+}
+
+InitialRegistrationParams test_params() {
+    InitialRegistrationParams params = default_initial_registration_params();
+    params.num_threads = 2;
+    return params;
+}
+
+// Four sensors with relative yaws up to 180 degrees, registered with no initial guess.
+TEST(InitialRegistration, RegistersFourSensorsOfAStreet) {
+    const auto T_world_sensor = testing::street_sensor_poses();
+    const auto clouds = scan_all(testing::street_scene(), T_world_sensor);
+    const InitialRegistrationResult r = register_initial(clouds, test_params());
+    ASSERT_EQ(r.sensors.size(), 4u);
+    ASSERT_EQ(r.pairs.size(), 6u);
+    for (std::size_t i = 0; i < 4; ++i) {
+        const SensorRegistration& s = r.sensors[i];
+        ASSERT_TRUE(s.registered) << "sensor " << i << ": " << to_string(s.status);
+        const Eigen::Isometry3d truth = T_world_sensor[0].inverse() * T_world_sensor[i];
+        EXPECT_LT(translation_error_m(s.T_root_sensor, truth), 0.03) << "sensor " << i;
+        EXPECT_LT(rotation_error_deg(s.T_root_sensor, truth), 0.1) << "sensor " << i;
+        EXPECT_GT(s.num_keypoints, 8u);
+    }
+    EXPECT_TRUE(r.sensors[0].T_root_sensor.isApprox(Eigen::Isometry3d::Identity()));
+    // Every good pair reports its quality figures.
+    int good = 0;
+    for (const PairResult& p : r.pairs) {
+        if (p.status != PairStatus::kOk) continue;
+        ++good;
+        EXPECT_GT(p.p2p_inliers, 0u);
+        EXPECT_GT(p.overlap_share, 0.15);
+        EXPECT_LT(p.p2p_error_m, 1.0);
+        EXPECT_GT(p.min_hessian_eigenvalue, 0.0);
+        const Eigen::Isometry3d truth = T_world_sensor[p.target].inverse() * T_world_sensor[p.source];
+        EXPECT_LT(translation_error_m(p.T_target_source, truth), 0.05);
+    }
+    EXPECT_GE(good, 3);
+    EXPECT_TRUE(r.pose_graph.usable);
+    EXPECT_GT(r.timings.total_s, 0.0);
+}
+
+TEST(InitialRegistration, PlaneOnlySensorIsReportedNotInvented) {
+    auto T_world_sensor = testing::street_sensor_poses();
+    T_world_sensor.resize(3);
+    auto clouds = scan_all(testing::street_scene(), T_world_sensor);
+    // Sensor 3 looks at an empty ground plane only.
+    testing::Scene empty;
+    empty.ground_half_extent_m = 60.0;
+    const auto plane = scan_all(empty, {testing::sensor_pose(0, 0, 6, 30, 10)});
+    clouds.push_back(plane[0]);
+    const InitialRegistrationResult r = register_initial(clouds, test_params());
+    ASSERT_EQ(r.sensors.size(), 4u);
+    EXPECT_FALSE(r.sensors[3].registered);
+    EXPECT_TRUE(r.sensors[3].status == SensorRegistrationStatus::kDegenerate ||
+                r.sensors[3].status == SensorRegistrationStatus::kTooFewKeypoints)
+        << to_string(r.sensors[3].status);
+    EXPECT_TRUE(r.sensors[3].T_root_sensor.isApprox(Eigen::Isometry3d::Identity()));
+    EXPECT_TRUE(r.sensors[0].registered);
+}
+
+TEST(InitialRegistration, EmptyCloudsAndNoOverlap) {
+    const auto T_world_sensor = testing::street_sensor_poses();
+    auto clouds = scan_all(testing::street_scene(), {T_world_sensor[0], T_world_sensor[2]});
+    clouds.push_back(PointCloud{});  // sensor 2: no data
+    // Sensor 3 watches a different street 500 m away: structure, but no overlap.
+    testing::Scene other;
+    other.ground_half_extent_m = 40.0;
+    for (int k = 0; k < 8; ++k) {
+        const double a = 0.8 * k;
+        other.boxes.push_back({Eigen::Vector3d((7.0 + k) * std::cos(a), (7.0 + k) * std::sin(a), 0),
+                               Eigen::Vector3d(2.0 + 0.5 * k, 6.0 - 0.4 * k, 2.0 + 0.7 * k), 0.3 * k});
+    }
+    other.poles.push_back({Eigen::Vector2d(-3, -4), 0.2, 5.0});
+    clouds.push_back(scan_all(other, {testing::sensor_pose(0, 0, 6, 0, 8)})[0]);
+    // A cloud of NaNs is as empty as no cloud.
+    PointCloud nans;
+    nans.points.assign(100, Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
+    clouds.push_back(nans);
+
+    const InitialRegistrationResult r = register_initial(clouds, test_params());
+    ASSERT_EQ(r.sensors.size(), 5u);
+    EXPECT_TRUE(r.sensors[0].registered);
+    EXPECT_EQ(r.sensors[2].status, SensorRegistrationStatus::kEmptyCloud);
+    EXPECT_FALSE(r.sensors[2].registered);
+    EXPECT_EQ(r.sensors[4].status, SensorRegistrationStatus::kEmptyCloud);
+    EXPECT_FALSE(r.sensors[3].registered);
+    EXPECT_EQ(r.sensors[3].status, SensorRegistrationStatus::kNoConsistentCorrespondences)
+        << to_string(r.sensors[3].status);
+    for (int i = 2; i < 5; ++i) {
+        EXPECT_TRUE(r.sensors[i].T_root_sensor.isApprox(Eigen::Isometry3d::Identity()));
+    }
+    // Sensor 1 (a real neighbour of the root) is unaffected by the bad ones.
+    ASSERT_TRUE(r.sensors[1].registered) << to_string(r.sensors[1].status);
+    const Eigen::Isometry3d truth = T_world_sensor[0].inverse() * T_world_sensor[2];
+    EXPECT_LT(translation_error_m(r.sensors[1].T_root_sensor, truth), 0.03);
+}
+
+TEST(InitialRegistration, NothingToRegister) {
+    EXPECT_TRUE(register_initial({}).sensors.empty());
+    const InitialRegistrationResult r = register_initial({PointCloud{}});
+    ASSERT_EQ(r.sensors.size(), 1u);
+    EXPECT_FALSE(r.sensors[0].registered);
+    EXPECT_EQ(r.sensors[0].status, SensorRegistrationStatus::kEmptyCloud);
+}
+
+}  // namespace
+}  // namespace lidarfuse::core
