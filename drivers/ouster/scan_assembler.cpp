@@ -97,14 +97,14 @@ PacketOutcome ScanAssembler::add_packet(const std::uint8_t* data, std::size_t si
             ++counters_.bad_profile;
             return PacketOutcome::kWrongProfile;
     }
-    if (params_.check_crc && format_.has_crc()) {
+    // FW 2.2-2.4 fill the CRC field with a fixed marker, not a CRC: skip computing it.
+    if (params_.check_crc && format_.has_crc() &&
+        format_.stored_crc(data) != kUnfilledCrcMarker) {
         switch (format_.check_crc(data)) {
             case CrcStatus::kValid:
                 ++counters_.crc_valid;
                 break;
             case CrcStatus::kInvalid:
-                // FW 2.2-2.4 fill the CRC field with a fixed marker, not a CRC.
-                if (format_.stored_crc(data) == kUnfilledCrcMarker) break;
                 ++counters_.crc_errors;
                 return PacketOutcome::kCrcError;
             case CrcStatus::kAbsent:
