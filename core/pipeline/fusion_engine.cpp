@@ -1,0 +1,388 @@
+#include "core/pipeline/fusion_engine.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+#include <set>
+
+#include "core/pipeline/sensor_track.hpp"
+#include "core/pose_graph.hpp"
+
+namespace lidarfuse::core {
+
+const char* to_string(TrackState state) {
+    switch (state) {
+        case TrackState::kUninitialised: return "uninitialised";
+        case TrackState::kTracking: return "tracking";
+        case TrackState::kMissing: return "missing";
+        case TrackState::kReinitialised: return "reinitialised";
+    }
+    return "unknown";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+PoseGraph::NodeId node_id(std::size_t sensor, std::int64_t frame) {
+    return frame * 64 + static_cast<std::int64_t>(sensor);
+}
+
+enum class EdgeKind { kPrevious, kReference, kInterSensor };
+
+struct EdgeTask {
+    EdgeKind kind;
+    std::size_t source_sensor;
+    std::size_t target_sensor;
+    std::int64_t target_frame;
+    const GicpTarget* target;
+    const GicpTarget* source;  // its cloud is the source
+    Eigen::Isometry3d T_init;  // T_target_source
+    GicpResult result;
+};
+
+}  // namespace
+
+struct FusionEngine::Impl {
+    FusionParams params;
+    std::size_t n;
+    std::vector<std::unique_ptr<SensorTrack>> tracks;
+    PoseGraph graph;
+    std::vector<GicpRegistration> registrations;  // one per thread
+    std::int64_t frame_counter = 0;
+    std::int64_t last_retry_frame = -1'000'000;
+    std::vector<int> suspicious;         // consecutive suspicious frames per sensor
+    std::vector<bool> needs_reinit;
+    std::set<PoseGraph::NodeId> window_nodes;  // non-reference nodes in the graph
+
+    Impl(std::size_t num_sensors, const FusionParams& p)
+        : params(p), n(num_sensors), graph(graph_params(p)), suspicious(num_sensors, 0),
+          needs_reinit(num_sensors, false) {
+        for (std::size_t i = 0; i < n; ++i) tracks.push_back(std::make_unique<SensorTrack>(params));
+        GicpParams g = params.gicp;
+        g.max_correspondence_distance_m = params.correspondence_factor * params.voxel_size_m;
+        g.num_threads = 1;  // edges already run in parallel
+        for (int t = 0; t < std::max(1, params.num_threads); ++t) registrations.emplace_back(g);
+    }
+
+    static PoseGraphParams graph_params(const FusionParams& p) {
+        PoseGraphParams g;
+        g.huber_delta = p.huber_delta;
+        g.num_threads = 1;
+        return g;
+    }
+
+    // Initial registration of `sensors` (root first) on this frame's scans. Registers the
+    // root too when it is in the list (frame 0); otherwise poses are relative to the
+    // root's current pose. Returns the sensors that were (re)started.
+    std::vector<std::size_t> initialise(std::int64_t frame, const FrameInput& in,
+                                        const std::vector<std::size_t>& sensors,
+                                        const Eigen::Isometry3d& T_root0_root_now,
+                                        FrameOutput* out) {
+        std::vector<PointCloud> clouds;
+        std::vector<std::size_t> order;
+        order.push_back(params.root_sensor);
+        for (std::size_t s : sensors) {
+            if (s != params.root_sensor) order.push_back(s);
+        }
+        for (std::size_t s : order) {
+            PointCloud c;
+            c.points = in.sensors[s].points;
+            clouds.push_back(std::move(c));
+        }
+        InitialRegistrationParams ip = params.initial;
+        ip.num_threads = params.num_threads;
+        const auto result = register_initial(clouds, ip);
+        std::vector<std::size_t> started;
+        for (std::size_t k = 0; k < order.size(); ++k) {
+            const std::size_t s = order[k];
+            const bool is_root = s == params.root_sensor;
+            if (is_root && tracks[s]->initialised()) continue;  // only a reference here
+            if (!result.sensors[k].registered) {
+                out->health[s].event = std::string("initial registration failed: ") +
+                                       to_string(result.sensors[k].status);
+                continue;
+            }
+            const Eigen::Isometry3d T = T_root0_root_now * result.sensors[k].T_root_sensor;
+            tracks[s]->start(frame, in.sensors[s], T);
+            const auto id = node_id(s, frame);
+            graph.add_node(id, T, is_root);
+            started.push_back(s);
+            out->health[s].event = frame == 0 || is_root ? "initialised" : "reinitialised";
+            suspicious[s] = 0;
+            needs_reinit[s] = false;
+        }
+        return started;
+    }
+
+    void remove_track_nodes(std::size_t s) {
+        for (auto it = window_nodes.begin(); it != window_nodes.end();) {
+            if (*it % 64 == static_cast<std::int64_t>(s)) {
+                graph.remove_node(*it);
+                it = window_nodes.erase(it);
+            } else {
+                ++it;
+            }
+        }
+        if (tracks[s]->initialised()) graph.remove_node(node_id(s, tracks[s]->reference_frame()));
+    }
+
+    Matrix6d calibrated_information(const GicpResult& r) const {
+        const double scale = r.mean_error > 1e-12 ? 3.0 / r.mean_error : 1.0;
+        return r.H * scale;
+    }
+
+    FrameOutput process(const FrameInput& in) {
+        const auto t_start = Clock::now();
+        const std::int64_t frame = frame_counter++;
+        FrameOutput out;
+        out.frame_index = frame;
+        out.T_root_sensor.assign(n, Eigen::Isometry3d::Identity());
+        out.t_ns.assign(n, 0);
+        out.health.assign(n, SensorHealth{});
+        if (in.sensors.size() != n) return out;  // wrong shape: nothing to do, nothing invented
+        for (std::size_t s = 0; s < n; ++s) {
+            out.t_ns[s] = in.sensors[s].t_ns;
+            out.health[s].included = in.sensors[s].present;
+            out.health[s].points_in = in.sensors[s].points.size();
+        }
+        const std::size_t root = params.root_sensor;
+
+        // 1. Initial registration: the root and every sensor on the first frame the root is
+        // there; sensors that failed, retried now and then; diverged sensors, at once.
+        std::vector<std::size_t> started;
+        const auto t_init = Clock::now();
+        if (!tracks[root]->initialised()) {
+            if (!in.sensors[root].present) return out;
+            std::vector<std::size_t> all;
+            for (std::size_t s = 0; s < n; ++s) {
+                if (in.sensors[s].present) all.push_back(s);
+            }
+            started = initialise(frame, in, all, Eigen::Isometry3d::Identity(), &out);
+            last_retry_frame = frame;
+        } else if (in.sensors[root].present) {
+            std::vector<std::size_t> pending;
+            const bool retry_due = frame - last_retry_frame >= params.retry_interval_frames;
+            for (std::size_t s = 0; s < n; ++s) {
+                if (s == root || !in.sensors[s].present) continue;
+                if (needs_reinit[s] || (!tracks[s]->initialised() && retry_due)) pending.push_back(s);
+            }
+            if (!pending.empty()) {
+                for (std::size_t s : pending) {
+                    if (tracks[s]->initialised()) remove_track_nodes(s);
+                }
+                const Eigen::Isometry3d T_root_now = tracks[root]->predict(in.sensors[root].t_ns);
+                started = initialise(frame, in, pending, T_root_now, &out);
+                if (std::any_of(pending.begin(), pending.end(), [&](std::size_t s) { return !tracks[s]->initialised(); })) {
+                    last_retry_frame = frame;
+                }
+            }
+        }
+        out.timings.initial_ms = ms_since(t_init);
+        const auto is_started = [&](std::size_t s) {
+            return std::find(started.begin(), started.end(), s) != started.end();
+        };
+
+        // 2. Prepare every tracked sensor with a scan (in parallel).
+        const auto t_prep = Clock::now();
+        std::vector<std::size_t> active;
+        std::vector<Eigen::Isometry3d> predicted(n, Eigen::Isometry3d::Identity());
+        for (std::size_t s = 0; s < n; ++s) {
+            if (!tracks[s]->initialised()) continue;
+            predicted[s] = is_started(s) ? tracks[s]->reference_pose()
+                                         : tracks[s]->predict(in.sensors[s].t_ns);
+            if (in.sensors[s].present) active.push_back(s);
+        }
+        const int threads = std::max(1, params.num_threads);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+        for (std::size_t k = 0; k < active.size(); ++k) {
+            const std::size_t s = active[k];
+            if (!is_started(s)) tracks[s]->prepare(in.sensors[s], predicted[s]);
+        }
+        out.timings.preprocess_ms = ms_since(t_prep);
+
+        // 3. G-ICP edges.
+        const auto t_reg = Clock::now();
+        std::vector<EdgeTask> tasks;
+        for (std::size_t s : active) {
+            if (is_started(s)) continue;
+            SensorTrack& track = *tracks[s];
+            if (track.current_target().size() < 3) continue;
+            if (const auto prev = track.previous()) {
+                if (graph.has_node(node_id(s, prev->frame)) && track.previous_target().size() >= 3) {
+                    tasks.push_back({EdgeKind::kPrevious, s, s, prev->frame, &track.previous_target(),
+                                     &track.current_target(),
+                                     prev->T_root_sensor.inverse() * predicted[s], {}});
+                }
+            }
+            if (track.reference_target().size() >= 3) {
+                tasks.push_back({EdgeKind::kReference, s, s, track.reference_frame(),
+                                 &track.reference_target(), &track.current_target(),
+                                 track.reference_pose().inverse() * predicted[s], {}});
+            }
+        }
+        const int interval = std::max(1, params.window_frames - 1);
+        if (frame % interval == 0 || !started.empty()) {
+            for (std::size_t a = 0; a < active.size(); ++a) {
+                for (std::size_t b = a + 1; b < active.size(); ++b) {
+                    const std::size_t j = active[a], i = active[b];  // target j, source i
+                    const GicpTarget& tj = tracks[j]->current_target();
+                    const GicpTarget& ti = tracks[i]->current_target();
+                    if (tj.size() < 3 || ti.size() < 3) continue;
+                    tasks.push_back({EdgeKind::kInterSensor, i, j, frame, &tj, &ti,
+                                     predicted[j].inverse() * predicted[i], {}});
+                }
+            }
+        }
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+        for (std::size_t k = 0; k < tasks.size(); ++k) {
+            auto& task = tasks[k];
+            task.result = registrations[static_cast<std::size_t>(omp_get_thread_num())].align(
+                *task.target, task.source->cloud(), task.T_init);
+        }
+        out.timings.registration_ms = ms_since(t_reg);
+
+        // 4. Pose graph: this frame's nodes at the predicted poses, the edges, solve.
+        const auto t_graph = Clock::now();
+        for (std::size_t s : active) {
+            if (is_started(s)) continue;
+            const auto id = node_id(s, frame);
+            graph.add_node(id, predicted[s]);
+            window_nodes.insert(id);
+        }
+        std::map<PoseGraph::NodeId, int> degree;
+        std::vector<std::pair<PoseGraph::EdgeId, std::size_t>> edges;  // edge, sensor
+        for (const auto& task : tasks) {
+            const auto& r = task.result;
+            if (!r.converged && r.status != GicpStatus::kMaxIterations) continue;
+            if (r.inlier_ratio < 0.5 * params.min_fitness && task.kind == EdgeKind::kInterSensor) continue;
+            const auto a = node_id(task.target_sensor, task.target_frame);
+            const auto b = node_id(task.source_sensor, frame);
+            const auto e = graph.add_edge(a, b, r.T_target_source, calibrated_information(r));
+            if (e < 0) continue;
+            ++degree[a];
+            ++degree[b];
+            edges.emplace_back(e, task.source_sensor);
+        }
+        // A node with no edge at all would float: hold it at its prediction this frame.
+        std::vector<PoseGraph::NodeId> held;
+        for (std::size_t s : active) {
+            const auto id = node_id(s, frame);
+            if (!is_started(s) && degree[id] == 0) {
+                graph.set_node_fixed(id, true);
+                held.push_back(id);
+            }
+        }
+        const auto summary = graph.optimize();
+        out.graph_usable = summary.usable;
+        for (auto id : held) graph.set_node_fixed(id, false);
+        out.timings.graph_ms = ms_since(t_graph);
+
+        // 5. Poses, health, window.
+        for (std::size_t s = 0; s < n; ++s) {
+            SensorHealth& h = out.health[s];
+            SensorTrack& track = *tracks[s];
+            if (!track.initialised()) {
+                h.state = TrackState::kUninitialised;
+                continue;
+            }
+            h.pose_valid = true;
+            const bool present = in.sensors[s].present;
+            const auto node = graph.node_pose(node_id(s, frame));
+            out.T_root_sensor[s] = node && summary.usable ? *node : predicted[s];
+            if (is_started(s)) {
+                h.state = frame == 0 ? TrackState::kTracking : TrackState::kReinitialised;
+            } else {
+                h.state = present ? TrackState::kTracking : TrackState::kMissing;
+            }
+            if (!present) continue;
+            h.static_points = track.current_points().size() - track.current_dynamic_count();
+            h.dynamic_points = track.current_dynamic_count();
+            h.registration_points = track.current_target().size();
+        }
+        for (const auto& task : tasks) {
+            SensorHealth& h = out.health[task.source_sensor];
+            if (task.kind == EdgeKind::kPrevious) h.fitness_previous = task.result.inlier_ratio;
+            if (task.kind == EdgeKind::kReference) {
+                h.fitness_reference = task.result.inlier_ratio;
+                h.inliers_reference = task.result.num_inliers;
+                h.min_hessian_eigenvalue = task.result.H_eigenvalues(0);
+            }
+        }
+        for (const auto& [edge, sensor] : edges) {
+            if (const auto r = graph.edge_residual(edge)) {
+                SensorHealth& h = out.health[sensor];
+                h.max_edge_residual_sigma = std::max(h.max_edge_residual_sigma, std::sqrt(r->chi2));
+            }
+        }
+        for (std::size_t s : active) {
+            if (is_started(s) || s == root) continue;
+            SensorHealth& h = out.health[s];
+            const double jump_m = (out.T_root_sensor[s].translation() - predicted[s].translation()).norm();
+            const double jump_deg = rotation_angle_deg(out.T_root_sensor[s].rotation(), predicted[s].rotation());
+            const bool bad = h.fitness_reference < params.min_fitness || jump_m > params.max_jump_m ||
+                             jump_deg > params.max_jump_deg;
+            suspicious[s] = bad ? suspicious[s] + 1 : 0;
+            if (suspicious[s] >= params.divergence_frames) {
+                needs_reinit[s] = true;
+                h.event = "diverged: registering again from scratch";
+            }
+        }
+
+        // Reference nodes: refined while their frame is in the window, fixed after.
+        for (std::size_t s = 0; s < n; ++s) {
+            SensorTrack& track = *tracks[s];
+            if (!track.initialised()) continue;
+            const auto ref = node_id(s, track.reference_frame());
+            if (const auto pose = graph.node_pose(ref)) track.set_reference_pose(*pose);
+            if (frame - track.reference_frame() + 1 >= params.window_frames) graph.set_node_fixed(ref, true);
+        }
+        for (std::size_t s : active) track_finish(s, frame, in.sensors[s].t_ns, out.T_root_sensor[s]);
+        // Nodes older than the window leave (their edges with them).
+        for (auto it = window_nodes.begin(); it != window_nodes.end();) {
+            if (*it / 64 <= frame - params.window_frames) {
+                graph.remove_node(*it);
+                it = window_nodes.erase(it);
+            } else {
+                ++it;
+            }
+        }
+
+        // 6. The fused cloud, in the root frame.
+        const auto t_fuse = Clock::now();
+        if (params.build_fused_cloud) {
+            for (std::size_t s : active) {
+                const SensorTrack& track = *tracks[s];
+                const Eigen::Isometry3f T = out.T_root_sensor[s].cast<float>();
+                const auto& pts = track.current_points();
+                for (std::size_t k = 0; k < pts.size(); ++k) {
+                    out.cloud.points.push_back(T * pts[k].cast<float>());
+                    out.cloud.intensity.push_back(track.current_intensity()[k]);
+                    out.cloud.sensor.push_back(static_cast<std::uint8_t>(s));
+                    out.cloud.dynamic.push_back(track.current_dynamic()[k]);
+                }
+            }
+        }
+        out.timings.fuse_ms = ms_since(t_fuse);
+        out.timings.total_ms = ms_since(t_start);
+        return out;
+    }
+
+    void track_finish(std::size_t s, std::int64_t frame, std::int64_t t_ns, const Eigen::Isometry3d& T) {
+        tracks[s]->finish_frame(frame, t_ns, T);
+    }
+};
+
+FusionEngine::FusionEngine(std::size_t num_sensors, const FusionParams& params)
+    : impl_(std::make_unique<Impl>(num_sensors, params)) {}
+FusionEngine::~FusionEngine() = default;
+FrameOutput FusionEngine::process(const FrameInput& frame) { return impl_->process(frame); }
+const FusionParams& FusionEngine::params() const { return impl_->params; }
+std::size_t FusionEngine::num_sensors() const { return impl_->n; }
+
+}  // namespace lidarfuse::core

@@ -1,0 +1,53 @@
+#pragma once
+// FusionEngine: synchronised frames in, every sensor's pose T_root_sensor and the fused
+// cloud out (PAPER.md, continuous registration and dynamic objects), frame after frame.
+//
+//   first frame:  initial registration of every sensor against the root (feature based)
+//   every frame:  per sensor: predict (constant velocity) -> deskew -> crop -> background
+//                 model (dynamic points) -> voxel grid of the static points -> covariances
+//                 G-ICP edges (PAPER.md's table):
+//                   sensor vs its previous frame   init: the predicted motion
+//                   sensor vs its reference frame  init: the current estimate (the paper
+//                                                  uses identity; ours converges from
+//                                                  closer and is never worse)
+//                   sensor vs sensor, same frame   every k_w - 1 frames, and whenever a
+//                                                  sensor was (re)initialised
+//                 sliding-window pose graph (Ceres, Huber): nodes of the last k_w frames
+//                 plus each sensor's reference frame; the root's reference is the gauge;
+//                 reference nodes are optimised while in the window, fixed after
+//   health:       a sensor whose reference edge keeps failing, or whose pose jumps, is
+//                 registered again from scratch against the root, the others unaffected.
+//
+// Edge information: G-ICP's Hessian, calibrated so that whitened residuals are in sigmas
+// (H * 3 / mean Mahalanobis error per correspondence: with the right covariance scale that
+// mean is 3), which is what makes one Huber delta fit every edge.
+//
+// Not thread safe: one thread calls process(). Internally it runs `num_threads` OpenMP
+// threads over sensors and edges. Deterministic for a given input and thread count.
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "core/pipeline/fusion_types.hpp"
+
+namespace lidarfuse::core {
+
+class FusionEngine {
+public:
+    FusionEngine(std::size_t num_sensors, const FusionParams& params);
+    ~FusionEngine();
+    FusionEngine(const FusionEngine&) = delete;
+    FusionEngine& operator=(const FusionEngine&) = delete;
+
+    FrameOutput process(const FrameInput& frame);
+
+    const FusionParams& params() const;
+    std::size_t num_sensors() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace lidarfuse::core

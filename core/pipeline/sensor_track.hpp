@@ -1,0 +1,97 @@
+#pragma once
+// One sensor's state in the continuous registration: its reference (first) frame, the
+// previous frame, the background model, the recent poses for prediction and deskew, and
+// the current frame prepared for G-ICP. Owned by the FusionEngine; one per sensor.
+// Not thread safe; different tracks are independent (the engine prepares them in parallel).
+
+#include <cstdint>
+#include <deque>
+#include <optional>
+#include <vector>
+
+#include "core/background_model.hpp"
+#include "core/gicp.hpp"
+#include "core/pipeline/fusion_types.hpp"
+#include "core/voxel_grid.hpp"
+
+namespace lidarfuse::core {
+
+struct PoseSample {
+    std::int64_t frame = 0;
+    std::int64_t t_ns = 0;
+    Eigen::Isometry3d T_root_sensor = Eigen::Isometry3d::Identity();
+};
+
+class SensorTrack {
+public:
+    explicit SensorTrack(const FusionParams& params);
+
+    bool initialised() const { return initialised_; }
+    std::int64_t reference_frame() const { return reference_frame_; }
+
+    // (Re)starts tracking: `scan` becomes the reference frame, at pose T_root_sensor.
+    // Prepares the scan (no motion known yet: no deskew) and resets the background model.
+    void start(std::int64_t frame, const SensorScanInput& scan,
+               const Eigen::Isometry3d& T_root_sensor);
+
+    // Constant-velocity prediction of the pose at t_ns from the last two poses.
+    Eigen::Isometry3d predict(std::int64_t t_ns) const;
+    const std::deque<PoseSample>& history() const { return history_; }
+
+    // Deskews with the current motion estimate, crops, flags dynamic points against the
+    // reference (pre-aligned with T_root_predicted), downsamples the static points and
+    // computes their covariances. Fills the "current" members below.
+    void prepare(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted);
+
+    // Records the estimated pose of the current frame and makes it the previous frame.
+    void finish_frame(std::int64_t frame, std::int64_t t_ns, const Eigen::Isometry3d& T_root_sensor);
+    // The reference pose is refined while its frame is in the window.
+    void set_reference_pose(const Eigen::Isometry3d& T_root_reference) {
+        T_root_reference_ = T_root_reference;
+    }
+    const Eigen::Isometry3d& reference_pose() const { return T_root_reference_; }
+
+    // Targets for G-ICP (sensor frames of their own frames). May be empty.
+    const GicpTarget& reference_target() const { return reference_target_; }
+    const GicpTarget& previous_target() const { return previous_target_; }
+    const GicpTarget& current_target() const { return current_target_; }
+    std::optional<PoseSample> previous() const;
+
+    // The prepared current frame: all cropped points (sensor frame, deskewed) with their
+    // dynamic flags, for the fused cloud.
+    const std::vector<Eigen::Vector3d>& current_points() const { return points_; }
+    const std::vector<std::uint8_t>& current_dynamic() const { return dynamic_; }
+    const std::vector<float>& current_intensity() const { return intensity_; }
+    std::size_t current_dynamic_count() const { return dynamic_count_; }
+
+private:
+    void crop_and_deskew(const SensorScanInput& scan, const Vector6d& twist_per_s);
+    void build_current_target(bool static_only);
+    // Rebuilds the reference target without the reference points the background model
+    // found to have left (vehicles present in the first frame).
+    void rebuild_reference_target();
+
+    const FusionParams& params_;
+    bool initialised_ = false;
+    std::int64_t reference_frame_ = 0;
+    Eigen::Isometry3d T_root_reference_ = Eigen::Isometry3d::Identity();
+    GicpTarget reference_target_;
+    GicpTarget previous_target_;
+    GicpTarget current_target_;
+    BackgroundModel background_;
+    BackgroundUpdate background_update_;
+    std::deque<PoseSample> history_;
+    VoxelGrid voxel_grid_;
+
+    std::vector<Eigen::Vector3d> points_;
+    std::vector<float> point_dt_s_;
+    std::vector<float> intensity_;
+    std::vector<std::uint8_t> dynamic_;
+    std::size_t dynamic_count_ = 0;
+    std::vector<Eigen::Vector3d> in_reference_frame_;
+    std::vector<Eigen::Vector3d> static_points_;
+    std::vector<Eigen::Vector3d> reference_points_;
+    std::size_t reference_dynamic_at_build_ = 0;
+};
+
+}  // namespace lidarfuse::core
