@@ -49,21 +49,24 @@ int ColumnRenderer::render(const StaticScene& scene, const DynamicScene* dynamic
             const double albedo = mat.retro ? 8.0 * mat.reflectivity : mat.reflectivity;
             const double facing = mat.retro ? std::max(cos_inc, 0.5) : cos_inc;
             const double signal = params_.signal_gain * albedo * facing / (r * r);
-            const double p_detect =
-                1.0 - std::exp(-(signal / params_.detection_signal) * (signal / params_.detection_signal));
+            const double x = (signal / params_.detection_signal) * (signal / params_.detection_signal);
+            const double p_detect = x > 40.0 ? 1.0 : 1.0 - std::exp(-x);
             const double u_detect = rng.uniform();
-            const double noise = params_.noise_sigma_m > 0 ? params_.noise_sigma_m * rng.normal() : 0.0;
             if (!params_.dropouts || u_detect < p_detect) {
+                const double noise =
+                    params_.noise_sigma_m > 0 ? params_.noise_sigma_m * rng.normal() : 0.0;
                 const double range_mm = std::max(0.0, (r + noise) * 1000.0);
                 const auto q = static_cast<double>(range_quantum_mm_);
                 px.range_mm = static_cast<std::uint32_t>(std::llround(range_mm / q)) * range_quantum_mm_;
+                // Shot noise on the signal, a few percent on reflectivity and ambient light:
+                // uniform jitter is enough for these fields (only range needs a Gaussian).
                 px.signal = static_cast<std::uint16_t>(
-                    std::clamp(signal * (1.0 + 0.05 * rng.normal()), 1.0, 65535.0));
+                    std::clamp(signal * rng.uniform(0.92, 1.08), 1.0, 65535.0));
                 const double refl = mat.retro ? 200.0 + 50.0 * mat.reflectivity
-                                              : 100.0 * mat.reflectivity * (1.0 + 0.03 * rng.normal());
+                                              : 100.0 * mat.reflectivity * rng.uniform(0.95, 1.05);
                 px.reflectivity = static_cast<std::uint8_t>(std::clamp(refl, 1.0, 255.0));
                 px.near_ir = static_cast<std::uint16_t>(
-                    std::clamp(200.0 + 1500.0 * mat.reflectivity + 30.0 * rng.normal(), 0.0, 4080.0));
+                    std::clamp(200.0 + 1500.0 * mat.reflectivity + rng.uniform(-50.0, 50.0), 0.0, 4080.0));
                 if (px.range_mm > 0) ++returns;
             }
         }

@@ -4,6 +4,7 @@
 // projection) and pairs every scan with ground_truth.csv. Header-only, tests only.
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -95,25 +96,42 @@ inline DecodedCapture decode_sim_output(const std::filesystem::path& dir) {
 }
 
 // Ground-truth pose of `sensor` at time t_ns, interpolated between the per-frame rows
-// (linear in position, slerp in rotation); clamped at the ends.
+// with a Catmull-Rom cubic (positions, and rotation vectors relative to the frame before),
+// accurate to well below a millimetre for the pole sway; clamped at the ends.
 inline Eigen::Isometry3d truth_at(const std::vector<io::PoseRecord>& truth,
                                   const std::string& sensor, std::int64_t t_ns) {
-    const io::PoseRecord* before = nullptr;
-    const io::PoseRecord* after = nullptr;
+    std::vector<const io::PoseRecord*> rows;
     for (const auto& r : truth) {
-        if (r.sensor != sensor) continue;
-        if (r.t_ns <= t_ns && (!before || r.t_ns > before->t_ns)) before = &r;
-        if (r.t_ns >= t_ns && (!after || r.t_ns < after->t_ns)) after = &r;
+        if (r.sensor == sensor) rows.push_back(&r);
     }
-    if (!before) return after->pose;
-    if (!after || after == before) return before->pose;
-    const double a = static_cast<double>(t_ns - before->t_ns) /
-                     static_cast<double>(after->t_ns - before->t_ns);
+    std::size_t i = 0;
+    while (i + 1 < rows.size() && rows[i + 1]->t_ns <= t_ns) ++i;
+    if (i + 1 >= rows.size() || t_ns <= rows.front()->t_ns) return rows[i]->pose;
+    const auto at = [&](std::ptrdiff_t k) {
+        return rows[static_cast<std::size_t>(
+            std::clamp<std::ptrdiff_t>(k, 0, static_cast<std::ptrdiff_t>(rows.size()) - 1))];
+    };
+    const auto ii = static_cast<std::ptrdiff_t>(i);
+    const io::PoseRecord* p[4] = {at(ii - 1), at(ii), at(ii + 1), at(ii + 2)};
+    const double a = static_cast<double>(t_ns - p[1]->t_ns) /
+                     static_cast<double>(p[2]->t_ns - p[1]->t_ns);
+    const Eigen::Matrix3d R1 = p[1]->pose.linear();
+    Eigen::Vector3d x[4], w[4];
+    for (int k = 0; k < 4; ++k) {
+        x[k] = p[k]->pose.translation();
+        const Eigen::AngleAxisd aa(R1.transpose() * p[k]->pose.linear());
+        w[k] = aa.angle() * aa.axis();
+    }
+    const auto cr = [a](const Eigen::Vector3d* v) {
+        const double a2 = a * a, a3 = a2 * a;
+        return 0.5 * ((2 * v[1]) + (-v[0] + v[2]) * a + (2 * v[0] - 5 * v[1] + 4 * v[2] - v[3]) * a2 +
+                      (-v[0] + 3 * v[1] - 3 * v[2] + v[3]) * a3);
+    };
+    const Eigen::Vector3d wi = cr(w);
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.translation() = (1 - a) * before->pose.translation() + a * after->pose.translation();
-    T.linear() = Eigen::Quaterniond(before->pose.linear())
-                     .slerp(a, Eigen::Quaterniond(after->pose.linear()))
-                     .toRotationMatrix();
+    T.translation() = cr(x);
+    T.linear() = R1 * (wi.norm() > 0 ? Eigen::AngleAxisd(wi.norm(), wi.normalized()).toRotationMatrix()
+                                     : Eigen::Matrix3d::Identity());
     return T;
 }
 
