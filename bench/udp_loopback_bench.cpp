@@ -17,8 +17,8 @@
 #include <time.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <atomic>
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -121,16 +121,21 @@ PhaseResult run_phase(const std::vector<std::vector<std::uint8_t>>& packets, dou
             const double interval_ns = paced_rate > 0 ? 1e9 / paced_rate : 0.0;
             for (std::uint64_t k = 0;; ++k) {
                 if (paced_rate > 0) {
-                    const std::int64_t deadline = start + static_cast<std::int64_t>(k * interval_ns);
+                    const std::int64_t deadline =
+                        start + static_cast<std::int64_t>(k * interval_ns);
                     if (deadline >= end) break;
-                    timespec ts{static_cast<time_t>(deadline / 1'000'000'000), static_cast<long>(deadline % 1'000'000'000)};
+                    timespec ts{static_cast<time_t>(deadline / 1'000'000'000),
+                                static_cast<long>(deadline % 1'000'000'000)};
                     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
                     }
                 } else if ((k & 63) == 0 && monotonic_ns() >= end) {
                     break;
                 }
                 const auto& p = packets[k % packets.size()];
-                if (sender.send_to(net::kLoopbackIpv4, port, p.data(), p.size())) ++n; else ++e;
+                if (sender.send_to(net::kLoopbackIpv4, port, p.data(), p.size()))
+                    ++n;
+                else
+                    ++e;
             }
             sent += n;
             errors += e;
@@ -169,15 +174,22 @@ void report(const char* phase, const PhaseResult& r) {
     std::printf("udp_loopback_%s_rcvbuf_granted %d bytes\n", phase, r.rcvbuf_granted_bytes);
     std::printf("udp_loopback_%s_sent_total %.0f packets/s\n", phase, r.sent / r.seconds);
     std::printf("udp_loopback_%s_received_total %.0f packets/s\n", phase, r.received / r.seconds);
-    std::printf("udp_loopback_%s_received_per_sensor %.0f packets/s\n", phase, r.received / r.seconds / kSensors);
+    std::printf("udp_loopback_%s_received_per_sensor %.0f packets/s\n", phase,
+                r.received / r.seconds / kSensors);
     std::printf("udp_loopback_%s_received_per_sensor_mbit %.1f Mbit/s\n", phase,
                 r.received * 12608.0 * 8e-6 / r.seconds / kSensors);
-    std::printf("udp_loopback_%s_loss %llu packets\n", phase, static_cast<unsigned long long>(r.sent - r.received));
-    std::printf("udp_loopback_%s_loss_ratio %.6f fraction\n", phase, r.sent ? double(r.sent - r.received) / r.sent : 0.0);
-    std::printf("udp_loopback_%s_kernel_drops %llu packets\n", phase, static_cast<unsigned long long>(r.kernel_drops));
-    std::printf("udp_loopback_%s_send_errors %llu packets\n", phase, static_cast<unsigned long long>(r.send_errors));
-    std::printf("udp_loopback_%s_receiver_cpu_mean %.2f %%core\n", phase, 100.0 * mean_cpu / r.seconds);
-    std::printf("udp_loopback_%s_receiver_cpu_max %.2f %%core\n", phase, 100.0 * max_cpu / r.seconds);
+    std::printf("udp_loopback_%s_loss %llu packets\n", phase,
+                static_cast<unsigned long long>(r.sent - r.received));
+    std::printf("udp_loopback_%s_loss_ratio %.6f fraction\n", phase,
+                r.sent ? double(r.sent - r.received) / r.sent : 0.0);
+    std::printf("udp_loopback_%s_kernel_drops %llu packets\n", phase,
+                static_cast<unsigned long long>(r.kernel_drops));
+    std::printf("udp_loopback_%s_send_errors %llu packets\n", phase,
+                static_cast<unsigned long long>(r.send_errors));
+    std::printf("udp_loopback_%s_receiver_cpu_mean %.2f %%core\n", phase,
+                100.0 * mean_cpu / r.seconds);
+    std::printf("udp_loopback_%s_receiver_cpu_max %.2f %%core\n", phase,
+                100.0 * max_cpu / r.seconds);
     std::printf("udp_loopback_%s_receiver_cpu_per_packet %.2f us\n", phase,
                 r.received ? 1e6 * mean_cpu * kSensors / r.received : 0.0);
 }
@@ -202,6 +214,7 @@ int main(int argc, char** argv) {
     // The same two with the kernel's default buffer, as an unprivileged process without a
     // raised net.core.rmem_max would get.
     report("maxrate_default_rcvbuf", run_phase(packets, seconds, 0.0, kLinuxDefault));
-    report("paced_1024x20_default_rcvbuf", run_phase(packets, seconds, kLineRatePacketsPerS, kLinuxDefault));
+    report("paced_1024x20_default_rcvbuf",
+           run_phase(packets, seconds, kLineRatePacketsPerS, kLinuxDefault));
     return 0;
 }

@@ -47,7 +47,8 @@ int run_replay(int argc, char** argv) {
             "mapped with --port-map ORIG:NEW (repeatable). Timing follows the capture clock,\n"
             "sped up by --rate R (2 = twice as fast), or --max-rate sends as fast as possible.\n"
             "--loop starts over at the end until Ctrl-C, --passes N or --duration S (seconds).\n"
-            "Each original sender gets its own source port. Prints a summary as `name value unit`.\n");
+            "Each original sender gets its own source port. Prints a summary as `name value "
+            "unit`.\n");
         return 0;
     }
     if (args.positionals().size() != 1) {
@@ -88,22 +89,27 @@ int run_replay(int argc, char** argv) {
     params.stop = &g_stop;
 
     const auto s = pcap::replay_capture(file, params);
-    if (!s.warning.empty()) std::fprintf(stderr, "lidarfuse replay: warning: %s\n", s.warning.c_str());
+    if (!s.warning.empty())
+        std::fprintf(stderr, "lidarfuse replay: warning: %s\n", s.warning.c_str());
     if (s.send_errors > 0) {
-        std::fprintf(stderr, "lidarfuse replay: %llu datagrams could not be sent (first error: %s)\n",
-                     static_cast<unsigned long long>(s.send_errors), std::strerror(s.first_send_errno));
+        std::fprintf(
+            stderr, "lidarfuse replay: %llu datagrams could not be sent (first error: %s)\n",
+            static_cast<unsigned long long>(s.send_errors), std::strerror(s.first_send_errno));
     }
     std::printf("replay_target %s ipv4\n", net::ipv4_to_string(params.host_ip).c_str());
-    std::printf("replay_datagrams_sent %llu datagrams\n", static_cast<unsigned long long>(s.datagrams_sent));
+    std::printf("replay_datagrams_sent %llu datagrams\n",
+                static_cast<unsigned long long>(s.datagrams_sent));
     std::printf("replay_bytes_sent %llu bytes\n", static_cast<unsigned long long>(s.bytes_sent));
-    std::printf("replay_send_errors %llu datagrams\n", static_cast<unsigned long long>(s.send_errors));
+    std::printf("replay_send_errors %llu datagrams\n",
+                static_cast<unsigned long long>(s.send_errors));
     std::printf("replay_passes %llu passes\n", static_cast<unsigned long long>(s.passes));
     std::printf("replay_sources %zu sockets\n", s.source_sockets);
     std::printf("replay_duration %.6f s\n", s.duration_s);
     std::printf("replay_capture_span %.6f s\n", s.capture_span_s);
     std::printf("replay_rate %.1f datagrams/s\n", s.datagrams_per_s());
     std::printf("replay_throughput %.3f Mbit/s\n", s.megabits_per_s());
-    std::printf("replay_records_read %llu records\n", static_cast<unsigned long long>(s.reader_stats.records));
+    std::printf("replay_records_read %llu records\n",
+                static_cast<unsigned long long>(s.reader_stats.records));
     std::printf("replay_fragments_reassembled %llu datagrams\n",
                 static_cast<unsigned long long>(s.reader_stats.reassembled));
     std::printf("replay_incomplete_dropped %llu datagrams\n",
@@ -114,7 +120,8 @@ int run_replay(int argc, char** argv) {
 
 }  // namespace
 
-LIDARFUSE_REGISTER_COMMAND("replay", "send a capture's UDP datagrams to a host, at recorded timing or faster",
+LIDARFUSE_REGISTER_COMMAND("replay",
+                           "send a capture's UDP datagrams to a host, at recorded timing or faster",
                            run_replay);
 
 }  // namespace lidarfuse::tools

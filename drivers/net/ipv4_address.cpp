@@ -26,8 +26,8 @@ std::uint32_t resolve_ipv4(const std::string& host) {
     addrinfo* result = nullptr;
     const int rc = getaddrinfo(host.c_str(), nullptr, &hints, &result);
     if (rc != 0 || !result) {
-        throw std::invalid_argument("cannot resolve host '" + host + "' to an IPv4 address: " +
-                                    gai_strerror(rc));
+        throw std::invalid_argument("cannot resolve host '" + host +
+                                    "' to an IPv4 address: " + gai_strerror(rc));
     }
     sockaddr_in sin{};
     std::memcpy(&sin, result->ai_addr, sizeof sin);

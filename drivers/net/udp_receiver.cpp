@@ -22,7 +22,8 @@ namespace {
 constexpr std::size_t kMaxSockets = 63;  // plus the eventfd: poll()'s array lives on the stack
 
 // Room for SCM_TIMESTAMPNS (struct timespec) and SO_RXQ_OVFL (uint32) control messages.
-constexpr std::size_t kControlBytes = CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t)) + 64;
+constexpr std::size_t kControlBytes =
+    CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t)) + 64;
 
 std::int64_t realtime_now_ns() {
     timespec ts{};
@@ -185,7 +186,8 @@ std::size_t UdpReceiver::drain(std::size_t socket_index, const DatagramHandler& 
                 if (c->cmsg_type == SCM_TIMESTAMPNS) {
                     timespec ts;
                     std::memcpy(&ts, CMSG_DATA(c), sizeof ts);
-                    d.receive_time_ns = static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+                    d.receive_time_ns =
+                        static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
                 } else if (c->cmsg_type == SO_RXQ_OVFL) {
                     std::uint32_t drops;
                     std::memcpy(&drops, CMSG_DATA(c), sizeof drops);

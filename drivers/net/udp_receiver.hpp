@@ -28,10 +28,10 @@
 namespace lidarfuse::net {
 
 struct UdpReceiverParams {
-    std::string bind_address = "0.0.0.0";  // IPv4 address to bind every port to
-    std::vector<std::uint16_t> ports;       // one socket each; 0 = ephemeral (see sockets())
-    std::size_t batch_size = 32;            // datagrams per recvmmsg call
-    std::size_t max_datagram_bytes = 65536; // per buffer; longer datagrams are truncated
+    std::string bind_address = "0.0.0.0";    // IPv4 address to bind every port to
+    std::vector<std::uint16_t> ports;        // one socket each; 0 = ephemeral (see sockets())
+    std::size_t batch_size = 32;             // datagrams per recvmmsg call
+    std::size_t max_datagram_bytes = 65536;  // per buffer; longer datagrams are truncated
     int requested_rcvbuf_bytes = 32 * 1024 * 1024;
     int poll_timeout_ms = 100;  // run(): how long one poll may sleep when nothing arrives
     std::size_t max_batches_per_wakeup = 16;  // per socket, so one busy port cannot starve others
@@ -55,15 +55,15 @@ struct UdpReceiverStats {
     // Dropped by the kernel for a full receive buffer. The kernel reports its running count
     // with the next datagram it does deliver, so drops after the last datagram show late.
     std::atomic<std::uint64_t> kernel_drops{0};
-    std::atomic<std::uint64_t> errors{0};    // failed recvmmsg/poll calls (EINTR excepted)
-    std::atomic<std::uint64_t> batches{0};   // recvmmsg calls that returned data
-    std::atomic<std::uint64_t> wakeups{0};   // polls that returned with work
+    std::atomic<std::uint64_t> errors{0};   // failed recvmmsg/poll calls (EINTR excepted)
+    std::atomic<std::uint64_t> batches{0};  // recvmmsg calls that returned data
+    std::atomic<std::uint64_t> wakeups{0};  // polls that returned with work
 };
 
 struct UdpSocketInfo {
-    std::uint16_t port = 0;            // bound port (resolved when 0 was asked)
-    int granted_rcvbuf_bytes = 0;      // SO_RCVBUF read back (the kernel doubles requests)
-    bool rcvbuf_forced = false;        // SO_RCVBUFFORCE worked (CAP_NET_ADMIN)
+    std::uint16_t port = 0;        // bound port (resolved when 0 was asked)
+    int granted_rcvbuf_bytes = 0;  // SO_RCVBUF read back (the kernel doubles requests)
+    bool rcvbuf_forced = false;    // SO_RCVBUFFORCE worked (CAP_NET_ADMIN)
 };
 
 using DatagramHandler = std::function<void(const ReceivedDatagram&)>;

@@ -16,7 +16,8 @@ namespace lidarfuse::net {
 UdpSender::UdpSender(const UdpSenderParams& params) {
     const std::uint32_t bind_ip = parse_ipv4(params.bind_address);
     fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    if (fd_ < 0) throw std::runtime_error(std::string("cannot create UDP socket: ") + std::strerror(errno));
+    if (fd_ < 0)
+        throw std::runtime_error(std::string("cannot create UDP socket: ") + std::strerror(errno));
     const int sndbuf = params.requested_sndbuf_bytes;
     if (::setsockopt(fd_, SOL_SOCKET, SO_SNDBUFFORCE, &sndbuf, sizeof sndbuf) != 0) {
         ::setsockopt(fd_, SOL_SOCKET, SO_SNDBUF, &sndbuf, sizeof sndbuf);  // capped by wmem_max
@@ -47,8 +48,8 @@ bool UdpSender::send_to(std::uint32_t dst_ip, std::uint16_t dst_port, const std:
     addr.sin_addr.s_addr = htonl(dst_ip);
     addr.sin_port = htons(dst_port);
     for (;;) {
-        const ssize_t sent = ::sendto(fd_, data, size, 0, reinterpret_cast<const sockaddr*>(&addr),
-                                      sizeof addr);
+        const ssize_t sent =
+            ::sendto(fd_, data, size, 0, reinterpret_cast<const sockaddr*>(&addr), sizeof addr);
         if (sent == static_cast<ssize_t>(size)) return true;
         if (sent < 0 && errno == EINTR) continue;
         last_errno_ = sent < 0 ? errno : EMSGSIZE;

@@ -9,7 +9,7 @@ namespace lidarfuse::net {
 
 struct UdpSenderParams {
     std::string bind_address = "0.0.0.0";  // source address; 0.0.0.0 = chosen by the kernel
-    std::uint16_t bind_port = 0;            // 0 = ephemeral
+    std::uint16_t bind_port = 0;           // 0 = ephemeral
     int requested_sndbuf_bytes = 4 * 1024 * 1024;
 };
 

@@ -7,20 +7,18 @@ namespace lidarfuse::pcap {
 namespace {
 
 constexpr std::uint16_t kEtherTypeIpv4 = 0x0800;
-constexpr std::uint16_t kEtherTypeVlan = 0x8100;       // 802.1Q
-constexpr std::uint16_t kEtherTypeQinQ = 0x88A8;       // 802.1ad service tag
-constexpr std::uint16_t kEtherTypeQinQLegacy = 0x9100; // pre-standard QinQ
+constexpr std::uint16_t kEtherTypeVlan = 0x8100;        // 802.1Q
+constexpr std::uint16_t kEtherTypeQinQ = 0x88A8;        // 802.1ad service tag
+constexpr std::uint16_t kEtherTypeQinQLegacy = 0x9100;  // pre-standard QinQ
 constexpr std::size_t kEthernetHeaderBytes = 14;
 constexpr std::size_t kSllHeaderBytes = 16;
 constexpr std::size_t kSll2HeaderBytes = 20;
 constexpr std::size_t kVlanTagBytes = 4;
 
-std::uint16_t be16(const std::uint8_t* p) {
-    return static_cast<std::uint16_t>((p[0] << 8) | p[1]);
-}
+std::uint16_t be16(const std::uint8_t* p) { return static_cast<std::uint16_t>((p[0] << 8) | p[1]); }
 std::uint32_t be32(const std::uint8_t* p) {
-    return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) |
-           (std::uint32_t{p[2]} << 8) | std::uint32_t{p[3]};
+    return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) |
+           std::uint32_t{p[3]};
 }
 
 bool is_vlan(std::uint16_t ether_type) {

@@ -20,7 +20,7 @@ struct Ipv4Packet {
     std::uint16_t id = 0;
     std::uint8_t protocol = 0;
     bool more_fragments = false;
-    std::uint32_t offset_bytes = 0;  // fragment offset x 8
+    std::uint32_t offset_bytes = 0;         // fragment offset x 8
     const std::uint8_t* payload = nullptr;  // after the IPv4 header (options skipped)
     std::size_t payload_size = 0;  // from the total-length field (Ethernet padding dropped)
 
@@ -33,8 +33,7 @@ struct Ipv4Packet {
 bool is_supported_link_type(int link_type);
 
 // Finds and decodes the IPv4 header inside one captured frame.
-FrameKind decode_frame(int link_type, const std::uint8_t* frame, std::size_t size,
-                       Ipv4Packet* out);
+FrameKind decode_frame(int link_type, const std::uint8_t* frame, std::size_t size, Ipv4Packet* out);
 
 // Decodes an IPv4 packet that starts at `ip`.
 FrameKind decode_ipv4(const std::uint8_t* ip, std::size_t size, Ipv4Packet* out);

@@ -39,7 +39,8 @@ Ipv4Reassembler::Ipv4Reassembler(const Ipv4ReassemblerParams& params)
     : params_(params),
       entries_(std::max<std::size_t>(params.max_entries, 1)),
       buffers_(new std::uint8_t[entries_.size() * kBufferBytes]) {
-    for (std::size_t i = 0; i < entries_.size(); ++i) entries_[i].data = &buffers_[i * kBufferBytes];
+    for (std::size_t i = 0; i < entries_.size(); ++i)
+        entries_[i].data = &buffers_[i * kBufferBytes];
 }
 
 Ipv4Reassembler::~Ipv4Reassembler() = default;

@@ -19,8 +19,8 @@ PcapReader::PcapReader(const std::filesystem::path& file, const PcapReaderParams
     : file_(file), handle_(std::make_unique<PcapHandle>()), reassembler_(params.reassembly) {
     char errbuf[PCAP_ERRBUF_SIZE] = {};
     // Nanosecond precision: libpcap scales microsecond files up, so both read alike.
-    handle_->pcap = pcap_open_offline_with_tstamp_precision(
-        file.c_str(), PCAP_TSTAMP_PRECISION_NANO, errbuf);
+    handle_->pcap =
+        pcap_open_offline_with_tstamp_precision(file.c_str(), PCAP_TSTAMP_PRECISION_NANO, errbuf);
     if (!handle_->pcap) {
         throw std::runtime_error("cannot read capture " + file.string() + ": " + errbuf);
     }

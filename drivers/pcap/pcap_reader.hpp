@@ -25,19 +25,19 @@ struct PcapReaderParams {
 };
 
 struct PcapReaderStats {
-    std::uint64_t records = 0;        // capture records read
-    std::uint64_t udp_datagrams = 0;  // datagrams delivered by next()
-    std::uint64_t non_ipv4 = 0;       // records skipped: not IPv4 (ARP, IPv6, LLC, ...)
-    std::uint64_t non_udp = 0;        // records skipped: IPv4 but not UDP
-    std::uint64_t malformed = 0;      // records skipped: bad IPv4/UDP header or lengths
-    std::uint64_t truncated_records = 0;  // records skipped: captured length < wire length
-    std::uint64_t fragments = 0;          // UDP fragments handed to the reassembler
-    std::uint64_t reassembled = 0;        // datagrams completed from fragments
-    std::uint64_t dropped_incomplete = 0; // partial datagrams discarded (time-out, full
-                                          // table, identification reuse, end of file)
+    std::uint64_t records = 0;              // capture records read
+    std::uint64_t udp_datagrams = 0;        // datagrams delivered by next()
+    std::uint64_t non_ipv4 = 0;             // records skipped: not IPv4 (ARP, IPv6, LLC, ...)
+    std::uint64_t non_udp = 0;              // records skipped: IPv4 but not UDP
+    std::uint64_t malformed = 0;            // records skipped: bad IPv4/UDP header or lengths
+    std::uint64_t truncated_records = 0;    // records skipped: captured length < wire length
+    std::uint64_t fragments = 0;            // UDP fragments handed to the reassembler
+    std::uint64_t reassembled = 0;          // datagrams completed from fragments
+    std::uint64_t dropped_incomplete = 0;   // partial datagrams discarded (time-out, full
+                                            // table, identification reuse, end of file)
     std::uint64_t discarded_fragments = 0;  // fragments that never became a datagram
-    std::uint64_t cut_off = 0;      // 1 when the file ends in the middle of a record
-    std::uint64_t read_errors = 0;  // 1 when libpcap reported another read error
+    std::uint64_t cut_off = 0;              // 1 when the file ends in the middle of a record
+    std::uint64_t read_errors = 0;          // 1 when libpcap reported another read error
 };
 
 class PcapReader {

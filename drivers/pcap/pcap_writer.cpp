@@ -59,8 +59,8 @@ void PcapWriter::write_bytes(const void* data, std::size_t size) {
     }
 }
 
-void PcapWriter::write_frame(std::int64_t timestamp_ns, const std::uint8_t* frame,
-                             std::size_t size, std::size_t wire_bytes) {
+void PcapWriter::write_frame(std::int64_t timestamp_ns, const std::uint8_t* frame, std::size_t size,
+                             std::size_t wire_bytes) {
     if (timestamp_ns < 0) {
         throw std::invalid_argument("capture " + file_.string() + ": negative timestamp");
     }
@@ -72,8 +72,8 @@ void PcapWriter::write_frame(std::int64_t timestamp_ns, const std::uint8_t* fram
     const std::int64_t sub_ns = timestamp_ns % 1'000'000'000;
     std::uint8_t header[16];
     put_le32(header, static_cast<std::uint32_t>(seconds));
-    put_le32(header + 4, static_cast<std::uint32_t>(options_.nanosecond_timestamps ? sub_ns
-                                                                                   : sub_ns / 1000));
+    put_le32(header + 4,
+             static_cast<std::uint32_t>(options_.nanosecond_timestamps ? sub_ns : sub_ns / 1000));
     put_le32(header + 8, static_cast<std::uint32_t>(size));
     put_le32(header + 12, static_cast<std::uint32_t>(wire_bytes > size ? wire_bytes : size));
     write_bytes(header, sizeof header);
@@ -81,12 +81,12 @@ void PcapWriter::write_frame(std::int64_t timestamp_ns, const std::uint8_t* fram
     ++records_;
 }
 
-void PcapWriter::write_udp(std::int64_t timestamp_ns, std::uint32_t src_ip,
-                           std::uint16_t src_port, std::uint32_t dst_ip, std::uint16_t dst_port,
-                           const std::uint8_t* data, std::size_t size) {
+void PcapWriter::write_udp(std::int64_t timestamp_ns, std::uint32_t src_ip, std::uint16_t src_port,
+                           std::uint32_t dst_ip, std::uint16_t dst_port, const std::uint8_t* data,
+                           std::size_t size) {
     const UdpEndpoints endpoints{src_ip, src_port, dst_ip, dst_port};
-    build_udp_frames(endpoints, next_ip_id_, data, size,
-                     options_.fragment ? options_.mtu_bytes : 0, &frames_);
+    build_udp_frames(endpoints, next_ip_id_, data, size, options_.fragment ? options_.mtu_bytes : 0,
+                     &frames_);
     for (const auto& frame : frames_) write_frame(timestamp_ns, frame.data(), frame.size());
     ++next_ip_id_;  // wraps at 65536 like a real sender
     ++datagrams_;

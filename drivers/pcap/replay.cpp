@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <cstdint>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <stdexcept>
 #include <utility>
@@ -74,8 +74,9 @@ ReplaySummary replay_capture(const std::filesystem::path& file, const ReplayPara
     SourceSockets sockets(params.max_source_sockets);
     const std::int64_t start_ns = monotonic_ns();
     const std::int64_t end_ns =
-        params.max_duration_s > 0 ? start_ns + static_cast<std::int64_t>(params.max_duration_s * 1e9)
-                                  : INT64_MAX;
+        params.max_duration_s > 0
+            ? start_ns + static_cast<std::int64_t>(params.max_duration_s * 1e9)
+            : INT64_MAX;
     // Capture-time offset (ns, before dividing by rate) at which the current pass starts.
     double pass_offset_ns = 0.0;
     for (;;) {
@@ -88,18 +89,22 @@ ReplaySummary replay_capture(const std::filesystem::path& file, const ReplayPara
             last_ts = std::max(last_ts, d.timestamp_ns);
             ++in_pass;
             if (!params.max_rate) {
-                const double offset_ns = pass_offset_ns + static_cast<double>(d.timestamp_ns - first_ts);
-                const std::int64_t deadline = start_ns + static_cast<std::int64_t>(offset_ns / params.rate);
+                const double offset_ns =
+                    pass_offset_ns + static_cast<double>(d.timestamp_ns - first_ts);
+                const std::int64_t deadline =
+                    start_ns + static_cast<std::int64_t>(offset_ns / params.rate);
                 if (deadline > end_ns || !sleep_until(deadline, params)) {
                     summary.stopped = true;
                     break;
                 }
-            } else if (stop_requested(params) || (params.max_duration_s > 0 && monotonic_ns() >= end_ns)) {
+            } else if (stop_requested(params) ||
+                       (params.max_duration_s > 0 && monotonic_ns() >= end_ns)) {
                 summary.stopped = true;
                 break;
             }
             const auto mapped = params.port_map.find(d.dst_port);
-            const std::uint16_t port = mapped == params.port_map.end() ? d.dst_port : mapped->second;
+            const std::uint16_t port =
+                mapped == params.port_map.end() ? d.dst_port : mapped->second;
             auto& sender = sockets.for_source(d.src_ip, d.src_port);
             if (sender.send_to(params.host_ip, port, d.data, d.size)) {
                 ++summary.datagrams_sent;
@@ -117,8 +122,10 @@ ReplaySummary replay_capture(const std::filesystem::path& file, const ReplayPara
         if (!params.loop || in_pass == 0) break;
         if (params.max_passes > 0 && summary.passes >= params.max_passes) break;
         // One mean gap between passes; 1 ms when the pass has no time extent at all.
-        const double gap_ns = span_ns > 0 ? static_cast<double>(span_ns) / static_cast<double>(std::max<std::uint64_t>(in_pass - 1, 1))
-                                          : 1e6;
+        const double gap_ns = span_ns > 0
+                                  ? static_cast<double>(span_ns) /
+                                        static_cast<double>(std::max<std::uint64_t>(in_pass - 1, 1))
+                                  : 1e6;
         pass_offset_ns += static_cast<double>(span_ns) + gap_ns;
     }
     summary.source_sockets = sockets.sources();

@@ -23,14 +23,14 @@
 namespace lidarfuse::pcap {
 
 struct ReplayParams {
-    std::uint32_t host_ip = 0x7F000001u;             // 127.0.0.1, host byte order
+    std::uint32_t host_ip = 0x7F000001u;              // 127.0.0.1, host byte order
     std::map<std::uint16_t, std::uint16_t> port_map;  // original dst port -> port sent to
-    double rate = 1.0;      // capture-time speed factor: 2 = twice as fast as recorded
-    bool max_rate = false;  // as fast as the socket takes them
-    bool loop = false;      // start over at the end of the file
+    double rate = 1.0;             // capture-time speed factor: 2 = twice as fast as recorded
+    bool max_rate = false;         // as fast as the socket takes them
+    bool loop = false;             // start over at the end of the file
     std::uint64_t max_passes = 0;  // with loop: stop after this many passes (0 = no limit)
     double max_duration_s = 0.0;   // stop after this much wall time (0 = no limit)
-    std::size_t max_source_sockets = 64;  // further sources share the last socket
+    std::size_t max_source_sockets = 64;      // further sources share the last socket
     const std::atomic<bool>* stop = nullptr;  // optional: set from another thread or a signal
     PcapReaderParams reader;
 };

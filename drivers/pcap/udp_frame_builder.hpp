@@ -26,8 +26,8 @@ constexpr std::size_t kEthernetMtuBytes = 1500;
 // capacity across calls). `mtu_bytes` = 0 writes one frame whatever its size (like a
 // loopback capture). Throws std::invalid_argument when `size` exceeds kMaxUdpPayloadBytes
 // or the MTU is below 68 bytes (RFC 791 minimum).
-void build_udp_frames(const UdpEndpoints& endpoints, std::uint16_t ip_id,
-                      const std::uint8_t* data, std::size_t size, std::size_t mtu_bytes,
+void build_udp_frames(const UdpEndpoints& endpoints, std::uint16_t ip_id, const std::uint8_t* data,
+                      std::size_t size, std::size_t mtu_bytes,
                       std::vector<std::vector<std::uint8_t>>* frames);
 
 // RFC 1071 ones' complement sum folded to 16 bits (not yet inverted), big-endian words.

@@ -31,7 +31,8 @@ std::vector<Sent> read_capture(const std::filesystem::path& file) {
     std::vector<Sent> out;
     pcap::UdpDatagram d;
     while (reader.next(&d)) {
-        out.push_back({d.dst_port, d.src_ip, d.src_port, std::vector<std::uint8_t>(d.data, d.data + d.size)});
+        out.push_back(
+            {d.dst_port, d.src_ip, d.src_port, std::vector<std::uint8_t>(d.data, d.data + d.size)});
     }
     return out;
 }
@@ -100,10 +101,11 @@ void expect_identical(const std::vector<Sent>& sent, const std::vector<Arrived>&
         ASSERT_EQ(got[socket].size(), list.size()) << "socket " << socket;
         std::map<std::pair<std::uint32_t, std::uint16_t>, std::uint16_t> source_port_of;
         for (std::size_t i = 0; i < list.size(); ++i) {
-            EXPECT_EQ(got[socket][i]->data, list[i]->data) << "datagram " << i << " on socket " << socket;
+            EXPECT_EQ(got[socket][i]->data, list[i]->data)
+                << "datagram " << i << " on socket " << socket;
             // One sending socket per original sender, used consistently.
-            auto [it, inserted] = source_port_of.emplace(std::make_pair(list[i]->src_ip, list[i]->src_port),
-                                                         got[socket][i]->src_port);
+            auto [it, inserted] = source_port_of.emplace(
+                std::make_pair(list[i]->src_ip, list[i]->src_port), got[socket][i]->src_port);
             EXPECT_EQ(it->second, got[socket][i]->src_port);
         }
     }
@@ -193,7 +195,8 @@ TEST(Replay, LidarfuseReplayRejectsBadArguments) {
     for (const std::string args : {" --port-map 7502", " --port-map 7502:70000", " --rate 0",
                                    " --rate 2 --max-rate", " --passes 2"}) {
         output.clear();
-        EXPECT_EQ(test::run_command(test::tool_path() + " replay " + file.string() + args, &output), 1)
+        EXPECT_EQ(test::run_command(test::tool_path() + " replay " + file.string() + args, &output),
+                  1)
             << args << ": " << output;
         EXPECT_NE(output.find("error"), std::string::npos) << output;
     }

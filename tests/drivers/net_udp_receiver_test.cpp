@@ -117,7 +117,8 @@ TEST(UdpReceiver, SeveralPortsInOneReceiver) {
     UdpSender sender({"127.0.0.1", 0});
     for (std::size_t s = 0; s < 3; ++s) {
         const auto data = payload(64, static_cast<std::uint32_t>(s));
-        ASSERT_TRUE(sender.send_to(kLoopbackIpv4, receiver.sockets()[s].port, data.data(), data.size()));
+        ASSERT_TRUE(
+            sender.send_to(kLoopbackIpv4, receiver.sockets()[s].port, data.data(), data.size()));
     }
     auto got = receive(receiver, 3);
     ASSERT_EQ(got.size(), 3u);
@@ -126,7 +127,8 @@ TEST(UdpReceiver, SeveralPortsInOneReceiver) {
         EXPECT_EQ(g.local_port, receiver.sockets()[g.socket_index].port);
         by_socket[g.socket_index] = g.data;
     }
-    for (std::size_t s = 0; s < 3; ++s) EXPECT_EQ(by_socket[s], payload(64, static_cast<std::uint32_t>(s)));
+    for (std::size_t s = 0; s < 3; ++s)
+        EXPECT_EQ(by_socket[s], payload(64, static_cast<std::uint32_t>(s)));
 }
 
 TEST(UdpReceiver, OversizedDatagramIsCountedAsTruncatedAndNotDelivered) {
@@ -151,12 +153,14 @@ TEST(UdpReceiver, KernelDropsAreCounted) {
     UdpSender sender({"127.0.0.1", 0});
     const auto data = payload(1400, 0);
     for (int i = 0; i < 200; ++i) {
-        ASSERT_TRUE(sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
+        ASSERT_TRUE(
+            sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
     }
     const auto got = receive(receiver, 1);
     ASSERT_GE(got.size(), 1u);
     // The drop count rides on the next datagram that gets through.
-    ASSERT_TRUE(sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
+    ASSERT_TRUE(
+        sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
     const auto more = receive(receiver, 1);
     ASSERT_EQ(more.size(), 1u);
     EXPECT_EQ(receiver.stats().kernel_drops.load() + got.size() + more.size(), 201u);

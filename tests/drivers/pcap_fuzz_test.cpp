@@ -22,8 +22,8 @@ Bytes read_file(const std::filesystem::path& file) {
     return Bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 void write_file(const std::filesystem::path& file, const Bytes& b, std::size_t size) {
-    std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(b.data()),
-                                               static_cast<std::streamsize>(size));
+    std::ofstream(file, std::ios::binary)
+        .write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(size));
 }
 
 // Reads everything; checks bounds that hold for any input.
@@ -53,7 +53,8 @@ void read_everything(const std::filesystem::path& file, std::uint64_t max_record
 TEST(PcapFuzz, RandomFragmentsIntoTheReassembler) {
     std::mt19937 rng(2024);
     Bytes pool(70000);
-    for (auto& b : pool) b = static_cast<std::uint8_t>(rng() & 3);  // few values: overlaps agree often
+    for (auto& b : pool)
+        b = static_cast<std::uint8_t>(rng() & 3);  // few values: overlaps agree often
     Ipv4ReassemblerParams params;
     params.max_entries = 4;
     params.timeout_ns = 50;
@@ -62,12 +63,14 @@ TEST(PcapFuzz, RandomFragmentsIntoTheReassembler) {
     std::uint64_t completed = 0;
     for (int i = 0; i < 200000; ++i) {
         Ipv4Fragment f;
-        f.timestamp_ns = i / 3 + static_cast<std::int64_t>(rng() % 20) - 10;  // jitter, also backwards
+        f.timestamp_ns =
+            i / 3 + static_cast<std::int64_t>(rng() % 20) - 10;  // jitter, also backwards
         f.src_ip = rng() % 3;
         f.dst_ip = 1;
         f.id = static_cast<std::uint16_t>(rng() % 4);
         f.protocol = 17;
-        f.offset_bytes = static_cast<std::uint32_t>(rng() % 8 == 0 ? rng() % 65536 : (rng() % 12) * 8);
+        f.offset_bytes =
+            static_cast<std::uint32_t>(rng() % 8 == 0 ? rng() % 65536 : (rng() % 12) * 8);
         f.more_fragments = rng() % 3 != 0;
         f.size = rng() % 4 == 0 ? rng() % 65600 : (rng() % 3) * 8 + rng() % 2;
         if (f.size > 65600) f.size = 65600;
@@ -101,7 +104,8 @@ TEST(PcapFuzz, MutatedFragmentHeadersInACapture) {
         for (int i = 0; i < 40; ++i) {
             for (auto& b : data) b = static_cast<std::uint8_t>(rng());
             const std::size_t size = (i % 4 == 0) ? 48 : (i % 3 == 0 ? 24896 : 12608);
-            writer.write_udp(1000 * i, 0xA9FE0001u + i % 2, 7502, 0xA9FE0064u, 7502, data.data(), size);
+            writer.write_udp(1000 * i, 0xA9FE0001u + i % 2, 7502, 0xA9FE0064u, 7502, data.data(),
+                             size);
         }
     }
     const Bytes original = read_file(clean);
@@ -109,7 +113,8 @@ TEST(PcapFuzz, MutatedFragmentHeadersInACapture) {
     std::vector<std::size_t> frames;
     for (std::size_t off = 24; off + 16 <= original.size();) {
         const std::uint32_t caplen = original[off + 8] | original[off + 9] << 8 |
-                                     original[off + 10] << 16 | std::uint32_t(original[off + 11]) << 24;
+                                     original[off + 10] << 16 |
+                                     std::uint32_t(original[off + 11]) << 24;
         frames.push_back(off + 16);
         off += 16 + caplen;
     }
@@ -143,7 +148,8 @@ TEST(PcapFuzz, MutatedFragmentHeadersInACapture) {
 TEST(PcapFuzz, RandomCutsOfRealCaptures) {
     std::mt19937 rng(5);
     test::TempDir dir("pcap_cuts");
-    for (const char* name : {"same_ports_legacy.pcap", "duplicate_id.pcap", "OS-1-64_1024x10_fw20.pcap"}) {
+    for (const char* name :
+         {"same_ports_legacy.pcap", "duplicate_id.pcap", "OS-1-64_1024x10_fw20.pcap"}) {
         const auto file = test::ouster_file(name);
         if (!file) GTEST_SKIP() << name << " not found";
         const Bytes b = read_file(*file);

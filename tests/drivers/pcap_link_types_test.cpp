@@ -49,8 +49,8 @@ void write_classic(const std::filesystem::path& file, std::uint32_t link_type,
         le32(&out, static_cast<std::uint32_t>(f.size()) + extra_wire_bytes);
         out.insert(out.end(), f.begin(), f.end());
     }
-    std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(out.data()),
-                                               static_cast<std::streamsize>(out.size()));
+    std::ofstream(file, std::ios::binary)
+        .write(reinterpret_cast<const char*>(out.data()), static_cast<std::streamsize>(out.size()));
 }
 
 // Minimal pcapng: section header, one Ethernet interface with if_tsresol = 9 (ns), and an
@@ -66,15 +66,15 @@ void write_pcapng(const std::filesystem::path& file, const std::vector<Bytes>& f
     le32(&out, 0xFFFFFFFF);
     le32(&out, 0xFFFFFFFF);  // section length unknown
     le32(&out, 28);
-    le32(&out, 1);           // interface description block
+    le32(&out, 1);  // interface description block
     le32(&out, 32);
-    le16(&out, 1);           // Ethernet
+    le16(&out, 1);  // Ethernet
     le16(&out, 0);
     le32(&out, 262144);
-    le16(&out, 9);           // if_tsresol
+    le16(&out, 9);  // if_tsresol
     le16(&out, 1);
     out.insert(out.end(), {9, 0, 0, 0});
-    le32(&out, 0);           // opt_endofopt
+    le32(&out, 0);  // opt_endofopt
     le32(&out, 32);
     std::uint64_t ts = first_ts_ns;
     for (const auto& f : frames) {
@@ -92,8 +92,8 @@ void write_pcapng(const std::filesystem::path& file, const std::vector<Bytes>& f
         le32(&out, total);
         ts += 7;
     }
-    std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(out.data()),
-                                               static_cast<std::streamsize>(out.size()));
+    std::ofstream(file, std::ios::binary)
+        .write(reinterpret_cast<const char*>(out.data()), static_cast<std::streamsize>(out.size()));
 }
 
 Bytes payload(std::size_t size) {
@@ -106,9 +106,11 @@ Bytes payload(std::size_t size) {
 std::vector<Bytes> ethernet_frames() {
     std::vector<Bytes> all, frames;
     const auto big = payload(3000), small = payload(100);
-    build_udp_frames({0xC0A80102, 7502, 0xC0A80101, 7502}, 77, big.data(), big.size(), 1500, &frames);
+    build_udp_frames({0xC0A80102, 7502, 0xC0A80101, 7502}, 77, big.data(), big.size(), 1500,
+                     &frames);
     all.insert(all.end(), frames.begin(), frames.end());
-    build_udp_frames({0xC0A80103, 7503, 0xC0A80101, 7503}, 78, small.data(), small.size(), 1500, &frames);
+    build_udp_frames({0xC0A80103, 7503, 0xC0A80101, 7503}, 78, small.data(), small.size(), 1500,
+                     &frames);
     all.insert(all.end(), frames.begin(), frames.end());
     return all;
 }
@@ -149,54 +151,54 @@ TEST(PcapLinkTypes, Ethernet) {
 TEST(PcapLinkTypes, EthernetWithVlanAndQinQTags) {
     test::TempDir dir("link");
     write_classic(dir.path() / "vlan.pcap", 1, transformed([](const Bytes& e) {
-        Bytes out(e.begin(), e.begin() + 12);
-        be16(&out, 0x8100);
-        be16(&out, 0x0123);
-        out.insert(out.end(), e.begin() + 12, e.end());
-        return out;
-    }));
+                      Bytes out(e.begin(), e.begin() + 12);
+                      be16(&out, 0x8100);
+                      be16(&out, 0x0123);
+                      out.insert(out.end(), e.begin() + 12, e.end());
+                      return out;
+                  }));
     expect_two_datagrams(dir.path() / "vlan.pcap");
     write_classic(dir.path() / "qinq.pcap", 1, transformed([](const Bytes& e) {
-        Bytes out(e.begin(), e.begin() + 12);
-        be16(&out, 0x88A8);
-        be16(&out, 0x0064);
-        be16(&out, 0x8100);
-        be16(&out, 0x0123);
-        out.insert(out.end(), e.begin() + 12, e.end());
-        return out;
-    }));
+                      Bytes out(e.begin(), e.begin() + 12);
+                      be16(&out, 0x88A8);
+                      be16(&out, 0x0064);
+                      be16(&out, 0x8100);
+                      be16(&out, 0x0123);
+                      out.insert(out.end(), e.begin() + 12, e.end());
+                      return out;
+                  }));
     expect_two_datagrams(dir.path() / "qinq.pcap");
 }
 
 TEST(PcapLinkTypes, LinuxCookedSllAndSll2) {
     test::TempDir dir("link");
     write_classic(dir.path() / "sll.pcap", 113, transformed([](const Bytes& e) {
-        Bytes out;
-        be16(&out, 0);  // packet type: to us
-        be16(&out, 1);  // ARPHRD_ETHER
-        be16(&out, 6);
-        out.insert(out.end(), e.begin() + 6, e.begin() + 12);
-        out.insert(out.end(), {0, 0});
-        be16(&out, 0x0800);
-        const Bytes ip = ip_part(e);
-        out.insert(out.end(), ip.begin(), ip.end());
-        return out;
-    }));
+                      Bytes out;
+                      be16(&out, 0);  // packet type: to us
+                      be16(&out, 1);  // ARPHRD_ETHER
+                      be16(&out, 6);
+                      out.insert(out.end(), e.begin() + 6, e.begin() + 12);
+                      out.insert(out.end(), {0, 0});
+                      be16(&out, 0x0800);
+                      const Bytes ip = ip_part(e);
+                      out.insert(out.end(), ip.begin(), ip.end());
+                      return out;
+                  }));
     expect_two_datagrams(dir.path() / "sll.pcap");
     write_classic(dir.path() / "sll2.pcap", 276, transformed([](const Bytes& e) {
-        Bytes out;
-        be16(&out, 0x0800);
-        be16(&out, 0);
-        out.insert(out.end(), {0, 0, 0, 3});  // interface index
-        be16(&out, 1);
-        out.push_back(0);
-        out.push_back(6);
-        out.insert(out.end(), e.begin() + 6, e.begin() + 12);
-        out.insert(out.end(), {0, 0});
-        const Bytes ip = ip_part(e);
-        out.insert(out.end(), ip.begin(), ip.end());
-        return out;
-    }));
+                      Bytes out;
+                      be16(&out, 0x0800);
+                      be16(&out, 0);
+                      out.insert(out.end(), {0, 0, 0, 3});  // interface index
+                      be16(&out, 1);
+                      out.push_back(0);
+                      out.push_back(6);
+                      out.insert(out.end(), e.begin() + 6, e.begin() + 12);
+                      out.insert(out.end(), {0, 0});
+                      const Bytes ip = ip_part(e);
+                      out.insert(out.end(), ip.begin(), ip.end());
+                      return out;
+                  }));
     expect_two_datagrams(dir.path() / "sll2.pcap");
 }
 
@@ -207,11 +209,11 @@ TEST(PcapLinkTypes, RawIpv4AndLoopback) {
         expect_two_datagrams(dir.path() / "raw.pcap");
     }
     write_classic(dir.path() / "null.pcap", 0, transformed([](const Bytes& e) {
-        Bytes out = {2, 0, 0, 0};
-        const Bytes ip = ip_part(e);
-        out.insert(out.end(), ip.begin(), ip.end());
-        return out;
-    }));
+                      Bytes out = {2, 0, 0, 0};
+                      const Bytes ip = ip_part(e);
+                      out.insert(out.end(), ip.begin(), ip.end());
+                      return out;
+                  }));
     expect_two_datagrams(dir.path() / "null.pcap");
 }
 

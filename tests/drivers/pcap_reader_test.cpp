@@ -1,5 +1,7 @@
 // PcapReader on the real Ouster captures: golden datagram counts and sizes, reassembly of
 // IPv4 fragments (including a stray fragment reusing the IP id), bad files.
+#include "drivers/pcap/pcap_reader.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -9,7 +11,6 @@
 #include <stdexcept>
 #include <vector>
 
-#include "drivers/pcap/pcap_reader.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace lidarfuse::pcap {
@@ -152,10 +153,14 @@ TEST(PcapReader, CutOffCaptureDeliversEverythingBeforeTheCutAndReportsIt) {
         off += 16 + caplen;
     }
     ASSERT_EQ(record_starts.size(), 75u);
-    struct Cut { std::size_t at; std::size_t complete_records; };
+    struct Cut {
+        std::size_t at;
+        std::size_t complete_records;
+    };
     for (const Cut cut : {Cut{record_starts[40] + 16 + 100, 40}, Cut{record_starts[50] + 7, 50}}) {
         const auto cut_file = dir.path() / "cut.pcap";
-        std::ofstream(cut_file, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(cut.at));
+        std::ofstream(cut_file, std::ios::binary)
+            .write(bytes.data(), static_cast<std::streamsize>(cut.at));
         PcapReader reader(cut_file);
         const auto got = read_all(reader);
         ASSERT_EQ(got.size(), cut.complete_records);
@@ -173,7 +178,8 @@ TEST(PcapReader, RandomBytesAreAClearErrorNamingTheFile) {
     std::mt19937 rng(7);
     std::vector<char> bytes(4096);
     for (auto& b : bytes) b = static_cast<char>(rng());
-    std::ofstream(file, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    std::ofstream(file, std::ios::binary)
+        .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     try {
         PcapReader reader(file);
         FAIL() << "random bytes were accepted as a capture";

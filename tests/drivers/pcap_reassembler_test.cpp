@@ -34,14 +34,16 @@ Ipv4Fragment piece(const std::vector<std::uint8_t>& whole, std::size_t begin, st
 
 TEST(Ipv4Reassembler, AnyOrderCompletesExactlyOnce) {
     const auto whole = bytes(5000, 3);
-    std::vector<std::pair<std::size_t, std::size_t>> spans = {{0, 1480}, {1480, 2960}, {2960, 4440}, {4440, 5000}};
+    std::vector<std::pair<std::size_t, std::size_t>> spans = {
+        {0, 1480}, {1480, 2960}, {2960, 4440}, {4440, 5000}};
     std::mt19937 rng(1);
     for (int trial = 0; trial < 24; ++trial) {
         std::shuffle(spans.begin(), spans.end(), rng);
         Ipv4Reassembler r;
         ReassembledDatagram out;
         for (std::size_t i = 0; i < spans.size(); ++i) {
-            const bool done = r.add(piece(whole, spans[i].first, spans[i].second, static_cast<std::int64_t>(i)), &out);
+            const bool done = r.add(
+                piece(whole, spans[i].first, spans[i].second, static_cast<std::int64_t>(i)), &out);
             ASSERT_EQ(done, i + 1 == spans.size());
         }
         ASSERT_EQ(out.size, whole.size());
@@ -57,9 +59,9 @@ TEST(Ipv4Reassembler, IdenticalOverlapsAndDuplicatesAreIgnored) {
     Ipv4Reassembler r;
     ReassembledDatagram out;
     EXPECT_FALSE(r.add(piece(whole, 0, 1600), &out));
-    EXPECT_FALSE(r.add(piece(whole, 0, 1600), &out));     // exact duplicate
-    EXPECT_FALSE(r.add(piece(whole, 800, 2400), &out));   // overlaps, same bytes
-    EXPECT_FALSE(r.add(piece(whole, 800, 1200), &out));   // inside, same bytes
+    EXPECT_FALSE(r.add(piece(whole, 0, 1600), &out));    // exact duplicate
+    EXPECT_FALSE(r.add(piece(whole, 800, 2400), &out));  // overlaps, same bytes
+    EXPECT_FALSE(r.add(piece(whole, 800, 1200), &out));  // inside, same bytes
     EXPECT_TRUE(r.add(piece(whole, 2400, 3003), &out));
     ASSERT_EQ(out.size, whole.size());
     EXPECT_TRUE(std::equal(whole.begin(), whole.end(), out.payload));

@@ -1,6 +1,8 @@
 // PcapWriter -> PcapReader round trips: whole and fragmented datagrams of every size class,
 // interleaved/reordered/duplicated fragments, both timestamp precisions, valid checksums,
 // and fragment layout identical to a real capture.
+#include "drivers/pcap/pcap_writer.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -12,7 +14,6 @@
 #include <vector>
 
 #include "drivers/pcap/pcap_reader.hpp"
-#include "drivers/pcap/pcap_writer.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace lidarfuse::pcap {
@@ -33,16 +34,18 @@ struct Record {
 // Independent reader of a little-endian classic pcap, to check what the writer produced.
 std::vector<Record> raw_records(const std::filesystem::path& file, std::uint32_t* magic) {
     std::ifstream in(file, std::ios::binary);
-    std::vector<std::uint8_t> b((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::vector<std::uint8_t> b((std::istreambuf_iterator<char>(in)),
+                                std::istreambuf_iterator<char>());
     auto le32 = [&](std::size_t at) {
-        return std::uint32_t(b[at]) | std::uint32_t(b[at + 1]) << 8 | std::uint32_t(b[at + 2]) << 16 |
-               std::uint32_t(b[at + 3]) << 24;
+        return std::uint32_t(b[at]) | std::uint32_t(b[at + 1]) << 8 |
+               std::uint32_t(b[at + 2]) << 16 | std::uint32_t(b[at + 3]) << 24;
     };
     *magic = le32(0);
     std::vector<Record> out;
     for (std::size_t off = 24; off + 16 <= b.size();) {
         Record r{le32(off), le32(off + 4), le32(off + 8), le32(off + 12), {}};
-        r.frame.assign(b.begin() + static_cast<long>(off + 16), b.begin() + static_cast<long>(off + 16 + r.caplen));
+        r.frame.assign(b.begin() + static_cast<long>(off + 16),
+                       b.begin() + static_cast<long>(off + 16 + r.caplen));
         off += 16 + r.caplen;
         out.push_back(std::move(r));
     }
@@ -53,8 +56,8 @@ std::uint16_t be16(const std::uint8_t* p) { return static_cast<std::uint16_t>(p[
 
 TEST(PcapWriter, RoundTripsWholeAndFragmentedDatagramsOfEverySize) {
     test::TempDir dir("pcap_writer");
-    const std::vector<std::size_t> sizes = {0, 1, 7, 8, 48, 1471, 1472, 1473, 2952, 2953,
-                                            8448, 12608, 24896, 33024, 65506, 65507};
+    const std::vector<std::size_t> sizes = {0,    1,    7,    8,     48,    1471,  1472,  1473,
+                                            2952, 2953, 8448, 12608, 24896, 33024, 65506, 65507};
     for (const bool fragment : {true, false}) {
         const auto file = dir.path() / "round_trip.pcap";
         PcapWriterOptions options;
@@ -68,7 +71,8 @@ TEST(PcapWriter, RoundTripsWholeAndFragmentedDatagramsOfEverySize) {
                                  0xA9FE5C9Eu + static_cast<std::uint32_t>(i), 7000 + i % 3,
                                  0xA9FE64CCu, static_cast<std::uint16_t>(7502 + i), data.data(),
                                  data.size());
-                expected_records += fragment ? std::max<std::size_t>(1, (sizes[i] + 8 + 1479) / 1480) : 1;
+                expected_records +=
+                    fragment ? std::max<std::size_t>(1, (sizes[i] + 8 + 1479) / 1480) : 1;
             }
             writer.close();
             EXPECT_EQ(writer.datagrams_written(), sizes.size());
@@ -81,7 +85,8 @@ TEST(PcapWriter, RoundTripsWholeAndFragmentedDatagramsOfEverySize) {
             const auto data = pattern(sizes[i], static_cast<std::uint32_t>(i));
             ASSERT_EQ(d.size, sizes[i]);
             EXPECT_TRUE(std::equal(data.begin(), data.end(), d.data)) << "size " << sizes[i];
-            EXPECT_EQ(d.timestamp_ns, 1'700'000'000'123'456'789LL + static_cast<std::int64_t>(i) * 1001);
+            EXPECT_EQ(d.timestamp_ns,
+                      1'700'000'000'123'456'789LL + static_cast<std::int64_t>(i) * 1001);
             EXPECT_EQ(d.src_ip, 0xA9FE5C9Eu + i);
             EXPECT_EQ(d.dst_ip, 0xA9FE64CCu);
             EXPECT_EQ(d.src_port, 7000 + i % 3);
@@ -160,7 +165,8 @@ TEST(PcapWriter, FragmentLayoutMatchesARealCapture) {
         PcapWriter writer(copy);
         UdpDatagram d;
         while (reader.next(&d)) {
-            writer.write_udp(d.timestamp_ns, d.src_ip, d.src_port, d.dst_ip, d.dst_port, d.data, d.size);
+            writer.write_udp(d.timestamp_ns, d.src_ip, d.src_port, d.dst_ip, d.dst_port, d.data,
+                             d.size);
         }
     }
     std::uint32_t magic = 0;
@@ -195,8 +201,9 @@ TEST(PcapWriter, InterleavedReorderedAndDuplicatedFragmentsReassemble) {
                 const std::size_t size = std::uniform_int_distribution<std::size_t>(0, 65507)(rng);
                 auto data = pattern(size, static_cast<std::uint32_t>(n));
                 const auto port = static_cast<std::uint16_t>(10000 + n);
-                build_udp_frames({0x7F000001u + static_cast<std::uint32_t>(k % 2), 4000, 0x7F000001u, port},
-                                 static_cast<std::uint16_t>(n), data.data(), data.size(), 1500, &frames);
+                build_udp_frames(
+                    {0x7F000001u + static_cast<std::uint32_t>(k % 2), 4000, 0x7F000001u, port},
+                    static_cast<std::uint16_t>(n), data.data(), data.size(), 1500, &frames);
                 for (const auto& f : frames) {
                     pool.push_back(f);
                     if (rng() % 7 == 0) {
@@ -218,7 +225,8 @@ TEST(PcapWriter, InterleavedReorderedAndDuplicatedFragmentsReassemble) {
         const auto it = sent.find(d.dst_port);
         ASSERT_NE(it, sent.end());
         ASSERT_EQ(d.size, it->second.size()) << "port " << d.dst_port;
-        EXPECT_TRUE(std::equal(it->second.begin(), it->second.end(), d.data)) << "port " << d.dst_port;
+        EXPECT_TRUE(std::equal(it->second.begin(), it->second.end(), d.data))
+            << "port " << d.dst_port;
     }
     EXPECT_EQ(received.size(), sent.size());
     for (const auto& [port, count] : received) EXPECT_EQ(count, 1) << "port " << port;
