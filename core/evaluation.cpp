@@ -1,5 +1,7 @@
 #include "core/evaluation.hpp"
 
+#include "core/se3.hpp"
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -9,8 +11,6 @@
 namespace lidarfuse::core {
 
 namespace {
-
-constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
 
 struct Match {
     const TrajectorySample* truth;
@@ -71,11 +71,6 @@ double rms(const std::vector<double>& v, std::size_t begin, std::size_t end) {
 
 }  // namespace
 
-double rotation_difference_deg(const Eigen::Matrix3d& R_a, const Eigen::Matrix3d& R_b) {
-    const double c = std::clamp(((R_a * R_b.transpose()).trace() - 1.0) / 2.0, -1.0, 1.0);
-    return std::acos(c) * kRadToDeg;
-}
-
 EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
                                        const Trajectories& estimate,
                                        const EvaluationParams& params) {
@@ -92,7 +87,7 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
                 return a.t_ns < b.t_ns || (a.t_ns == b.t_ns && a.frame < b.frame);
             });
             const double d = first->pose.translation().norm() +
-                             rotation_difference_deg(first->pose.rotation(), Eigen::Matrix3d::Identity());
+                             rotation_angle_deg(first->pose.rotation(), Eigen::Matrix3d::Identity());
             if (d < best) {
                 best = d;
                 result.root_sensor = name;
@@ -119,9 +114,12 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
     }
     const Eigen::Isometry3d T_world_root0 = root->second.front().truth->pose;
 
-    // T_coord: Umeyama without scale from estimated to true positions. With fewer than
-    // three non-collinear positions it is not defined; use the true root pose instead.
+    // T_coord: Umeyama without scale from estimated to true positions. The positions must
+    // span a plane: with fewer than three sensors, or sensors along a line, the rotation
+    // about that line is not observable (pole sway alone is far too small to fix it), so
+    // the true root pose at its first frame is used instead, and the result says so.
     result.T_world_root = T_world_root0;
+    result.alignment = "root";
     if (est_positions.size() >= 3) {
         Eigen::Matrix3Xd src(3, est_positions.size()), dst(3, gt_positions.size());
         for (std::size_t i = 0; i < est_positions.size(); ++i) {
@@ -131,8 +129,13 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
         const Eigen::Vector3d mean = src.rowwise().mean();
         const Eigen::Matrix3d scatter = (src.colwise() - mean) * (src.colwise() - mean).transpose();
         Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(scatter);
-        if (eig.eigenvalues()(1) > 1e-6 * std::max(1.0, eig.eigenvalues()(2))) {
+        // The middle spread (eigenvalues ascending) must be real geometry: at least 1 m rms
+        // and 5% of the largest. Pole sway (tens of cm) never qualifies.
+        const double count = static_cast<double>(est_positions.size());
+        const double middle = eig.eigenvalues()(1), largest = eig.eigenvalues()(2);
+        if (middle / count >= 1.0 && middle > 0.0025 * largest) {
             result.T_world_root = Eigen::Isometry3d(Eigen::umeyama(src, dst, false));
+            result.alignment = "svd";
         }
     }
 
@@ -151,11 +154,11 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
             const Eigen::Isometry3d strict_truth = T_world_root0.inverse() * m.truth->pose;
             e.t_ns.push_back(m.estimate->t_ns);
             e.trans_err_m.push_back((aligned.translation() - m.truth->pose.translation()).norm());
-            e.rot_err_deg.push_back(rotation_difference_deg(aligned.rotation(), m.truth->pose.rotation()));
+            e.rot_err_deg.push_back(rotation_angle_deg(aligned.rotation(), m.truth->pose.rotation()));
             e.strict_trans_err_m.push_back(
                 (m.estimate->pose.translation() - strict_truth.translation()).norm());
             e.strict_rot_err_deg.push_back(
-                rotation_difference_deg(m.estimate->pose.rotation(), strict_truth.rotation()));
+                rotation_angle_deg(m.estimate->pose.rotation(), strict_truth.rotation()));
         }
         const std::size_t n = e.trans_err_m.size();
         e.rmse_trans_m = rms(e.trans_err_m, 0, n);

@@ -5,7 +5,8 @@
 // T_world_sensor. Two ways to compare them:
 //  - aligned (the paper's): a rigid T_coord, fitted by SVD (Umeyama, no scale) from the
 //    estimated to the true sensor positions over all matched samples, maps estimates into
-//    the world: T~ = T_coord * T^; E_trans = |p~ - p|, E_rot = arccos((tr(R~ R^T) - 1) / 2).
+//    the world: T~ = T_coord * T^; E_trans = |p~ - p|, E_rot = arccos((tr(R~ R^T) - 1) / 2)
+//    (computed in the atan2 form of se3.hpp, which keeps its precision near zero).
 //    (PAPER.md writes R~ = R^ R_coord^-1; composing the rigid maps gives R_coord R^, which
 //    is what is used here.)
 //  - strict: no fitted alignment; ground truth re-expressed relative to the root sensor at
@@ -58,6 +59,9 @@ struct EvaluationResult {
     std::string error;  // why not, when !ok
     std::string root_sensor;
     Eigen::Isometry3d T_world_root = Eigen::Isometry3d::Identity();  // the fitted T_coord
+    // "svd": T_coord fitted from the sensor positions; "root": the positions do not span a
+    // plane (fewer than three sensors, or in a line), so the true root pose is used.
+    std::string alignment;
     std::vector<SensorErrors> sensors;
     double mean_rmse_trans_m = 0, mean_rmse_rot_deg = 0;
     double mean_strict_rmse_trans_m = 0, mean_strict_rmse_rot_deg = 0;
@@ -66,8 +70,5 @@ struct EvaluationResult {
 EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
                                        const Trajectories& estimate,
                                        const EvaluationParams& params = {});
-
-// Rotation angle of R_a * R_b^T in degrees (0..180).
-double rotation_difference_deg(const Eigen::Matrix3d& R_a, const Eigen::Matrix3d& R_b);
 
 }  // namespace lidarfuse::core

@@ -60,6 +60,7 @@ int run_eval(int argc, char** argv) {
         return 1;
     }
     std::printf("eval_root_sensor %s name\n", result.root_sensor.c_str());
+    std::printf("eval_alignment %s method\n", result.alignment.c_str());
     for (const auto& s : result.sensors) {
         const char* n = s.sensor.c_str();
         std::printf("eval_%s_matched_frames %zu frames\n", n, s.matched);

@@ -8,7 +8,8 @@
 //
 // Times: sensor timestamps (ns, after each sensor's configured offset) decide membership;
 // the deadline runs on the caller's monotonic clock (ns), so a wall-clock jump has no
-// effect. Single-threaded: the synchroniser thread owns it. Items (e.g. scan buffers) move
+// effect (offline, the capture timestamps serve as that clock). Single-threaded: one
+// thread owns it. Items (e.g. scan buffers) move
 // in and out; nothing is allocated per scan once the open-frame list has warmed up.
 
 #include <cstddef>
@@ -17,7 +18,7 @@
 #include <optional>
 #include <vector>
 
-namespace lidarfuse::daemon {
+namespace lidarfuse::core {
 
 struct SyncParams {
     std::int64_t max_offset_ns = 50'000'000;  // 1/SR at 20 Hz
@@ -132,4 +133,4 @@ private:
     SyncCounters counters_;
 };
 
-}  // namespace lidarfuse::daemon
+}  // namespace lidarfuse::core

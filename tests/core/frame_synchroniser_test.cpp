@@ -1,11 +1,11 @@
-#include "daemon/frame_synchroniser.hpp"
+#include "core/pipeline/frame_synchroniser.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <random>
 
-namespace lidarfuse::daemon {
+namespace lidarfuse::core {
 namespace {
 
 constexpr std::int64_t kMs = 1'000'000;
@@ -133,4 +133,4 @@ TEST(FrameSynchroniser, RandomisedStreamsNeverGoBackwards) {
 }
 
 }  // namespace
-}  // namespace lidarfuse::daemon
+}  // namespace lidarfuse::core

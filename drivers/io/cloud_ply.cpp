@@ -1,0 +1,35 @@
+#include "drivers/io/cloud_ply.hpp"
+
+#include <cstring>
+#include <fstream>
+#include <stdexcept>
+
+namespace lidarfuse::io {
+
+void write_fused_cloud_ply(const std::filesystem::path& file, const core::FusedCloud& cloud) {
+    const std::size_t n = cloud.points.size();
+    if (cloud.intensity.size() != n || cloud.sensor.size() != n || cloud.dynamic.size() != n) {
+        throw std::runtime_error(file.string() + ": fused cloud attributes do not match its points");
+    }
+    const auto temporary = file.string() + ".tmp";
+    {
+        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+        if (!out) throw std::runtime_error(temporary + ": cannot open for writing");
+        out << "ply\nformat binary_little_endian 1.0\ncomment lidarfuse fused cloud, root frame, metres\n"
+            << "element vertex " << n << "\nproperty float x\nproperty float y\nproperty float z\n"
+            << "property float intensity\nproperty uchar sensor\nproperty uchar dynamic\nend_header\n";
+        char record[18];
+        for (std::size_t i = 0; i < n; ++i) {
+            std::memcpy(record, cloud.points[i].data(), 12);  // x86/ARM little endian
+            std::memcpy(record + 12, &cloud.intensity[i], 4);
+            record[16] = static_cast<char>(cloud.sensor[i]);
+            record[17] = static_cast<char>(cloud.dynamic[i]);
+            out.write(record, sizeof(record));
+        }
+        out.flush();
+        if (!out) throw std::runtime_error(temporary + ": write failed");
+    }
+    std::filesystem::rename(temporary, file);
+}
+
+}  // namespace lidarfuse::io
