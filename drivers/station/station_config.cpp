@@ -3,6 +3,8 @@
 #include <arpa/inet.h>
 #include <yaml-cpp/yaml.h>
 
+#include "drivers/station/yaml_reader.hpp"
+
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -18,69 +20,6 @@ std::string join_problems(const std::string& source, const std::vector<std::stri
     for (const auto& p : problems) out << "\n  " << p;
     return out.str();
 }
-
-// Collects problems while reading typed values out of YAML nodes.
-class Reader {
-public:
-    std::vector<std::string> problems;
-
-    std::optional<std::string> string(const YAML::Node& node, const std::string& path,
-                                      bool required) {
-        if (!node) {
-            if (required) problems.push_back(path + ": missing (expected a string)");
-            return std::nullopt;
-        }
-        if (!node.IsScalar() || node.Scalar().empty()) {
-            problems.push_back(path + ": expected a non-empty string");
-            return std::nullopt;
-        }
-        return node.Scalar();
-    }
-
-    std::optional<long long> integer(const YAML::Node& node, const std::string& path,
-                                     long long min, long long max, bool required) {
-        if (!node) {
-            if (required) problems.push_back(path + ": missing (expected an integer)");
-            return std::nullopt;
-        }
-        long long value = 0;
-        if (!node.IsScalar() || !YAML::convert<long long>::decode(node, value) || value < min ||
-            value > max) {
-            problems.push_back(path + ": expected an integer in " + std::to_string(min) + ".." +
-                               std::to_string(max) + ", got " + describe(node));
-            return std::nullopt;
-        }
-        return value;
-    }
-
-    std::optional<bool> boolean(const YAML::Node& node, const std::string& path) {
-        if (!node) return std::nullopt;
-        bool value = false;
-        if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value)) {
-            problems.push_back(path + ": expected true or false, got " + describe(node));
-            return std::nullopt;
-        }
-        return value;
-    }
-
-    void only_keys(const YAML::Node& map, const std::string& path,
-                   const std::set<std::string>& allowed) {
-        for (const auto& item : map) {
-            const auto key = item.first.Scalar();
-            if (!allowed.count(key)) {
-                problems.push_back((path.empty() ? "" : path + ".") + key +
-                                   ": unknown key (a typo?)");
-            }
-        }
-    }
-
-    static std::string describe(const YAML::Node& node) {
-        if (node.IsScalar()) return "\"" + node.Scalar() + "\"";
-        if (node.IsSequence()) return "a list";
-        if (node.IsMap()) return "a mapping";
-        return "nothing";
-    }
-};
 
 // Sections owned by later stages; accepted here and validated by their owners.
 const std::set<std::string> kTopLevelKeys = {"station", "root",         "sensors", "sync",
@@ -111,7 +50,7 @@ StationConfig parse_station_config(const std::string& yaml_text, const std::stri
     }
     if (!doc.IsMap()) throw ConfigError(source_name, {"(top level): expected a mapping"});
 
-    Reader r;
+    YamlReader r;
     StationConfig config;
     r.only_keys(doc, "", kTopLevelKeys);
     if (auto s = r.string(doc["station"], "station", false)) config.station = *s;

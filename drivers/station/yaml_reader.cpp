@@ -1,0 +1,86 @@
+#include "drivers/station/yaml_reader.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace lidarfuse::station {
+
+std::optional<std::string> YamlReader::string(const YAML::Node& node, const std::string& path,
+                                              bool required) {
+    if (!node) {
+        if (required) problems.push_back(path + ": missing (expected a string)");
+        return std::nullopt;
+    }
+    if (!node.IsScalar() || node.Scalar().empty()) {
+        problems.push_back(path + ": expected a non-empty string");
+        return std::nullopt;
+    }
+    return node.Scalar();
+}
+
+std::optional<long long> YamlReader::integer(const YAML::Node& node, const std::string& path,
+                                             long long min, long long max, bool required) {
+    if (!node) {
+        if (required) problems.push_back(path + ": missing (expected an integer)");
+        return std::nullopt;
+    }
+    long long value = 0;
+    if (!node.IsScalar() || !YAML::convert<long long>::decode(node, value) || value < min || value > max) {
+        problems.push_back(path + ": expected an integer in " + std::to_string(min) + ".." +
+                           std::to_string(max) + ", got " + describe(node));
+        return std::nullopt;
+    }
+    return value;
+}
+
+std::optional<double> YamlReader::number(const YAML::Node& node, const std::string& path, double min,
+                                         double max, bool required) {
+    if (!node) {
+        if (required) problems.push_back(path + ": missing (expected a number)");
+        return std::nullopt;
+    }
+    double value = 0;
+    if (!node.IsScalar() || !YAML::convert<double>::decode(node, value) || !std::isfinite(value) ||
+        value < min || value > max) {
+        std::ostringstream range;
+        range << min << ".." << max;
+        problems.push_back(path + ": expected a number in " + range.str() + ", got " + describe(node));
+        return std::nullopt;
+    }
+    return value;
+}
+
+std::optional<bool> YamlReader::boolean(const YAML::Node& node, const std::string& path) {
+    if (!node) return std::nullopt;
+    bool value = false;
+    if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value)) {
+        problems.push_back(path + ": expected true or false, got " + describe(node));
+        return std::nullopt;
+    }
+    return value;
+}
+
+void YamlReader::only_keys(const YAML::Node& map, const std::string& path,
+                           const std::set<std::string>& allowed) {
+    for (const auto& item : map) {
+        const auto key = item.first.Scalar();
+        if (!allowed.count(key)) {
+            problems.push_back((path.empty() ? "" : path + ".") + key + ": unknown key (a typo?)");
+        }
+    }
+}
+
+bool YamlReader::optional_map(const YAML::Node& node, const std::string& path) {
+    if (!node || node.IsMap()) return true;
+    problems.push_back(path + ": expected a mapping, got " + describe(node));
+    return false;
+}
+
+std::string YamlReader::describe(const YAML::Node& node) {
+    if (node.IsScalar()) return "\"" + node.Scalar() + "\"";
+    if (node.IsSequence()) return "a list";
+    if (node.IsMap()) return "a mapping";
+    return "nothing";
+}
+
+}  // namespace lidarfuse::station

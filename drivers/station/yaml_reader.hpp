@@ -1,0 +1,33 @@
+#pragma once
+// Reads typed values out of YAML nodes while collecting every problem with its key path,
+// so a config loader can report all of them at once (STYLE.md: errors at start-up list
+// every problem). Used by station.yaml and the daemon's sections.
+
+#include <yaml-cpp/yaml.h>
+
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace lidarfuse::station {
+
+class YamlReader {
+public:
+    std::vector<std::string> problems;
+
+    std::optional<std::string> string(const YAML::Node& node, const std::string& path, bool required);
+    std::optional<long long> integer(const YAML::Node& node, const std::string& path, long long min,
+                                     long long max, bool required);
+    std::optional<double> number(const YAML::Node& node, const std::string& path, double min,
+                                 double max, bool required);
+    std::optional<bool> boolean(const YAML::Node& node, const std::string& path);
+    // Reports keys of `map` that are not in `allowed` (typos), as `path.key`.
+    void only_keys(const YAML::Node& map, const std::string& path, const std::set<std::string>& allowed);
+    // True when `node` is absent or a mapping; reports it otherwise.
+    bool optional_map(const YAML::Node& node, const std::string& path);
+
+    static std::string describe(const YAML::Node& node);
+};
+
+}  // namespace lidarfuse::station
