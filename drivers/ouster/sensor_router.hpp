@@ -24,6 +24,9 @@
 // Two LEGACY sensors of the same model on one port are therefore told apart only by a
 // configured source_ip; without one their packets are ambiguous and counted unassigned,
 // never guessed.
+// Likewise an IMU packet (48 B, no serial) that arrives on a shared port before any lidar
+// packet of its sensor has taught the router its address is unassigned (same_ports.pcap
+// starts with two of them).
 //
 // Learning allocates only when a new source address appears (bounded by the number of
 // sensors: an address is learnt once). Not thread safe.

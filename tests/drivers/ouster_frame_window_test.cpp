@@ -29,12 +29,13 @@ public:
                      FrameWindowParams params = {},
                      std::optional<ColumnWindow> window = std::nullopt)
         : cols_per_packet_(cols_per_packet),
-          window_(make_layout(columns, window), params,
-                  [this](const LidarScan& s) {
-                      out.push_back({s.frame_id, s.complete(), s.completeness(), s.packets,
-                                     s.received, s.timestamp_ns});
-                  },
-                  &counters) {}
+          window_(
+              make_layout(columns, window), params,
+              [this](const LidarScan& s) {
+                  out.push_back({s.frame_id, s.complete(), s.completeness(), s.packets, s.received,
+                                 s.timestamp_ns});
+              },
+              &counters) {}
 
     // Sends the packet holding columns [first_col, first_col + cols_per_packet).
     void packet(std::uint32_t frame_id, std::uint32_t first_col, std::uint32_t init_id = 7,
@@ -306,7 +307,7 @@ TEST(FrameWindow, AzimuthWindowIsNotCountedAsLoss) {
 TEST(FrameWindow, AzimuthWindowWrappingThroughZero) {
     // [12, 2] of 16 columns covers 12..15 and 0..2: 7 columns.
     Harness h(16, 4, {}, ColumnWindow{12, 2});
-    h.packet(3, 0);   // columns 0..3 (3 is outside the window)
+    h.packet(3, 0);  // columns 0..3 (3 is outside the window)
     EXPECT_TRUE(h.out.empty());
     h.packet(3, 12);  // 12..15
     ASSERT_EQ(h.out.size(), 1u);
@@ -334,11 +335,11 @@ TEST(ColumnWindow, ContainsAndSize) {
 TEST(LidarScan, RejectsBadLayoutsAndResetsInPlace) {
     EXPECT_THROW(LidarScan(LidarScanLayout{0, 16, field_bit(ScanField::kRange), {}}),
                  std::invalid_argument);
-    EXPECT_THROW(LidarScan(LidarScanLayout{4, 16, field_bit(ScanField::kRange),
-                                           ColumnWindow{3, 16}}),
-                 std::invalid_argument);
-    LidarScan scan(LidarScanLayout{
-        4, 16, field_bit(ScanField::kRange) | field_bit(ScanField::kNearIr), {}});
+    EXPECT_THROW(
+        LidarScan(LidarScanLayout{4, 16, field_bit(ScanField::kRange), ColumnWindow{3, 16}}),
+        std::invalid_argument);
+    LidarScan scan(
+        LidarScanLayout{4, 16, field_bit(ScanField::kRange) | field_bit(ScanField::kNearIr), {}});
     EXPECT_TRUE(scan.has(ScanField::kNearIr));
     EXPECT_FALSE(scan.has(ScanField::kSignal));
     EXPECT_EQ(scan.field_bytes(ScanField::kRange), 4u * 16u * 4u);
