@@ -1,17 +1,136 @@
-// lidarfused: the station daemon. Until the daemon issue lands, it validates its command
-// line and says plainly that fusion is not available; it never pretends to fuse.
+// lidarfused: the station daemon. `lidarfused --config /etc/lidarfuse/station.yaml`
+//
+// Start-up: the whole config is validated (every problem listed, exit 1) and every socket
+// bound before any thread starts; then READY=1 goes to systemd. Signals are taken
+// synchronously by the main thread (sigtimedwait), never in a handler:
+//   SIGTERM, SIGINT  drain and exit 0 (threads joined, files closed, within a second)
+//   SIGHUP           re-open poses.csv (after logrotate moved it) and rewrite
+//                    extrinsics.yaml; the config itself is not reloaded (restart for that)
+// WATCHDOG=1 is sent only while the fusion thread's heartbeat is fresh, so a stuck fusion
+// thread gets the service restarted by systemd.
+#include <signal.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <string>
+
+#include "daemon/daemon_config.hpp"
+#include "daemon/pipeline.hpp"
+#include "daemon/systemd_notify.hpp"
+#include "drivers/build_info.hpp"
+
+namespace {
+
+const char* kUsage =
+    "usage: lidarfused --config STATION.yaml [--check] [--output-dir DIR]\n"
+    "  --check        validate the config (and metadata) and exit\n"
+    "  --output-dir   override output.directory\n";
+
+std::string status_line(const lidarfuse::daemon::PipelineStats& st) {
+    std::size_t ok = 0;
+    for (const auto& s : st.sensors) ok += s.state == lidarfuse::daemon::SensorState::kOk;
+    char buffer[256];
+    std::snprintf(buffer, sizeof(buffer), "fused %llu frames, %zu/%zu sensors OK, %.1f ms/frame, %llu dropped",
+                  static_cast<unsigned long long>(st.frames_fused), ok, st.sensors.size(), st.mean_fusion_ms,
+                  static_cast<unsigned long long>(st.frame_queue_drops + st.scan_queue_drops));
+    return buffer;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
+    std::string config_path, output_dir;
+    bool check_only = false;
     for (int i = 1; i < argc; ++i) {
-        if (!std::strcmp(argv[i], "--help") || !std::strcmp(argv[i], "-h")) {
-            std::printf("usage: lidarfused --config STATION.yaml\n");
+        const std::string arg = argv[i];
+        if (arg == "--help" || arg == "-h") {
+            std::printf("%s", kUsage);
             return 0;
+        } else if (arg == "--version") {
+            std::printf("lidarfused %s\n", lidarfuse::drivers::version().c_str());
+            return 0;
+        } else if (arg == "--config" && i + 1 < argc) {
+            config_path = argv[++i];
+        } else if (arg == "--output-dir" && i + 1 < argc) {
+            output_dir = argv[++i];
+        } else if (arg == "--check") {
+            check_only = true;
+        } else {
+            std::fprintf(stderr, "lidarfused: unexpected argument '%s'\n%s", arg.c_str(), kUsage);
+            return 2;
         }
     }
-    std::fprintf(stderr,
-                 "lidarfused: the fusion pipeline is not built yet (see the daemon issue); "
-                 "use `lidarfuse inspect` / `lidarfuse replay` for ingest.\n");
-    return 3;
+    if (config_path.empty()) {
+        std::fprintf(stderr, "lidarfused: --config is required\n%s", kUsage);
+        return 2;
+    }
+    auto log = spdlog::default_logger()->clone("daemon");
+    lidarfuse::daemon::DaemonConfig config;
+    try {
+        config = lidarfuse::daemon::load_daemon_config(config_path);
+    } catch (const std::exception& error) {
+        std::fprintf(stderr, "lidarfused: %s\n", error.what());
+        return 1;
+    }
+    if (!output_dir.empty()) config.output.directory = output_dir;
+    spdlog::set_level(spdlog::level::from_str(config.log_level));
+
+    // Block the signals before any thread exists, so every thread inherits the mask and the
+    // main thread alone takes them with sigtimedwait.
+    sigset_t signals;
+    sigemptyset(&signals);
+    sigaddset(&signals, SIGTERM);
+    sigaddset(&signals, SIGINT);
+    sigaddset(&signals, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+    std::unique_ptr<lidarfuse::daemon::Pipeline> pipeline;
+    try {
+        pipeline = std::make_unique<lidarfuse::daemon::Pipeline>(config);
+    } catch (const std::exception& error) {
+        std::fprintf(stderr, "lidarfused: %s\n", error.what());
+        return 1;
+    }
+    if (check_only) {
+        std::printf("lidarfused: %s is valid (%zu sensors)\n", config_path.c_str(), config.station.sensors.size());
+        return 0;
+    }
+    lidarfuse::daemon::SystemdNotifier notifier;
+    pipeline->start();
+    std::string ports;
+    for (auto p : pipeline->bound_ports()) ports += (ports.empty() ? "" : ",") + std::to_string(p);
+    log->info("station {}: {} sensors, listening on UDP {}, output to {}", config.station.station,
+              config.station.sensors.size(), ports, config.output.directory.string());
+    notifier.ready("listening on UDP " + ports);
+
+    const auto watchdog_period = notifier.watchdog_period().value_or(std::chrono::seconds(5));
+    auto last_report = std::chrono::steady_clock::now();
+    while (true) {
+        timespec timeout{0, 200'000'000};
+        const int sig = sigtimedwait(&signals, nullptr, &timeout);
+        if (sig == SIGTERM || sig == SIGINT) {
+            log->info("signal {}: stopping", sig == SIGTERM ? "SIGTERM" : "SIGINT");
+            notifier.stopping();
+            break;
+        }
+        if (sig == SIGHUP) pipeline->request_reopen();
+        const auto now = std::chrono::steady_clock::now();
+        if (now - pipeline->heartbeat() < 2 * watchdog_period) notifier.watchdog();
+        if (now - last_report >= std::chrono::seconds(1)) {
+            last_report = now;
+            const auto st = pipeline->stats();
+            notifier.status(status_line(st));
+            for (const auto& s : st.sensors) {
+                log->debug("{}: {} packets {} scans {} bad {} late {} completeness {:.3f} track {}", s.name,
+                           lidarfuse::daemon::to_string(s.state), s.packets, s.scans, s.bad_packets,
+                           s.late_packets, s.last_completeness, s.track_state);
+            }
+        }
+    }
+    pipeline->stop();
+    const auto st = pipeline->stats();
+    log->info("stopped: {}", status_line(st));
+    return 0;
 }

@@ -1,0 +1,176 @@
+#include "daemon/daemon_config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "drivers/station/yaml_reader.hpp"
+
+namespace lidarfuse::daemon {
+
+namespace {
+
+using station::YamlReader;
+
+template <typename T, typename U>
+void set_if(const std::optional<U>& value, T* target) {
+    if (value) *target = static_cast<T>(*value);
+}
+
+void read_network(YamlReader& r, const YAML::Node& n, NetworkConfig* c) {
+    if (!n || !r.optional_map(n, "network")) return;
+    r.only_keys(n, "network", {"bind_address", "receive_buffer_bytes"});
+    set_if(r.string(n["bind_address"], "network.bind_address", false), &c->bind_address);
+    set_if(r.integer(n["receive_buffer_bytes"], "network.receive_buffer_bytes", 65536, 1LL << 30, false),
+           &c->receive_buffer_bytes);
+}
+
+void read_sync(YamlReader& r, const YAML::Node& n, SyncConfig* c) {
+    if (!n || !r.optional_map(n, "sync")) return;
+    r.only_keys(n, "sync", {"max_offset_ms", "deadline_ms", "reset_jump_ms"});
+    set_if(r.number(n["max_offset_ms"], "sync.max_offset_ms", 0, 1000, false), &c->max_offset_ms);
+    set_if(r.number(n["deadline_ms"], "sync.deadline_ms", 1, 10000, false), &c->deadline_ms);
+    set_if(r.number(n["reset_jump_ms"], "sync.reset_jump_ms", 100, 3.6e6, false), &c->reset_jump_ms);
+}
+
+// The parameters PAPER.md names are all here: voxel sizes, k_w, r_c, RANSAC iterations,
+// Huber delta (and the attenuation, under dynamics).
+void read_registration(YamlReader& r, const YAML::Node& n, core::FusionParams* f) {
+    if (!n || !r.optional_map(n, "registration")) return;
+    const std::string p = "registration.";
+    r.only_keys(n, "registration",
+                {"voxel_size_m", "window_frames", "covariance_neighbors", "correspondence_factor",
+                 "huber_delta", "deskew", "min_fitness", "max_jump_m", "max_jump_deg",
+                 "divergence_frames", "retry_interval_frames", "threads", "initial_max_voxel_size_m",
+                 "initial_min_voxel_size_m", "ransac_iterations", "ransac_inlier_threshold_m",
+                 "p2p_cutoff_m", "seed"});
+    set_if(r.number(n["voxel_size_m"], p + "voxel_size_m", 0.05, 20, false), &f->voxel_size_m);
+    set_if(r.integer(n["window_frames"], p + "window_frames", 2, 100, false), &f->window_frames);
+    set_if(r.integer(n["covariance_neighbors"], p + "covariance_neighbors", 4, 100, false),
+           &f->covariance_neighbors);
+    set_if(r.number(n["correspondence_factor"], p + "correspondence_factor", 0.5, 10, false),
+           &f->correspondence_factor);
+    set_if(r.number(n["huber_delta"], p + "huber_delta", 0, 100, false), &f->huber_delta);
+    set_if(r.boolean(n["deskew"], p + "deskew"), &f->deskew);
+    set_if(r.number(n["min_fitness"], p + "min_fitness", 0, 1, false), &f->min_fitness);
+    set_if(r.number(n["max_jump_m"], p + "max_jump_m", 0.01, 100, false), &f->max_jump_m);
+    set_if(r.number(n["max_jump_deg"], p + "max_jump_deg", 0.1, 180, false), &f->max_jump_deg);
+    set_if(r.integer(n["divergence_frames"], p + "divergence_frames", 1, 1000, false), &f->divergence_frames);
+    set_if(r.integer(n["retry_interval_frames"], p + "retry_interval_frames", 1, 100000, false),
+           &f->retry_interval_frames);
+    set_if(r.integer(n["threads"], p + "threads", 1, 64, false), &f->num_threads);
+    auto& init = f->initial;
+    set_if(r.number(n["initial_max_voxel_size_m"], p + "initial_max_voxel_size_m", 0.05, 20, false),
+           &init.features.octree.max_voxel_size_m);
+    set_if(r.number(n["initial_min_voxel_size_m"], p + "initial_min_voxel_size_m", 0.01, 20, false),
+           &init.features.octree.min_voxel_size_m);
+    set_if(r.integer(n["ransac_iterations"], p + "ransac_iterations", 10, 10000000, false),
+           &init.pair.ransac.max_iterations);
+    set_if(r.number(n["ransac_inlier_threshold_m"], p + "ransac_inlier_threshold_m", 0.01, 20, false),
+           &init.pair.ransac.inlier_threshold_m);
+    set_if(r.number(n["p2p_cutoff_m"], p + "p2p_cutoff_m", 0.01, 50, false), &init.pair.p2p_cutoff_m);
+    set_if(r.integer(n["seed"], p + "seed", 0, 0xFFFFFFFFLL, false), &init.pair.ransac.seed);
+    if (init.features.octree.min_voxel_size_m > init.features.octree.max_voxel_size_m) {
+        r.problems.push_back(p + "initial_min_voxel_size_m: must not exceed initial_max_voxel_size_m");
+    }
+}
+
+void read_dynamics(YamlReader& r, const YAML::Node& n, core::FusionParams* f) {
+    if (!n || !r.optional_map(n, "dynamics")) return;
+    const std::string p = "dynamics.";
+    r.only_keys(n, "dynamics",
+                {"enabled", "attenuation", "range_threshold_m", "dynamic_threshold", "voxel_size_m",
+                 "cone_bins"});
+    auto& b = f->background;
+    set_if(r.boolean(n["enabled"], p + "enabled"), &f->remove_dynamic);
+    set_if(r.number(n["attenuation"], p + "attenuation", 0, 1, false), &b.attenuation);
+    set_if(r.number(n["range_threshold_m"], p + "range_threshold_m", 0.01, 20, false),
+           &b.change.range_threshold_m);
+    set_if(r.number(n["dynamic_threshold"], p + "dynamic_threshold", 0, 100, false), &b.dynamic_threshold);
+    set_if(r.number(n["voxel_size_m"], p + "voxel_size_m", 0.05, 10, false), &b.voxel_size_m);
+    set_if(r.integer(n["cone_bins"], p + "cone_bins", 0, 10, false), &b.change.cone_bins);
+}
+
+void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path& base, OutputConfig* c) {
+    if (!n || !r.optional_map(n, "output")) return;
+    r.only_keys(n, "output",
+                {"directory", "poses_csv", "extrinsics_yaml", "extrinsics_interval_frames",
+                 "record_clouds_every"});
+    if (auto d = r.string(n["directory"], "output.directory", false)) {
+        const std::filesystem::path dir = *d;
+        c->directory = dir.is_absolute() ? dir : (base / dir).lexically_normal();
+    }
+    set_if(r.boolean(n["poses_csv"], "output.poses_csv"), &c->poses_csv);
+    set_if(r.boolean(n["extrinsics_yaml"], "output.extrinsics_yaml"), &c->extrinsics_yaml);
+    set_if(r.integer(n["extrinsics_interval_frames"], "output.extrinsics_interval_frames", 1, 1000000, false),
+           &c->extrinsics_interval_frames);
+    set_if(r.integer(n["record_clouds_every"], "output.record_clouds_every", 0, 1000000, false),
+           &c->record_clouds_every);
+}
+
+void read_health(YamlReader& r, const YAML::Node& n, HealthConfig* c) {
+    if (!n || !r.optional_map(n, "health")) return;
+    r.only_keys(n, "health", {"stale_after_ms", "lost_after_ms", "min_completeness"});
+    set_if(r.number(n["stale_after_ms"], "health.stale_after_ms", 10, 600000, false), &c->stale_after_ms);
+    set_if(r.number(n["lost_after_ms"], "health.lost_after_ms", 10, 3600000, false), &c->lost_after_ms);
+    set_if(r.number(n["min_completeness"], "health.min_completeness", 0, 1, false), &c->min_completeness);
+    if (c->lost_after_ms < c->stale_after_ms) {
+        r.problems.push_back("health.lost_after_ms: must not be below health.stale_after_ms");
+    }
+}
+
+}  // namespace
+
+DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string& source_name,
+                                 const std::filesystem::path& base_dir) {
+    DaemonConfig config;
+    std::vector<std::string> problems;
+    try {
+        config.station = station::parse_station_config(yaml_text, source_name, base_dir);
+    } catch (const station::ConfigError& error) {
+        problems = error.problems();
+    }
+    YAML::Node doc;
+    try {
+        doc = YAML::Load(yaml_text);
+    } catch (const YAML::Exception&) {
+        throw station::ConfigError(source_name, problems);  // already reported as not YAML
+    }
+    if (!doc.IsMap()) throw station::ConfigError(source_name, problems);
+    YamlReader r;
+    read_network(r, doc["network"], &config.network);
+    read_sync(r, doc["sync"], &config.sync);
+    read_registration(r, doc["registration"], &config.fusion);
+    read_dynamics(r, doc["dynamics"], &config.fusion);
+    read_output(r, doc["output"], base_dir, &config.output);
+    read_health(r, doc["health"], &config.health);
+    if (doc["logging"] && r.optional_map(doc["logging"], "logging")) {
+        r.only_keys(doc["logging"], "logging", {"level"});
+        if (auto level = r.string(doc["logging"]["level"], "logging.level", false)) {
+            static const std::set<std::string> kLevels = {"trace", "debug", "info", "warn", "error", "off"};
+            if (kLevels.count(*level)) {
+                config.log_level = *level;
+            } else {
+                r.problems.push_back("logging.level: expected one of trace, debug, info, warn, error, off, got \"" +
+                                     *level + "\"");
+            }
+        }
+    }
+    problems.insert(problems.end(), r.problems.begin(), r.problems.end());
+    if (!problems.empty()) throw station::ConfigError(source_name, problems);
+    config.fusion.root_sensor = config.station.root_index();
+    return config;
+}
+
+DaemonConfig load_daemon_config(const std::filesystem::path& file) {
+    std::ifstream in(file);
+    if (!in) throw station::ConfigError(file.string(), {"cannot open the file for reading"});
+    std::ostringstream text;
+    text << in.rdbuf();
+    auto config = parse_daemon_config(text.str(), file.string(), file.parent_path());
+    config.station.source_file = file;
+    return config;
+}
+
+}  // namespace lidarfuse::daemon

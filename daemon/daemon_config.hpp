@@ -1,0 +1,57 @@
+#pragma once
+// The daemon's whole configuration: station.yaml's station section (drivers/station) plus
+// the network, sync, registration, dynamics, output and health sections. Every key has a
+// default; config/station.schema.md documents them and config/station.example.yaml shows
+// them. load_daemon_config() validates the whole file before anything starts and throws
+// station::ConfigError listing every problem with its key path.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include "core/pipeline/fusion_types.hpp"
+#include "drivers/station/station_config.hpp"
+
+namespace lidarfuse::daemon {
+
+struct NetworkConfig {
+    std::string bind_address = "0.0.0.0";
+    int receive_buffer_bytes = 32 * 1024 * 1024;
+};
+
+struct SyncConfig {
+    double max_offset_ms = 0.0;  // 0: one frame period of the root sensor (1/SR)
+    double deadline_ms = 75.0;   // how long a frame waits for late members
+    double reset_jump_ms = 2000.0;
+};
+
+struct OutputConfig {
+    std::filesystem::path directory = "/var/lib/lidarfuse";
+    bool poses_csv = true;          // DIRECTORY/poses.csv, appended per frame
+    bool extrinsics_yaml = true;    // DIRECTORY/extrinsics.yaml, rewritten atomically
+    int extrinsics_interval_frames = 20;
+    int record_clouds_every = 0;    // every Nth fused cloud as PLY; 0 = none
+};
+
+struct HealthConfig {
+    double stale_after_ms = 250.0;  // a sensor with no scan for this long is STALE
+    double lost_after_ms = 2000.0;  // ... and LOST after this long
+    double min_completeness = 0.5;  // scans below this share of columns are not fused
+};
+
+struct DaemonConfig {
+    station::StationConfig station;
+    NetworkConfig network;
+    SyncConfig sync;
+    core::FusionParams fusion;  // registration + dynamics sections
+    OutputConfig output;
+    HealthConfig health;
+    std::size_t queue_depth = 4;  // frames between stages (drop-oldest)
+    std::string log_level = "info";
+};
+
+DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string& source_name,
+                                 const std::filesystem::path& base_dir);
+DaemonConfig load_daemon_config(const std::filesystem::path& file);
+
+}  // namespace lidarfuse::daemon

@@ -1,0 +1,450 @@
+#include "daemon/pipeline.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "core/pipeline/frame_synchroniser.hpp"
+#include "core/pipeline/fusion_engine.hpp"
+#include "daemon/drop_oldest_queue.hpp"
+#include "drivers/io/cloud_ply.hpp"
+#include "drivers/io/extrinsics_yaml.hpp"
+#include "drivers/io/pose_csv.hpp"
+#include "drivers/net/ipv4_address.hpp"
+#include "drivers/net/udp_receiver.hpp"
+#include "drivers/ouster/projection.hpp"
+#include "drivers/ouster/scan_assembler.hpp"
+#include "drivers/ouster/sensor_router.hpp"
+#include "drivers/ouster/xyz_lut.hpp"
+
+namespace lidarfuse::daemon {
+
+const char* to_string(SensorState state) {
+    switch (state) {
+        case SensorState::kOk: return "OK";
+        case SensorState::kStale: return "STALE";
+        case SensorState::kLost: return "LOST";
+        case SensorState::kDisabled: return "DISABLED";
+    }
+    return "?";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::int64_t steady_ns() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
+}
+
+struct ScanMessage {
+    std::size_t sensor = 0;
+    std::int64_t t_ns = 0;
+    std::vector<Eigen::Vector3d> points;
+    std::vector<float> point_dt_s;
+};
+
+// Everything the receiving thread owns for one sensor; counters read by other threads.
+struct SensorIngest {
+    std::size_t index = 0;
+    std::string name;
+    std::int64_t time_offset_ns = 0;
+    ouster::SensorInfo info;
+    ouster::XyzLut lut;
+    std::unique_ptr<ouster::ScanAssembler> assembler;
+    ouster::ScanCloud cloud;
+    std::atomic<std::uint64_t> scans{0}, scans_incomplete{0}, scans_rejected{0};
+    std::atomic<std::int64_t> last_scan_steady_ns{0};
+    std::atomic<double> last_completeness{0.0};
+    mutable std::mutex counters_mutex;  // guards `counters`, a copy of the assembler's
+    ouster::AssemblyCounters counters;
+    std::uint32_t packets_since_publish = 0;  // receiver thread only
+};
+
+struct Receiver {
+    std::unique_ptr<net::UdpReceiver> socket;
+    std::vector<SensorIngest*> sensors;  // on this port
+    std::unique_ptr<ouster::SensorRouter> router;
+    DropOldestQueue<ScanMessage> queue{8};
+    std::atomic<std::uint64_t> unassigned{0};
+    std::thread thread;
+};
+
+}  // namespace
+
+struct Pipeline::Impl {
+    DaemonConfig config;
+    std::vector<std::unique_ptr<SensorIngest>> sensors;
+    std::vector<std::unique_ptr<Receiver>> receivers;
+    DropOldestQueue<core::SyncedFrame<ScanMessage>> frames;
+    DropOldestQueue<core::FrameOutput> results;
+    std::unique_ptr<core::FusionEngine> engine;
+    std::thread sync_thread, fusion_thread, output_thread;
+    std::atomic<bool> stopping{false};
+    std::atomic<std::int64_t> heartbeat_ns{0};
+    std::atomic<bool> reopen{false};
+    std::shared_ptr<spdlog::logger> ingest_log, sync_log, fusion_log, output_log;
+
+    mutable std::mutex stats_mutex;  // guards the fields below (written by sync/fusion/output)
+    core::SyncCounters sync_counters;
+    std::uint64_t frames_fused = 0;
+    double last_fusion_ms = 0, sum_fusion_ms = 0;
+    std::vector<core::SensorHealth> last_health;
+
+    explicit Impl(const DaemonConfig& c)
+        : config(c), frames(c.queue_depth), results(c.queue_depth) {
+        ingest_log = logger("ingest");
+        sync_log = logger("sync");
+        fusion_log = logger("fusion");
+        output_log = logger("output");
+        std::map<std::uint16_t, std::vector<SensorIngest*>> by_port;
+        std::vector<std::string> problems;
+        for (std::size_t i = 0; i < config.station.sensors.size(); ++i) {
+            const auto& sc = config.station.sensors[i];
+            auto s = std::make_unique<SensorIngest>();
+            s->index = i;
+            s->name = sc.name;
+            s->time_offset_ns = sc.time_offset_ns;
+            if (sc.enabled) {
+                try {
+                    s->info = ouster::load_metadata(sc.metadata);
+                    s->info.udp_port_lidar = sc.udp_port;
+                    s->lut = ouster::make_xyz_lut(s->info);
+                    by_port[sc.udp_port].push_back(s.get());
+                } catch (const std::exception& error) {
+                    problems.push_back("sensor \"" + sc.name + "\": " + error.what());
+                }
+            }
+            sensors.push_back(std::move(s));
+        }
+        if (!problems.empty()) {
+            std::string text = "cannot start: sensor metadata";
+            for (const auto& p : problems) text += "\n  " + p;
+            throw std::runtime_error(text);
+        }
+        for (auto& [port, members] : by_port) {
+            auto r = std::make_unique<Receiver>();
+            net::UdpReceiverParams params;
+            params.bind_address = config.network.bind_address;
+            params.ports = {port};
+            params.requested_rcvbuf_bytes = config.network.receive_buffer_bytes;
+            r->socket = std::make_unique<net::UdpReceiver>(params);
+            r->sensors = members;
+            std::vector<ouster::RoutedSensor> routed;
+            for (auto* s : members) {
+                ouster::RoutedSensor rs{s->info, std::nullopt};
+                const auto& sc = config.station.sensors[s->index];
+                if (sc.source_address) rs.source_ip = net::parse_ipv4(*sc.source_address);
+                routed.push_back(rs);
+            }
+            r->router = std::make_unique<ouster::SensorRouter>(routed);
+            receivers.push_back(std::move(r));
+        }
+        for (auto& r : receivers) {
+            for (auto* s : r->sensors) make_assembler(s, &r->queue);
+        }
+        engine = std::make_unique<core::FusionEngine>(sensors.size(), config.fusion);
+        last_health.assign(sensors.size(), core::SensorHealth{});
+        heartbeat_ns = steady_ns();
+    }
+
+    static std::shared_ptr<spdlog::logger> logger(const std::string& name) {
+        auto existing = spdlog::get(name);
+        if (existing) return existing;
+        auto l = spdlog::default_logger()->clone(name);
+        spdlog::register_logger(l);
+        return l;
+    }
+
+    // Runs on the receiver thread: a finished scan is projected and queued for the sync
+    // thread (the only allocation: one message per scan, never per packet).
+    void make_assembler(SensorIngest* s, DropOldestQueue<ScanMessage>* queue) {
+        ouster::ScanAssemblerParams params;
+        const double min_completeness = config.health.min_completeness;
+        s->assembler = std::make_unique<ouster::ScanAssembler>(
+            s->info, params, [this, s, queue, min_completeness](const ouster::LidarScan& scan) {
+                const double completeness = scan.completeness();
+                s->scans.fetch_add(1, std::memory_order_relaxed);
+                s->last_completeness.store(completeness, std::memory_order_relaxed);
+                if (completeness < 1.0) s->scans_incomplete.fetch_add(1, std::memory_order_relaxed);
+                if (completeness < min_completeness) {
+                    s->scans_rejected.fetch_add(1, std::memory_order_relaxed);
+                    return;
+                }
+                if (!ouster::project_scan(scan, s->lut, ouster::ProjectionParams{}, &s->cloud)) return;
+                std::int64_t t = 0;
+                for (std::size_t c = 0; c < scan.columns(); ++c) {
+                    if (scan.received[c]) {
+                        t = static_cast<std::int64_t>(scan.timestamp_ns[c]);
+                        break;
+                    }
+                }
+                ScanMessage m;
+                m.sensor = s->index;
+                m.t_ns = t + s->time_offset_ns;
+                m.points = s->cloud.cloud.points;
+                m.point_dt_s.resize(m.points.size());
+                for (std::size_t i = 0; i < m.points.size(); ++i) {
+                    m.point_dt_s[i] = static_cast<float>(
+                        static_cast<double>(static_cast<std::int64_t>(s->cloud.timestamp_ns_of(i)) - t) * 1e-9);
+                }
+                s->last_scan_steady_ns.store(steady_ns(), std::memory_order_relaxed);
+                queue->push(std::move(m));
+            });
+    }
+
+    void receive_loop(Receiver* r) {
+        r->socket->run([this, r](const net::ReceivedDatagram& d) {
+            const int routed = r->router->route(d.src_ip, d.local_port, d.data, d.size);
+            if (routed < 0) {
+                r->unassigned.fetch_add(1, std::memory_order_relaxed);
+                return;
+            }
+            SensorIngest* s = r->sensors[static_cast<std::size_t>(routed)];
+            s->assembler->add_packet(d.data, d.size);
+            // Publish the counters every 64 packets: a lock per packet would be wasted.
+            if ((++s->packets_since_publish & 63) == 0) publish_counters(s);
+        });
+    }
+
+    static void publish_counters(SensorIngest* s) {
+        std::lock_guard<std::mutex> lock(s->counters_mutex);
+        s->counters = s->assembler->counters();
+    }
+
+    void sync_loop() {
+        const auto& root_info = sensors[config.fusion.root_sensor]->info;
+        core::SyncParams params;
+        const int rate = std::max(1, root_info.frames_per_second);
+        params.max_offset_ns = config.sync.max_offset_ms > 0
+                                   ? static_cast<std::int64_t>(config.sync.max_offset_ms * 1e6)
+                                   : 1'000'000'000LL / rate;
+        params.deadline_ns = static_cast<std::int64_t>(config.sync.deadline_ms * 1e6);
+        params.reset_jump_ns = static_cast<std::int64_t>(config.sync.reset_jump_ms * 1e6);
+        core::FrameSynchroniser<ScanMessage> sync(sensors.size(), params);
+        while (!stopping.load(std::memory_order_acquire)) {
+            bool any = false;
+            for (auto& r : receivers) {
+                while (auto m = r->queue.try_pop()) {
+                    any = true;
+                    const std::size_t sensor = m->sensor;
+                    const std::int64_t t = m->t_ns;
+                    sync.push(sensor, t, steady_ns(), std::move(*m));
+                }
+            }
+            while (auto frame = sync.poll(steady_ns())) frames.push(std::move(*frame));
+            {
+                std::lock_guard<std::mutex> lock(stats_mutex);
+                sync_counters = sync.counters();
+            }
+            if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+        frames.close();
+    }
+
+    void fusion_loop() {
+        while (!stopping.load(std::memory_order_acquire)) {
+            heartbeat_ns.store(steady_ns(), std::memory_order_release);
+            auto frame = frames.pop_wait(std::chrono::milliseconds(100));
+            if (!frame) continue;
+            core::FrameInput input;
+            input.sensors.resize(sensors.size());
+            for (std::size_t s = 0; s < sensors.size(); ++s) {
+                if (!frame->members[s]) continue;
+                auto& in = input.sensors[s];
+                in.present = true;
+                in.t_ns = frame->members[s]->t_ns;
+                in.points = std::move(frame->members[s]->points);
+                in.point_dt_s = std::move(frame->members[s]->point_dt_s);
+            }
+            auto out = engine->process(input);
+            for (std::size_t s = 0; s < sensors.size(); ++s) {
+                if (!out.health[s].event.empty()) {
+                    fusion_log->warn("frame {}: {}: {}", out.frame_index, sensors[s]->name, out.health[s].event);
+                }
+            }
+            {
+                std::lock_guard<std::mutex> lock(stats_mutex);
+                ++frames_fused;
+                last_fusion_ms = out.timings.total_ms;
+                sum_fusion_ms += out.timings.total_ms;
+                last_health = out.health;
+            }
+            results.push(std::move(out));
+        }
+        results.close();
+    }
+
+    void output_loop() {
+        const auto& out_cfg = config.output;
+        std::error_code ec;
+        std::filesystem::create_directories(out_cfg.directory, ec);
+        if (ec) output_log->error("cannot create {}: {}", out_cfg.directory.string(), ec.message());
+        std::ofstream poses;
+        const auto open_poses = [&] {
+            if (!out_cfg.poses_csv) return;
+            poses.close();
+            const auto file = out_cfg.directory / "poses.csv";
+            const bool fresh = !std::filesystem::exists(file) || std::filesystem::file_size(file) == 0;
+            poses.open(file, std::ios::app);
+            if (!poses) output_log->error("cannot open {} for appending", file.string());
+            if (fresh) io::write_pose_csv_header(poses);
+        };
+        open_poses();
+        std::vector<io::ExtrinsicsEntry> extrinsics(sensors.size());
+        for (std::size_t s = 0; s < sensors.size(); ++s) extrinsics[s].name = sensors[s]->name;
+        const auto write_extrinsics = [&] {
+            if (!out_cfg.extrinsics_yaml) return;
+            try {
+                io::write_extrinsics_yaml(out_cfg.directory / "extrinsics.yaml",
+                                          sensors[config.fusion.root_sensor]->name, extrinsics);
+            } catch (const std::exception& error) {
+                output_log->error("{}", error.what());
+            }
+        };
+        std::int64_t frames_seen = 0;
+        while (true) {
+            auto result = results.pop_wait(std::chrono::milliseconds(100));
+            if (reopen.exchange(false)) {
+                open_poses();
+                write_extrinsics();
+                output_log->info("reopened poses.csv and rewrote extrinsics.yaml");
+            }
+            if (!result) {
+                if (results.closed()) break;
+                continue;
+            }
+            for (std::size_t s = 0; s < sensors.size(); ++s) {
+                const auto& h = result->health[s];
+                if (!h.pose_valid) continue;
+                extrinsics[s].registered = true;
+                extrinsics[s].T_root_sensor = result->T_root_sensor[s];
+                extrinsics[s].quality["fitness_reference"] = h.fitness_reference;
+                if (poses && h.included) {
+                    io::write_pose_csv_row(poses, {result->frame_index, sensors[s]->name, result->t_ns[s],
+                                                   result->T_root_sensor[s]});
+                }
+            }
+            if (poses) poses.flush();
+            ++frames_seen;
+            if (frames_seen == 1 || frames_seen % out_cfg.extrinsics_interval_frames == 0) write_extrinsics();
+            if (out_cfg.record_clouds_every > 0 && result->frame_index % out_cfg.record_clouds_every == 0) {
+                try {
+                    io::write_fused_cloud_ply(
+                        out_cfg.directory / ("fused_" + std::to_string(result->frame_index) + ".ply"),
+                        result->cloud);
+                } catch (const std::exception& error) {
+                    output_log->error("{}", error.what());
+                }
+            }
+        }
+        write_extrinsics();
+    }
+};
+
+Pipeline::Pipeline(const DaemonConfig& config) : impl_(std::make_unique<Impl>(config)) {}
+
+Pipeline::~Pipeline() { stop(); }
+
+void Pipeline::start() {
+    Impl& m = *impl_;
+    for (auto& r : m.receivers) r->thread = std::thread([&m, rp = r.get()] { m.receive_loop(rp); });
+    m.sync_thread = std::thread([&m] { m.sync_loop(); });
+    m.fusion_thread = std::thread([&m] { m.fusion_loop(); });
+    m.output_thread = std::thread([&m] { m.output_loop(); });
+}
+
+void Pipeline::stop() {
+    Impl& m = *impl_;
+    if (m.stopping.exchange(true)) {
+        // Already stopping: still join whatever runs (the destructor after stop()).
+    }
+    for (auto& r : m.receivers) r->socket->stop();
+    for (auto& r : m.receivers) {
+        if (r->thread.joinable()) r->thread.join();
+        for (auto* s : r->sensors) Impl::publish_counters(s);
+    }
+    if (m.sync_thread.joinable()) m.sync_thread.join();
+    m.frames.close();
+    if (m.fusion_thread.joinable()) m.fusion_thread.join();
+    m.results.close();
+    if (m.output_thread.joinable()) m.output_thread.join();
+}
+
+std::chrono::steady_clock::time_point Pipeline::heartbeat() const {
+    return Clock::time_point(std::chrono::nanoseconds(impl_->heartbeat_ns.load(std::memory_order_acquire)));
+}
+
+void Pipeline::request_reopen() { impl_->reopen.store(true); }
+
+std::vector<std::uint16_t> Pipeline::bound_ports() const {
+    std::vector<std::uint16_t> ports;
+    for (const auto& r : impl_->receivers) ports.push_back(r->socket->sockets().front().port);
+    return ports;
+}
+
+PipelineStats Pipeline::stats() const {
+    const Impl& m = *impl_;
+    PipelineStats out;
+    const std::int64_t now = steady_ns();
+    for (const auto& r : m.receivers) {
+        const auto& st = r->socket->stats();
+        out.datagrams += st.datagrams.load();
+        out.kernel_drops += st.kernel_drops.load();
+        out.truncated += st.truncated.load();
+        out.unassigned_datagrams += r->unassigned.load();
+        out.scan_queue_drops += r->queue.dropped();
+        out.granted_receive_buffers.push_back(r->socket->sockets().front().granted_rcvbuf_bytes);
+    }
+    out.frame_queue_drops = m.frames.dropped();
+    out.result_queue_drops = m.results.dropped();
+    std::lock_guard<std::mutex> lock(m.stats_mutex);
+    out.frames_synchronised = m.sync_counters.frames_complete + m.sync_counters.frames_partial;
+    out.frames_partial = m.sync_counters.frames_partial;
+    out.scans_late = m.sync_counters.late_dropped;
+    out.frames_fused = m.frames_fused;
+    out.last_fusion_ms = m.last_fusion_ms;
+    out.mean_fusion_ms = m.frames_fused ? m.sum_fusion_ms / static_cast<double>(m.frames_fused) : 0.0;
+    for (std::size_t i = 0; i < m.sensors.size(); ++i) {
+        const auto& s = *m.sensors[i];
+        SensorStats ss;
+        ss.name = s.name;
+        {
+            std::lock_guard<std::mutex> counters_lock(s.counters_mutex);
+            const auto& c = s.counters;
+            ss.packets = c.packets;
+            ss.lidar_packets = c.lidar_packets;
+            ss.imu_packets = c.imu_packets;
+            ss.bad_packets = c.bad_size + c.bad_profile;
+            ss.late_packets = c.late_packets;
+            ss.duplicate_packets = c.duplicate_packets;
+            ss.crc_errors = c.crc_errors;
+            ss.resets = c.resets;
+        }
+        ss.scans = s.scans.load();
+        ss.scans_incomplete = s.scans_incomplete.load();
+        ss.scans_rejected = s.scans_rejected.load();
+        ss.last_completeness = s.last_completeness.load();
+        const std::int64_t last = s.last_scan_steady_ns.load();
+        ss.ms_since_last_scan = last > 0 ? static_cast<double>(now - last) * 1e-6 : -1.0;
+        if (!m.config.station.sensors[i].enabled) {
+            ss.state = SensorState::kDisabled;
+        } else if (last == 0 || ss.ms_since_last_scan > m.config.health.lost_after_ms) {
+            ss.state = SensorState::kLost;
+        } else if (ss.ms_since_last_scan > m.config.health.stale_after_ms) {
+            ss.state = SensorState::kStale;
+        } else {
+            ss.state = SensorState::kOk;
+        }
+        ss.pose_valid = m.last_health[i].pose_valid;
+        ss.track_state = core::to_string(m.last_health[i].state);
+        ss.fitness = m.last_health[i].fitness_reference;
+        out.sensors.push_back(std::move(ss));
+    }
+    return out;
+}
+
+}  // namespace lidarfuse::daemon

@@ -1,0 +1,73 @@
+#pragma once
+// lidarfused's thread pipeline (DESIGN.md data flow, one direction, no back edges):
+//
+//   receiver threads (one per UDP port): recvmmsg -> sensor routing -> packet parsing and
+//       scan assembly -> projection -> ScanMessage into that receiver's queue
+//   sync thread: scans -> FrameSynchroniser (steady clock deadline) -> frame queue
+//   fusion thread: FusionEngine::process -> result queue; beats the heartbeat
+//   output thread: poses.csv, extrinsics.yaml, clouds, diagnostics log
+//
+// Every queue is a DropOldestQueue: a slow stage costs its oldest input, counted, and a
+// receiver never waits. The constructor binds every socket (errors list every port) and
+// starts nothing; start() starts the threads; stop() wakes every thread and joins them.
+// Thread-safe accessors: stats(), heartbeat(), sensor_states().
+
+#include <atomic>
+#include <chrono>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "daemon/daemon_config.hpp"
+
+namespace lidarfuse::daemon {
+
+enum class SensorState { kOk, kStale, kLost, kDisabled };
+const char* to_string(SensorState state);
+
+struct SensorStats {
+    std::string name;
+    SensorState state = SensorState::kLost;
+    std::uint64_t packets = 0, lidar_packets = 0, imu_packets = 0, bad_packets = 0, late_packets = 0,
+                  duplicate_packets = 0, crc_errors = 0, resets = 0;
+    std::uint64_t scans = 0, scans_incomplete = 0, scans_rejected = 0;  // rejected: below min completeness
+    double last_completeness = 0.0;
+    double ms_since_last_scan = -1.0;
+    bool pose_valid = false;
+    std::string track_state;
+    double fitness = 0.0;
+};
+
+struct PipelineStats {
+    std::uint64_t datagrams = 0, unassigned_datagrams = 0, kernel_drops = 0, truncated = 0;
+    std::uint64_t scan_queue_drops = 0, frame_queue_drops = 0, result_queue_drops = 0;
+    std::uint64_t frames_synchronised = 0, frames_partial = 0, scans_late = 0;
+    std::uint64_t frames_fused = 0;
+    double last_fusion_ms = 0.0, mean_fusion_ms = 0.0;
+    std::vector<int> granted_receive_buffers;
+    std::vector<SensorStats> sensors;
+};
+
+class Pipeline {
+public:
+    explicit Pipeline(const DaemonConfig& config);
+    ~Pipeline();
+    Pipeline(const Pipeline&) = delete;
+    Pipeline& operator=(const Pipeline&) = delete;
+
+    void start();
+    void stop();  // idempotent; returns when every thread has ended
+
+    PipelineStats stats() const;
+    // Steady-clock time of the fusion thread's last loop (it loops at least every 100 ms).
+    std::chrono::steady_clock::time_point heartbeat() const;
+    // Re-open poses.csv and rewrite extrinsics.yaml (SIGHUP, after logrotate).
+    void request_reopen();
+    std::vector<std::uint16_t> bound_ports() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace lidarfuse::daemon
