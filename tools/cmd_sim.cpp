@@ -2,8 +2,10 @@
 // sensors in a synthetic roadside scene; writes capture.pcap, <sensor>.json,
 // ground_truth.csv and station.yaml (drivers/sim/sim_outputs.hpp).
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 
+#include "drivers/sim/live_sink.hpp"
 #include "drivers/sim/sim_outputs.hpp"
 #include "drivers/sim/simulator.hpp"
 #include "tools/args.hpp"
@@ -19,6 +21,7 @@ constexpr const char* kUsage =
     "                     [--profile LEGACY|RNG19_RFL8_SIG16_NIR16|RNG15_RFL8_NIR8]\n"
     "                     [--seed 1] [--no-motion] [--no-traffic] [--noise-sigma-m 0.0333]\n"
     "                     [--whole-datagrams] [--threads N] [--fault SPEC]...\n"
+    "                     [--live --to HOST[:PORT]]\n"
     "Virtual Ouster OS1-64 sensors (6 m poles, tilted 17 deg down, swaying as inverted\n"
     "spherical pendulums) in a synthetic street with traffic. Writes into DIR:\n"
     "  capture.pcap      all sensors' lidar packets; sensor k sends from 169.254.10.(11+k)\n"
@@ -32,6 +35,9 @@ constexpr const char* kUsage =
     "  --no-traffic       no road users\n"
     "  --noise-sigma-m X  range noise sigma in metres (default 0.1/3; 0 = none)\n"
     "  --threads N        render threads (default: all cores; output does not depend on it)\n"
+    "  --live --to HOST[:PORT]  send the packets over UDP in real time to HOST instead of\n"
+    "                     writing capture.pcap (sensor k to PORT+2k, default PORT 7502);\n"
+    "                     DIR still gets the metadata, station.yaml and ground_truth.csv\n"
     "Faults (--fault SPEC, repeatable; SENSOR = lidar0, lidar1, ...):\n"
     "  drop:SHARE[:SENSOR]          drop that share (0..1) of packets\n"
     "  reorder:SHARE[:SENSOR]       swap that share of packets with the sensor's next one\n"
@@ -79,19 +85,42 @@ sim::SimParams parse_params(const Args& args) {
 int run_sim(int argc, char** argv) {
     const Args args(argc, argv,
                     {"--scenario", "--out", "--sensors", "--seconds", "--mode", "--profile",
-                     "--seed", "--noise-sigma-m", "--threads", "--fault"},
-                    {"--no-motion", "--no-traffic", "--whole-datagrams"});
+                     "--seed", "--noise-sigma-m", "--threads", "--fault", "--to"},
+                    {"--no-motion", "--no-traffic", "--whole-datagrams", "--live"});
     if (args.help()) {
         std::printf("%s", kUsage);
         return 0;
     }
-    const sim::SimParams params = parse_params(args);
+    sim::SimParams params = parse_params(args);
     const std::string out = args.required("--out");
+    std::string live_host;
+    if (args.flag("--live")) {
+        live_host = args.required("--to");
+        const auto colon = live_host.rfind(':');
+        if (colon != std::string::npos) {
+            const long long port = std::atoll(live_host.c_str() + colon + 1);
+            if (port < 1024 || port > 65535) throw UsageError("--to: bad port in '" + live_host + "'");
+            params.first_lidar_port = static_cast<std::uint16_t>(port);
+            live_host.resize(colon);
+        }
+    } else if (args.value("--to")) {
+        throw UsageError("--to needs --live");
+    }
     const auto wall0 = std::chrono::steady_clock::now();
     sim::Simulator simulator(params);
     sim::OutputOptions options;
     options.fragment = !args.flag("--whole-datagrams");
-    const sim::SimStats stats = sim::write_simulation(simulator, out, options);
+    sim::SimStats stats;
+    if (!live_host.empty()) {
+        sim::write_description(simulator, out, options);
+        sim::LiveSink sink(live_host);
+        stats = simulator.run(sink);
+        std::printf("sim_live_sent %llu datagrams\n", static_cast<unsigned long long>(sink.sent()));
+        std::printf("sim_live_late %llu datagrams\n", static_cast<unsigned long long>(sink.late()));
+        std::printf("sim_live_send_errors %llu datagrams\n", static_cast<unsigned long long>(sink.errors()));
+    } else {
+        stats = sim::write_simulation(simulator, out, options);
+    }
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     std::printf("sim_rays %llu rays\n", static_cast<unsigned long long>(stats.rays));
     std::printf("sim_returns %llu points\n", static_cast<unsigned long long>(stats.returns));

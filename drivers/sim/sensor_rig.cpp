@@ -39,7 +39,7 @@ ouster::SensorInfo make_sensor_info(const SensorRigParams& p) {
     info.lidar_to_sensor_transform(2, 3) = os1_64::kLidarToSensorZMm;
     info.imu_to_sensor_transform = Eigen::Matrix4d::Identity();
     for (int k = 0; k < 3; ++k) info.imu_to_sensor_transform(k, 3) = os1_64::kImuToSensorMm[k];
-    info.udp_port_lidar = sensor_lidar_port(p.index);
+    info.udp_port_lidar = sensor_lidar_port(p.index, p.first_lidar_port);
     info.udp_port_imu = static_cast<std::uint16_t>(info.udp_port_lidar + 1);
     info.udp_dest = "169.254.10.1";
     info.timestamp_mode = "TIME_FROM_PTP_1588";

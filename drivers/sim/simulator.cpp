@@ -40,6 +40,9 @@ void check_params(const SimParams& p) {
         p.profile != ouster::UdpProfileLidar::kRng15Rfl8Nir8) {
         problems.push_back("--profile must be LEGACY, RNG19_RFL8_SIG16_NIR16 or RNG15_RFL8_NIR8");
     }
+    if (p.first_lidar_port < 1024 || p.first_lidar_port + 2 * p.sensors > 65535) {
+        problems.push_back("the first lidar port must be in 1024..65535 - 2 * sensors");
+    }
     if (!problems.empty()) {
         std::string all = "sim: invalid parameters:";
         for (const auto& s : problems) all += "\n  " + s;
@@ -67,6 +70,7 @@ Simulator::Simulator(const SimParams& params) : params_(params) {
         rp.seed = params.seed;
         rp.motion = params.motion;
         rp.duration_s = params.seconds + 1.0;
+        rp.first_lidar_port = params.first_lidar_port;
         rigs_.emplace_back(scene_.mounts[static_cast<std::size_t>(k)], rp);
     }
     if (params.traffic) {
