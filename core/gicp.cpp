@@ -265,6 +265,8 @@ GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& s
     if (lin.num_inliers > 0) {
         result.mean_error = lin.error / static_cast<double>(lin.num_inliers);
         result.rmse_m = std::sqrt(lin.sum_sq_dist_m2 / static_cast<double>(lin.num_inliers));
+        const double dof = 3.0 * static_cast<double>(lin.num_inliers) - 6.0;
+        result.reduced_chi2 = dof > 0.0 ? lin.error / dof : 0.0;
     }
     result.H = 0.5 * (lin.H + lin.H.transpose());  // remove summation asymmetry
     result.b = lin.b;
