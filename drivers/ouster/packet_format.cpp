@@ -51,31 +51,49 @@ std::uint64_t fetch(const std::uint8_t* p, std::size_t bytes) {
     return v;
 }
 
-// Reflected CRC-64/XZ table, built once at compile time.
-constexpr std::array<std::uint64_t, 256> make_crc_table() {
-    std::array<std::uint64_t, 256> table{};
+// Reflected CRC-64/XZ tables for slicing-by-8 (table[0] is the classic byte table;
+// table[k][b] advances table[k-1][b] by one more zero byte), built at compile time.
+using CrcTables = std::array<std::array<std::uint64_t, 256>, 8>;
+constexpr CrcTables make_crc_tables() {
+    CrcTables t{};
     constexpr std::uint64_t kReflectedPoly = 0xC96C5795D7870F42ULL;
     for (std::uint64_t i = 0; i < 256; ++i) {
         std::uint64_t c = i;
         for (int k = 0; k < 8; ++k) c = (c & 1U) != 0 ? (c >> 1) ^ kReflectedPoly : c >> 1;
-        table[i] = c;
+        t[0][i] = c;
     }
-    return table;
+    for (std::size_t k = 1; k < 8; ++k) {
+        for (std::size_t i = 0; i < 256; ++i) {
+            t[k][i] = (t[k - 1][i] >> 8) ^ t[0][t[k - 1][i] & 0xFFU];
+        }
+    }
+    return t;
 }
-constexpr std::array<std::uint64_t, 256> kCrcTable = make_crc_table();
+constexpr CrcTables kCrcTables = make_crc_tables();
+
+// Fixed-width loads keep the per-pixel memcpy inlined (a runtime size would be a call).
+template <std::size_t N, typename T>
+void read_column_n(const std::uint8_t* px, std::size_t step, int rows, const FieldSpec& s, T* dst,
+                   std::ptrdiff_t stride) {
+    for (int row = 0; row < rows; ++row, px += step, dst += stride) {
+        std::uint32_t v = 0;
+        std::memcpy(&v, px, N);
+        *dst = static_cast<T>((v & s.mask) << s.upshift);
+    }
+}
 
 template <typename T>
 void read_column_impl(const PacketFormat& f, const std::uint8_t* col, Field field, T* dst,
                       std::ptrdiff_t stride) {
     const FieldSpec s = f.spec(field);
-    if (!s.present()) return;
     const std::uint8_t* px = f.pixel(col, 0) + s.offset;
     const std::size_t step = f.pixel_size();
     const int rows = f.pixels_per_column();
-    for (int row = 0; row < rows; ++row, px += step, dst += stride) {
-        std::uint32_t v = 0;
-        std::memcpy(&v, px, s.bytes);
-        *dst = static_cast<T>((v & s.mask) << s.upshift);
+    switch (s.bytes) {
+        case 1: read_column_n<1>(px, step, rows, s, dst, stride); break;
+        case 2: read_column_n<2>(px, step, rows, s, dst, stride); break;
+        case 4: read_column_n<4>(px, step, rows, s, dst, stride); break;
+        default: break;  // absent field
     }
 }
 
@@ -116,7 +134,17 @@ const ProfileLayout& profile_layout(UdpProfileLidar profile) {
 
 std::uint64_t crc64(const std::uint8_t* data, std::size_t size) {
     std::uint64_t c = ~0ULL;
-    for (std::size_t i = 0; i < size; ++i) c = kCrcTable[(c ^ data[i]) & 0xFFU] ^ (c >> 8);
+    std::size_t i = 0;
+    for (; i + 8 <= size; i += 8) {  // 8 bytes per step (little-endian load)
+        std::uint64_t word = 0;
+        std::memcpy(&word, data + i, 8);
+        c ^= word;
+        c = kCrcTables[7][c & 0xFFU] ^ kCrcTables[6][(c >> 8) & 0xFFU] ^
+            kCrcTables[5][(c >> 16) & 0xFFU] ^ kCrcTables[4][(c >> 24) & 0xFFU] ^
+            kCrcTables[3][(c >> 32) & 0xFFU] ^ kCrcTables[2][(c >> 40) & 0xFFU] ^
+            kCrcTables[1][(c >> 48) & 0xFFU] ^ kCrcTables[0][c >> 56];
+    }
+    for (; i < size; ++i) c = kCrcTables[0][(c ^ data[i]) & 0xFFU] ^ (c >> 8);
     return ~c;
 }
 
