@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <new>
+#include <random>
 #include <vector>
 
 #include "drivers/ouster/packet_format.hpp"
@@ -356,6 +357,45 @@ TEST(ScanAssembler, NoAllocationPerPacketInSteadyState) {
     EXPECT_EQ(rig.assembler.counters().frames_complete, 11u);
     EXPECT_EQ(rig.assembler.counters().frames_incomplete, 1u);
     EXPECT_EQ(rig.assembler.counters().late_packets, 1u);
+}
+
+TEST(ScanAssembler, RandomAndBitFlippedPacketsNeverBreakIt) {
+    std::mt19937 rng(20261121);
+    for (auto profile : {UdpProfileLidar::kLegacy, UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual,
+                         UdpProfileLidar::kFusaRng15Rfl8Nir8Dual}) {
+        auto info = make_info(profile);
+        info.prod_sn.clear();  // no serial check: random headers reach the frame logic
+        ScanAssemblerParams params;
+        params.check_crc = false;
+        Rig rig(info, params);
+        std::uint64_t emitted_packets = 0;
+        for (int i = 0; i < 3000; ++i) {
+            std::vector<std::uint8_t> p =
+                rig.writer.packet(static_cast<std::uint32_t>(i / 8), (i % 8) * 8);
+            const int mode = static_cast<int>(rng() % 3);
+            if (mode == 0) {
+                for (auto& b : p) b = static_cast<std::uint8_t>(rng());
+            } else if (mode == 1) {
+                for (int k = 0; k < 4; ++k)
+                    p[rng() % p.size()] ^= static_cast<std::uint8_t>(1u << (rng() % 8));
+            }
+            std::size_t size = p.size();
+            if (rng() % 10 == 0) size = rng() % (p.size() + 1);
+            rig.assembler.add_packet(p.data(), size);
+        }
+        rig.assembler.flush();
+        const auto& c = rig.assembler.counters();
+        EXPECT_EQ(c.packets, 3000u);
+        EXPECT_EQ(c.packets,
+                  c.lidar_packets + c.imu_packets + c.bad_size + c.bad_profile + c.crc_errors);
+        for (const auto& f : rig.frames) {
+            EXPECT_GE(f.completeness, 0.0);
+            EXPECT_LE(f.completeness, 1.0);
+        }
+        EXPECT_EQ(rig.frames.size(), c.frames_complete + c.frames_incomplete);
+        emitted_packets += c.lidar_packets;
+        EXPECT_GT(emitted_packets, 0u);
+    }
 }
 
 TEST(ScanAssembler, RejectsAColumnWindowOutsideTheFrame) {
