@@ -39,7 +39,10 @@ RTCRayHit make_ray(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_
 
 }  // namespace
 
-RayDevice::RayDevice() : device_(rtcNewDevice("verbose=0")) {
+RayDevice::RayDevice(int build_threads)
+    : device_(rtcNewDevice(build_threads > 0
+                               ? ("verbose=0,threads=" + std::to_string(build_threads)).c_str()
+                               : "verbose=0")) {
     if (!device_) throw std::runtime_error("sim: cannot create an Embree device");
 }
 

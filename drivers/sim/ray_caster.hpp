@@ -25,7 +25,8 @@ namespace lidarfuse::sim {
 // One Embree device per process is plenty; shared by the scenes created from it.
 class RayDevice {
 public:
-    RayDevice();
+    // `build_threads`: threads Embree may use to build BVHs (0 = all hardware threads).
+    explicit RayDevice(int build_threads = 0);
     ~RayDevice();
     RayDevice(const RayDevice&) = delete;
     RayDevice& operator=(const RayDevice&) = delete;

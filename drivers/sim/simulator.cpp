@@ -15,6 +15,7 @@
 namespace lidarfuse::sim {
 
 struct Simulator::Impl {
+    explicit Impl(int threads) : device(threads) {}
     RayDevice device;
     std::unique_ptr<StaticScene> static_scene;
     std::vector<ColumnRenderer> renderers;
@@ -79,7 +80,7 @@ Simulator::Simulator(const SimParams& params) : params_(params) {
         tp.seed = params.seed;
         traffic_ = std::make_unique<Traffic>(scene_, tp);
     }
-    impl_ = std::make_unique<Impl>();
+    impl_ = std::make_unique<Impl>(params.threads);
     impl_->static_scene = std::make_unique<StaticScene>(impl_->device, scene_.mesh);
     for (const auto& rig : rigs_) {
         impl_->renderers.emplace_back(rig.info(), params.sensor);
