@@ -33,7 +33,7 @@ struct SensorFeatureParams {
     SiftKeypointParams sift{};
     FpfhParams fpfh{};
     // G-ICP / p2p cloud: voxel size (m) and the k of its covariances.
-    double gicp_voxel_size_m = 0.3;
+    double gicp_voxel_size_m = 0.5;
     int gicp_k_neighbors = 20;
     // The octree cloud is "plane only" when the second largest eigenvalue of its normals'
     // scatter matrix (1/N sum n n^T) is below this: every normal (nearly) parallel.

@@ -34,6 +34,7 @@ TEST(FeatureMatching, RecoversAKnownPermutation) {
         FeatureMatchingParams params;
         params.mutual = mutual;
         params.ratio = mutual ? 1.0 : 0.8;
+        params.candidates_per_source = 1;
         const Correspondences matches = match_features(source, target, params);
         ASSERT_EQ(matches.size(), source.size()) << "mutual " << mutual;
         for (const Correspondence& c : matches) {
@@ -53,6 +54,7 @@ TEST(FeatureMatching, MutualAndRatioFilterAmbiguousMatches) {
     FeatureMatchingParams params;
     params.mutual = true;
     params.ratio = 0.9;
+    params.candidates_per_source = 1;
     const Correspondences matches = match_features(source, target, params);
     int correct = 0;
     for (const Correspondence& c : matches) {

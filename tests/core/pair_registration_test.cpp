@@ -1,0 +1,57 @@
+#include "core/pair_registration.hpp"
+
+#include <gtest/gtest.h>
+
+#include "core/se3.hpp"
+#include "tests/core/synthetic_lidar_scene.hpp"
+
+namespace lidarfuse::core {
+namespace {
+
+SensorFeatures street_features(std::size_t sensor) {
+    testing::ScanPattern pattern;
+    pattern.columns = 512;
+    pattern.range_noise_sigma_m = 0.03;
+    const PointCloud cloud = testing::scan_scene(testing::street_scene(), testing::street_sensor_poses()[sensor],
+                                                 pattern, 100 + static_cast<std::uint32_t>(sensor));
+    return compute_sensor_features(cloud, {});
+}
+
+// Sensors 0 and 2 of the street: 100 degrees of relative yaw, no initial guess.
+TEST(PairRegistration, RegistersTwoSensorsAndIsDeterministic) {
+    const SensorFeatures target = street_features(0);
+    const SensorFeatures source = street_features(2);
+    ASSERT_EQ(target.status, SensorFeatureStatus::kOk);
+    ASSERT_EQ(source.status, SensorFeatureStatus::kOk);
+    const auto poses = testing::street_sensor_poses();
+    const Eigen::Isometry3d truth = poses[0].inverse() * poses[2];
+    const PairResult r = register_pair(source, target, 2, 0);
+    ASSERT_EQ(r.status, PairStatus::kOk) << to_string(r.status);
+    EXPECT_EQ(r.source, 2);
+    EXPECT_EQ(r.target, 0);
+    EXPECT_LT(translation_error_m(r.T_target_source, truth), 0.03);
+    EXPECT_LT(rotation_error_deg(r.T_target_source, truth), 0.1);
+    EXPECT_GE(r.candidates, 1);
+    EXPECT_GE(r.chosen_candidate, 0);
+    EXPECT_GT(r.num_matches, r.ransac_inliers);
+    EXPECT_GT(r.overlap_share, 0.3);
+    EXPECT_LT(r.p2p_error_m, 0.5);
+    EXPECT_GT(r.min_hessian_eigenvalue, 0.0);
+    EXPECT_TRUE(r.information.isApprox(r.information.transpose()));
+
+    const PairResult again = register_pair(source, target, 2, 0);
+    EXPECT_TRUE(again.T_target_source.isApprox(r.T_target_source, 0.0));
+    EXPECT_EQ(again.num_matches, r.num_matches);
+    EXPECT_EQ(again.chosen_candidate, r.chosen_candidate);
+}
+
+TEST(PairRegistration, FailedSensorIsNotMatched) {
+    const SensorFeatures target = street_features(0);
+    const SensorFeatures empty = compute_sensor_features(PointCloud{}, {});
+    const PairResult r = register_pair(empty, target, 1, 0);
+    EXPECT_EQ(r.status, PairStatus::kSensorFailed);
+    EXPECT_TRUE(r.T_target_source.isApprox(Eigen::Isometry3d::Identity()));
+}
+
+}  // namespace
+}  // namespace lidarfuse::core
