@@ -46,15 +46,15 @@ struct RoadsideScene {
 
     RoadsideScene() {
         boxes = {
-            {{-100, 10, 0}, {100, 25, 0.15}},    {{-100, -25, 0}, {100, -10, 0.15}},  // sidewalks
-            {{-60, 25, 0}, {-6, 40, 12}},        {{6, 25, 0}, {60, 45, 9}},           // buildings
-            {{-50, -40, 0}, {20, -25, 15}},      {{26, -45, 0}, {70, -28, 6}},
-            {{-20, -7.5, 0}, {-15.5, -5.7, 1.5}}, {{4, -4, 0}, {8.5, -2.2, 1.45}},     // cars
-            {{-8, 1, 0}, {-3.6, 2.8, 1.6}},      {{15, 4, 0}, {19.5, 5.8, 1.5}},
-            {{-35, 4.5, 0}, {-23, 7, 3.8}},      {{28, -6.5, 0}, {40, -4, 3.8}},      // trucks
-            {{-70, -2, 0}, {-65.5, -0.2, 1.5}},  {{45, 1, 0}, {49.5, 2.8, 1.5}},
+            {{-100, 10, 0}, {100, 25, 0.15}},     {{-100, -25, 0}, {100, -10, 0.15}},  // sidewalks
+            {{-60, 25, 0}, {-6, 40, 12}},         {{6, 25, 0}, {60, 45, 9}},           // buildings
+            {{-50, -40, 0}, {20, -25, 15}},       {{26, -45, 0}, {70, -28, 6}},
+            {{-20, -7.5, 0}, {-15.5, -5.7, 1.5}}, {{4, -4, 0}, {8.5, -2.2, 1.45}},  // cars
+            {{-8, 1, 0}, {-3.6, 2.8, 1.6}},       {{15, 4, 0}, {19.5, 5.8, 1.5}},
+            {{-35, 4.5, 0}, {-23, 7, 3.8}},       {{28, -6.5, 0}, {40, -4, 3.8}},  // trucks
+            {{-70, -2, 0}, {-65.5, -0.2, 1.5}},   {{45, 1, 0}, {49.5, 2.8, 1.5}},
         };
-        poles = {{-30, 11, 0.15, 7}, {0, 11, 0.15, 7}, {30, 11, 0.15, 7}, {-15, -11, 0.15, 7},
+        poles = {{-30, 11, 0.15, 7}, {0, 11, 0.15, 7},   {30, 11, 0.15, 7},  {-15, -11, 0.15, 7},
                  {15, -11, 0.15, 7}, {45, -11, 0.15, 7}, {-45, -11, 0.3, 3}, {8, 12, 0.3, 3}};
     }
 
@@ -98,8 +98,9 @@ struct RoadsideScene {
 
 // One OS1-64 scan (64 beams over +-16.6 degrees, 1024 columns) in the sensor frame,
 // Gaussian range noise, returns beyond 120 m dropped.
-std::vector<Eigen::Vector3d> scan(const RoadsideScene& scene, const Eigen::Isometry3d& T_world_sensor,
-                                  double range_sigma_m, std::mt19937& rng) {
+std::vector<Eigen::Vector3d> scan(const RoadsideScene& scene,
+                                  const Eigen::Isometry3d& T_world_sensor, double range_sigma_m,
+                                  std::mt19937& rng) {
     std::normal_distribution<double> noise(0.0, range_sigma_m);
     std::vector<Eigen::Vector3d> points;
     points.reserve(64 * 1024);
@@ -109,7 +110,8 @@ std::vector<Eigen::Vector3d> scan(const RoadsideScene& scene, const Eigen::Isome
             const double az = 2.0 * 3.14159265358979323846 * col / 1024.0;
             const Eigen::Vector3d d_s(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
                                       std::sin(el));
-            const double t = scene.cast(T_world_sensor.translation(), T_world_sensor.linear() * d_s);
+            const double t =
+                scene.cast(T_world_sensor.translation(), T_world_sensor.linear() * d_s);
             if (t < 0.5 || t > 120.0) continue;
             points.push_back(d_s * (t + noise(rng)));
         }
@@ -118,7 +120,8 @@ std::vector<Eigen::Vector3d> scan(const RoadsideScene& scene, const Eigen::Isome
 }
 
 double ms_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+        .count();
 }
 
 void print(const std::string& name, double value, const char* unit) {
@@ -186,7 +189,8 @@ int main(int argc, char** argv) {
         const int reps = static_cast<int>(3 * scale) + 1;
         const auto start = std::chrono::steady_clock::now();
         for (int r = 0; r < reps; ++r) lidarfuse::core::estimate_normals_covariances(&full, np);
-        print("normals_full_scan_t" + std::to_string(threads) + "_time", ms_since(start) / reps, "ms");
+        print("normals_full_scan_t" + std::to_string(threads) + "_time", ms_since(start) / reps,
+              "ms");
     }
 
     struct Case {
@@ -195,11 +199,13 @@ int main(int argc, char** argv) {
         double max_corr_m;
         int reps;
     };
-    const Case cases[] = {{"voxel3m", 3.0, 6.0, 200}, {"voxel1m", 1.0, 2.0, 50}, {"voxel0.3m", 0.3, 1.0, 10}};
+    const Case cases[] = {
+        {"voxel3m", 3.0, 6.0, 200}, {"voxel1m", 1.0, 2.0, 50}, {"voxel0.3m", 0.3, 1.0, 10}};
     for (const Case& c : cases) {
         for (const int threads : {1, 2}) {
             Prepared p = prepare(scan_a, scan_b, c.voxel_m, threads);
-            const std::string prefix = std::string("gicp_") + c.name + "_t" + std::to_string(threads);
+            const std::string prefix =
+                std::string("gicp_") + c.name + "_t" + std::to_string(threads);
             if (threads == 1) {
                 print(std::string("gicp_") + c.name + "_target_points",
                       static_cast<double>(p.target.size()), "points");
@@ -222,7 +228,8 @@ int main(int argc, char** argv) {
             print(prefix + "_converged", result.converged ? 1 : 0, "bool");
             print(prefix + "_inlier_ratio", result.inlier_ratio, "ratio");
             print(prefix + "_trans_error",
-                  100.0 * lidarfuse::core::translation_error_m(result.T_target_source, T_true), "cm");
+                  100.0 * lidarfuse::core::translation_error_m(result.T_target_source, T_true),
+                  "cm");
             print(prefix + "_rot_error",
                   lidarfuse::core::rotation_error_deg(result.T_target_source, T_true), "deg");
         }

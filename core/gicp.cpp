@@ -12,12 +12,18 @@ namespace lidarfuse::core {
 
 const char* to_string(GicpStatus status) {
     switch (status) {
-        case GicpStatus::kConverged: return "converged";
-        case GicpStatus::kMaxIterations: return "max_iterations";
-        case GicpStatus::kEmptyInput: return "empty_input";
-        case GicpStatus::kMissingCovariances: return "missing_covariances";
-        case GicpStatus::kTooFewCorrespondences: return "too_few_correspondences";
-        case GicpStatus::kSingular: return "singular";
+        case GicpStatus::kConverged:
+            return "converged";
+        case GicpStatus::kMaxIterations:
+            return "max_iterations";
+        case GicpStatus::kEmptyInput:
+            return "empty_input";
+        case GicpStatus::kMissingCovariances:
+            return "missing_covariances";
+        case GicpStatus::kTooFewCorrespondences:
+            return "too_few_correspondences";
+        case GicpStatus::kSingular:
+            return "singular";
     }
     return "unknown";
 }
@@ -47,16 +53,21 @@ struct Kernel {
 
     double rho(double s) const {
         switch (type) {
-            case RobustKernel::kNone: return s;
-            case RobustKernel::kHuber: return s <= c2 ? s : 2.0 * c * std::sqrt(s) - c2;
-            case RobustKernel::kGemanMcClure: return c2 * s / (c2 + s);
+            case RobustKernel::kNone:
+                return s;
+            case RobustKernel::kHuber:
+                return s <= c2 ? s : 2.0 * c * std::sqrt(s) - c2;
+            case RobustKernel::kGemanMcClure:
+                return c2 * s / (c2 + s);
         }
         return s;
     }
     double weight(double s) const {
         switch (type) {
-            case RobustKernel::kNone: return 1.0;
-            case RobustKernel::kHuber: return s <= c2 ? 1.0 : c / std::sqrt(s);
+            case RobustKernel::kNone:
+                return 1.0;
+            case RobustKernel::kHuber:
+                return s <= c2 ? 1.0 : c / std::sqrt(s);
             case RobustKernel::kGemanMcClure: {
                 const double d = c2 + s;
                 return c2 * c2 / (d * d);
@@ -121,8 +132,7 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
             }
             // M = (C_B + R C_A R^T)^-1; skip a correspondence whose combined covariance is
             // singular (only possible with unregularised, degenerate covariances).
-            const Eigen::Matrix3d RCR =
-                target_covs[j] + R * source.covariances[i] * R.transpose();
+            const Eigen::Matrix3d RCR = target_covs[j] + R * source.covariances[i] * R.transpose();
             Eigen::Matrix3d M;
             bool invertible = false;
             RCR.computeInverseWithCheck(M, invertible, 1e-12);

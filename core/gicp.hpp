@@ -30,13 +30,12 @@
 // vs 2 ms per registration at load 6 on 2 cores); processes that pass num_threads > 1
 // should run with OMP_WAIT_POLICY=passive (it is read at program start).
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <vector>
-
-#include <Eigen/Core>
-#include <Eigen/Geometry>
 
 #include "core/kdtree.hpp"
 #include "core/point_cloud.hpp"
@@ -147,18 +146,17 @@ private:
     struct Linearization {
         Matrix6d H = Matrix6d::Zero();
         Vector6d b = Vector6d::Zero();
-        double error = 0.0;          // robust
+        double error = 0.0;           // robust
         double sum_sq_dist_m2 = 0.0;  // Euclidean, for rmse_m
         std::size_t num_inliers = 0;
         void reset() { *this = Linearization(); }
         void add(const Linearization& o);
     };
     // Correspondence search + H, b, error at T (correspondences kept in the buffers).
-    void linearize(const GicpTarget& target, const PointCloud& source,
-                   const Eigen::Isometry3d& T, Linearization* lin);
+    void linearize(const GicpTarget& target, const PointCloud& source, const Eigen::Isometry3d& T,
+                   Linearization* lin);
     // Robust error over the stored correspondences at T (no k-d tree search).
-    double evaluate(const GicpTarget& target, const PointCloud& source,
-                    const Eigen::Isometry3d& T);
+    double evaluate(const GicpTarget& target, const PointCloud& source, const Eigen::Isometry3d& T);
     int num_threads() const;
 
     GicpParams params_;

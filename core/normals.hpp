@@ -17,10 +17,9 @@
 //
 // Threading: OpenMP with `num_threads` threads for this call only (never a global setting).
 
+#include <Eigen/Core>
 #include <cstddef>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "core/kdtree.hpp"
 #include "core/point_cloud.hpp"

@@ -6,11 +6,10 @@
 // w_i = 1 if |u_i - v_i| <= r_c else 0, N = number of source points with w_i = 1.
 // Also reports N and the overlap share N / |source|. Units: metres.
 
-#include <cstddef>
-#include <vector>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstddef>
+#include <vector>
 
 #include "core/kdtree.hpp"
 
@@ -22,8 +21,8 @@ struct P2pErrorParams {
 };
 
 struct P2pErrorResult {
-    bool valid = false;          // N > 0 (otherwise error_m is 0 and meaningless)
-    double error_m = 0.0;        // E
+    bool valid = false;                 // N > 0 (otherwise error_m is 0 and meaningless)
+    double error_m = 0.0;               // E
     std::size_t num_within_cutoff = 0;  // N
     std::size_t num_source = 0;
     double overlap_share = 0.0;  // N / num_source

@@ -45,8 +45,7 @@ struct PoseGraph::Edge {
 };
 
 PoseGraph::PoseGraph(const PoseGraphParams& params)
-    : params_(params),
-      quaternion_manifold_(std::make_unique<ceres::EigenQuaternionManifold>()) {
+    : params_(params), quaternion_manifold_(std::make_unique<ceres::EigenQuaternionManifold>()) {
     if (params_.huber_delta > 0.0) loss_ = std::make_unique<ceres::HuberLoss>(params_.huber_delta);
     ceres::Problem::Options options;
     // Removal in O(edges of the block) instead of O(problem): the sliding window removes
@@ -142,8 +141,7 @@ PoseGraph::EdgeId PoseGraph::add_edge(NodeId a, NodeId b, const Eigen::Isometry3
     edge->cost.reset(RelativePoseError::create(T_a_b, edge->sqrt_information));
     Node& na = *it_a->second;
     Node& nb = *it_b->second;
-    edge->block =
-        problem_->AddResidualBlock(edge->cost.get(), loss_.get(), na.q, na.t, nb.q, nb.t);
+    edge->block = problem_->AddResidualBlock(edge->cost.get(), loss_.get(), na.q, na.t, nb.q, nb.t);
     const EdgeId id = next_edge_id_++;
     na.edges.insert(id);
     nb.edges.insert(id);
@@ -204,7 +202,8 @@ std::optional<EdgeResidual> PoseGraph::edge_residual(EdgeId id) const {
     EdgeResidual out;
     out.chi2 = r.squaredNorm();
     const double delta = params_.huber_delta;
-    out.robust_weight = (delta > 0.0 && out.chi2 > delta * delta) ? delta / std::sqrt(out.chi2) : 1.0;
+    out.robust_weight =
+        (delta > 0.0 && out.chi2 > delta * delta) ? delta / std::sqrt(out.chi2) : 1.0;
     const Eigen::Isometry3d E = edge.T_a_b.inverse() * na.get().inverse() * nb.get();
     out.translation_m = E.translation().norm();
     out.rotation_deg = rotation_angle_deg(E.linear(), Eigen::Matrix3d::Identity());

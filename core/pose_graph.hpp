@@ -21,6 +21,8 @@
 //
 // Not thread safe; optimize() may use params.num_threads Ceres threads internally.
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -28,9 +30,6 @@
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
-#include <Eigen/Geometry>
 
 #include "core/se3.hpp"
 
@@ -65,9 +64,9 @@ struct PoseGraphSummary {
 
 // After optimisation: how well an edge agrees with the poses.
 struct EdgeResidual {
-    double chi2 = 0.0;          // |S log(T_a_b^-1 T_a^-1 T_b)|^2, whitened
-    double robust_weight = 1.0; // Huber IRLS weight at chi2 (1 inside delta, < 1 beyond)
-    double translation_m = 0.0; // unwhitened translation / rotation disagreement
+    double chi2 = 0.0;           // |S log(T_a_b^-1 T_a^-1 T_b)|^2, whitened
+    double robust_weight = 1.0;  // Huber IRLS weight at chi2 (1 inside delta, < 1 beyond)
+    double translation_m = 0.0;  // unwhitened translation / rotation disagreement
     double rotation_deg = 0.0;
 };
 

@@ -62,8 +62,7 @@ std::size_t filter_range(const PointCloud& in, const RangeFilterParams& params, 
 }
 
 std::size_t remove_statistical_outliers(const PointCloud& in,
-                                        const StatisticalOutlierParams& params,
-                                        PointCloud* out,
+                                        const StatisticalOutlierParams& params, PointCloud* out,
                                         std::vector<std::uint32_t>* kept_indices) {
     const std::size_t n = in.points.size();
     const std::size_t k = static_cast<std::size_t>(std::max(1, params.k_neighbors));

@@ -7,11 +7,10 @@
 // (`kept_indices`), so callers can carry labels along. `out` may not alias `in`. Buffers
 // are reused: pass the same `out` every frame to avoid reallocation.
 
+#include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "core/point_cloud.hpp"
 
@@ -38,8 +37,7 @@ struct StatisticalOutlierParams {
 
 // Input points must be finite (run filter_range first). Returns the count kept.
 std::size_t remove_statistical_outliers(const PointCloud& in,
-                                        const StatisticalOutlierParams& params,
-                                        PointCloud* out,
+                                        const StatisticalOutlierParams& params, PointCloud* out,
                                         std::vector<std::uint32_t>* kept_indices = nullptr);
 
 struct RadiusOutlierParams {

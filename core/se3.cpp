@@ -120,7 +120,8 @@ double rotation_error_deg(const Eigen::Isometry3d& T_est, const Eigen::Isometry3
     return rotation_angle_deg(T_est.linear(), T_ref.linear());
 }
 
-Eigen::Isometry3d isometry_from_quaternion(const Eigen::Quaterniond& q, const Eigen::Vector3d& t_m) {
+Eigen::Isometry3d isometry_from_quaternion(const Eigen::Quaterniond& q,
+                                           const Eigen::Vector3d& t_m) {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.linear() = q.normalized().toRotationMatrix();
     T.translation() = t_m;

@@ -42,8 +42,7 @@ double rotation_error_rad(const Eigen::Isometry3d& T_est, const Eigen::Isometry3
 double rotation_error_deg(const Eigen::Isometry3d& T_est, const Eigen::Isometry3d& T_ref);
 
 // Isometry from a (not necessarily normalised) quaternion and a translation.
-Eigen::Isometry3d isometry_from_quaternion(const Eigen::Quaterniond& q,
-                                           const Eigen::Vector3d& t_m);
+Eigen::Isometry3d isometry_from_quaternion(const Eigen::Quaterniond& q, const Eigen::Vector3d& t_m);
 // The rotation of T as a unit quaternion with w >= 0 (canonical sign).
 Eigen::Quaterniond quaternion_of(const Eigen::Isometry3d& T);
 

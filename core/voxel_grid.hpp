@@ -10,11 +10,10 @@
 //
 // Not thread safe (it owns scratch buffers); separate objects are independent.
 
+#include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "core/point_cloud.hpp"
 
@@ -40,8 +39,8 @@ struct VoxelIndexMap {
 struct VoxelGridStats {
     std::size_t num_input = 0;
     std::size_t num_output = 0;
-    std::size_t num_invalid = 0;          // non-finite or beyond the grid's range (~1e6 voxels)
-    std::size_t num_dropped_sparse = 0;   // input points in voxels below min_points_per_voxel
+    std::size_t num_invalid = 0;         // non-finite or beyond the grid's range (~1e6 voxels)
+    std::size_t num_dropped_sparse = 0;  // input points in voxels below min_points_per_voxel
 };
 
 class VoxelGrid {

@@ -1,7 +1,6 @@
 #include "core/gicp.hpp"
 
 #include <gtest/gtest.h>
-
 #include <omp.h>
 
 #include <Eigen/Eigenvalues>
@@ -52,6 +51,7 @@ TEST_F(GicpScene, IdentityWhenSourceEqualsTarget) {
     EXPECT_DOUBLE_EQ(r.inlier_ratio, 1.0);
     EXPECT_LT(r.rmse_m, 1e-9);
     EXPECT_LE(r.iterations, 2);
+    EXPECT_LT(r.reduced_chi2, 1e-12);
 }
 
 // Source = the target's points seen from another pose: exact correspondences exist, so
@@ -65,12 +65,13 @@ TEST_F(GicpScene, RecoversKnownTransformsWithoutNoise) {
     params.rotation_eps_rad = 1e-7;
     GicpRegistration registration(params);
     for (int trial = 0; trial < 6; ++trial) {
-        const double t_m = 0.2 + 0.16 * trial;              // up to 1 m
+        const double t_m = 0.2 + 0.16 * trial;                  // up to 1 m
         const double angle = (2.0 + 1.6 * trial) * M_PI / 180;  // up to 10 degrees
         const Eigen::Isometry3d T_true = test::random_transform(rng, t_m, angle);
         const PointCloud source =
             with_covariances(test::transformed(T_true.inverse(), target_points_));
-        for (const GicpSolver solver : {GicpSolver::kLevenbergMarquardt, GicpSolver::kGaussNewton}) {
+        for (const GicpSolver solver :
+             {GicpSolver::kLevenbergMarquardt, GicpSolver::kGaussNewton}) {
             params.solver = solver;
             registration.set_params(params);
             const GicpResult r = registration.align(target_, source, Eigen::Isometry3d::Identity());
@@ -99,6 +100,9 @@ TEST_F(GicpScene, RecoversTransformWithIndependentSamplingAndNoise) {
     EXPECT_TRUE(r.converged) << to_string(r.status);
     EXPECT_LT(translation_error_m(r.T_target_source, T_true), 0.01);
     EXPECT_LT(rotation_error_deg(r.T_target_source, T_true), 0.05);
+    // Noise and resampling leave a residual: the fitted scale is positive and finite.
+    EXPECT_GT(r.reduced_chi2, 1e-4);
+    EXPECT_TRUE(std::isfinite(r.reduced_chi2));
 }
 
 // 20% of the source replaced by uniform clutter: the robust kernels keep the estimate.
@@ -107,7 +111,8 @@ TEST_F(GicpScene, RobustKernelsTolerateOutliers) {
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.3, 3.0 * M_PI / 180);
     std::vector<Eigen::Vector3d> world = target_points_;
     std::uniform_real_distribution<double> u(-15.0, 15.0), h(0.0, 6.0);
-    for (std::size_t i = 0; i < world.size(); i += 5) world[i] = Eigen::Vector3d(u(rng), u(rng), h(rng));
+    for (std::size_t i = 0; i < world.size(); i += 5)
+        world[i] = Eigen::Vector3d(u(rng), u(rng), h(rng));
     const PointCloud source = with_covariances(test::transformed(T_true.inverse(), world));
     for (const RobustKernel kernel : {RobustKernel::kHuber, RobustKernel::kGemanMcClure}) {
         GicpParams params;

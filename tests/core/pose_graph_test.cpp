@@ -1,11 +1,11 @@
 #include "core/pose_graph.hpp"
 
-#include "core/relative_pose_error.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
+
+#include "core/relative_pose_error.hpp"
 
 namespace lidarfuse::core {
 namespace {
@@ -129,7 +129,8 @@ TEST_F(PoseGraphLoop, WithoutHuberTheOutlierPullsTheSolution) {
                    information(s_rot, s_trans));
     ASSERT_TRUE(graph.optimize().usable);
     double worst = 0.0;
-    for (int i = 0; i < 6; ++i) worst = std::max(worst, translation_error_m(*graph.node_pose(i), truth_[i]));
+    for (int i = 0; i < 6; ++i)
+        worst = std::max(worst, translation_error_m(*graph.node_pose(i), truth_[i]));
     EXPECT_GT(worst, 0.2);
 }
 

@@ -13,7 +13,8 @@ TEST(Preprocess, RangeFilterDropsInvalidAndOutOfRange) {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     const double inf = std::numeric_limits<double>::infinity();
     PointCloud in;
-    in.points = {{0, 0, 0}, {1, 0, 0}, {nan, 1, 1}, {0, 250, 0}, {0, 0.3, 0}, {inf, 0, 0}, {3, 4, 0}};
+    in.points = {{0, 0, 0},   {1, 0, 0},   {nan, 1, 1}, {0, 250, 0},
+                 {0, 0.3, 0}, {inf, 0, 0}, {3, 4, 0}};
     in.normals.assign(in.points.size(), Eigen::Vector3d::UnitZ());
     in.normals[6] = Eigen::Vector3d::UnitX();
     PointCloud out;

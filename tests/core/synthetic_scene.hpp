@@ -31,9 +31,11 @@ inline void sample_pole(std::mt19937& rng, const Eigen::Vector3d& base, double r
 }
 
 // A closed box without its bottom, axis-aligned in its own frame, yawed by yaw_rad.
-inline void sample_box(std::mt19937& rng, const Eigen::Vector3d& corner, const Eigen::Vector3d& size,
-                       double yaw_rad, double points_per_m2, std::vector<Eigen::Vector3d>* out) {
-    const Eigen::Matrix3d R = Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+inline void sample_box(std::mt19937& rng, const Eigen::Vector3d& corner,
+                       const Eigen::Vector3d& size, double yaw_rad, double points_per_m2,
+                       std::vector<Eigen::Vector3d>* out) {
+    const Eigen::Matrix3d R =
+        Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     const Eigen::Vector3d ex = R * Eigen::Vector3d(size.x(), 0, 0);
     const Eigen::Vector3d ey = R * Eigen::Vector3d(0, size.y(), 0);
     const Eigen::Vector3d ez(0, 0, size.z());
@@ -56,10 +58,10 @@ inline std::vector<Eigen::Vector3d> make_structured_scene(std::mt19937& rng,
     auto plane = [&](const Eigen::Vector3d& o, const Eigen::Vector3d& u, const Eigen::Vector3d& v) {
         sample_rectangle(rng, o, u, v, static_cast<int>(u.cross(v).norm() * points_per_m2), &pts);
     };
-    plane({-15, -15, 0}, {30, 0, 0}, {0, 30, 0});           // ground
-    plane({12, -10, 0}, {0, 20, 0}, {0, 0, 4});             // wall facing -x
-    plane({-10, -11, 0}, {18, 0, 0}, {0, 0, 5});            // wall facing +y
-    plane({-14, 4, 0}, {6, 7, 0}, {0, 0, 3.5});             // oblique wall
+    plane({-15, -15, 0}, {30, 0, 0}, {0, 30, 0});  // ground
+    plane({12, -10, 0}, {0, 20, 0}, {0, 0, 4});    // wall facing -x
+    plane({-10, -11, 0}, {18, 0, 0}, {0, 0, 5});   // wall facing +y
+    plane({-14, 4, 0}, {6, 7, 0}, {0, 0, 3.5});    // oblique wall
     sample_box(rng, {3, 4, 0}, {2, 3, 1.5}, 0.0, points_per_m2 * 2, &pts);
     sample_box(rng, {-6, -3, 0}, {4, 2, 2.5}, 0.5, points_per_m2 * 2, &pts);
     const int pole_points = static_cast<int>(40 * points_per_m2);
@@ -71,7 +73,8 @@ inline std::vector<Eigen::Vector3d> make_structured_scene(std::mt19937& rng,
     return pts;
 }
 
-inline void add_gaussian_noise(std::mt19937& rng, double sigma_m, std::vector<Eigen::Vector3d>* pts) {
+inline void add_gaussian_noise(std::mt19937& rng, double sigma_m,
+                               std::vector<Eigen::Vector3d>* pts) {
     std::normal_distribution<double> noise(0.0, sigma_m);
     for (auto& p : *pts) p += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
 }

@@ -14,7 +14,8 @@ namespace {
 using Key = std::tuple<long, long, long>;
 
 Key key_of(const Eigen::Vector3d& p, double size) {
-    return {static_cast<long>(std::floor(p.x() / size)), static_cast<long>(std::floor(p.y() / size)),
+    return {static_cast<long>(std::floor(p.x() / size)),
+            static_cast<long>(std::floor(p.y() / size)),
             static_cast<long>(std::floor(p.z() / size))};
 }
 
