@@ -1,0 +1,42 @@
+// The unit file: `systemd-analyze verify` must print nothing, and the offline security
+// analysis must rate it well (our threshold: exposure <= 2.0 of 10).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <regex>
+
+#include "tests/support/test_data.hpp"
+
+namespace lidarfuse {
+namespace {
+
+std::filesystem::path test_unit() {
+    // build/daemon/lidarfused -> build/systemd/test/lidarfused.service (CMake generates it
+    // with ExecStart pointing at the built daemon).
+    return std::filesystem::path(test::daemon_path()).parent_path().parent_path() / "systemd" / "test" /
+           "lidarfused.service";
+}
+
+bool have_systemd_analyze() { return test::run_command("command -v systemd-analyze", nullptr) == 0; }
+
+TEST(SystemdUnit, VerifiesWithoutAnyOutput) {
+    if (!have_systemd_analyze()) GTEST_SKIP() << "systemd-analyze not installed (Debian package systemd)";
+    ASSERT_TRUE(std::filesystem::exists(test_unit())) << test_unit();
+    std::string out;
+    const int status = test::run_command("systemd-analyze verify " + test_unit().string(), &out);
+    EXPECT_EQ(status, 0) << out;
+    EXPECT_EQ(out, "") << "systemd-analyze verify must print nothing";
+}
+
+TEST(SystemdUnit, OfflineSecurityExposureIsLow) {
+    if (!have_systemd_analyze()) GTEST_SKIP() << "systemd-analyze not installed (Debian package systemd)";
+    std::string out;
+    test::run_command("systemd-analyze security --offline=yes " + test_unit().string(), &out);
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(out, m, std::regex("Overall exposure level for lidarfused.service: ([0-9.]+)")))
+        << out;
+    EXPECT_LE(std::stod(m[1]), 2.0) << out;
+}
+
+}  // namespace
+}  // namespace lidarfuse
