@@ -3,10 +3,13 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <regex>
 #include <thread>
@@ -105,6 +108,62 @@ TEST(Lidarfused, FusesAReplayedStationAndStopsCleanlyOnSigterm) {
     ASSERT_EQ(test::run_command(test::tool_path() + " eval --gt " + (d / "sim" / "ground_truth.csv").string() +
                                     " --poses " + (d / "out" / "poses.csv").string(), &out), 0) << out;
     EXPECT_THAT(out, HasSubstr("eval_mean_strict_rmse_trans 0.0"));  // centimetres, not metres
+}
+
+// The daemon speaks systemd's notify protocol: READY=1 once bound, WATCHDOG=1 while the
+// fusion heartbeat is fresh, STATUS= lines, STOPPING=1 on SIGTERM.
+TEST(Lidarfused, SpeaksTheSystemdNotifyProtocol) {
+    test::TempDir dir("lfd-notify");
+    const auto d = dir.path();
+    std::string out;
+    ASSERT_EQ(test::run_command(test::tool_path() + " sim --scenario curve --sensors 1 --seconds 0.1 --out " +
+                                    (d / "sim").string(), &out), 0) << out;
+    std::ofstream(d / "sim" / "daemon.yaml")
+        << "sensors:\n  - {name: lidar0, udp_port: " << base_port() + 1 << ", metadata: lidar0.json}\n"
+        << "network: {bind_address: 127.0.0.1}\noutput: {directory: " << (d / "out").string() << "}\n";
+    const std::string socket_path = (d / "notify.sock").string();
+    const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    ASSERT_GE(fd, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, socket_path.c_str(), sizeof(addr.sun_path) - 1);
+    ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+    timeval tv{20, 0};
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof(tv));
+
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        ::setenv("NOTIFY_SOCKET", socket_path.c_str(), 1);
+        ::setenv("WATCHDOG_USEC", "400000", 1);
+        ::unsetenv("WATCHDOG_PID");
+        const std::string config = (d / "sim" / "daemon.yaml").string();
+        std::freopen((d / "daemon.log").string().c_str(), "w", stderr);
+        ::execl(test::daemon_path().c_str(), "lidarfused", "--config", config.c_str(), nullptr);
+        ::_exit(127);
+    }
+    const auto receive = [fd] {
+        char buffer[1024];
+        const ssize_t n = ::recv(fd, buffer, sizeof(buffer), 0);
+        return n > 0 ? std::string(buffer, static_cast<std::size_t>(n)) : std::string();
+    };
+    EXPECT_THAT(receive(), HasSubstr("READY=1\nSTATUS=listening on UDP"));
+    bool watchdog = false, status = false;
+    for (int i = 0; i < 40 && !(watchdog && status); ++i) {
+        const auto message = receive();
+        watchdog = watchdog || message == "WATCHDOG=1";
+        status = status || message.rfind("STATUS=fused ", 0) == 0;
+    }
+    EXPECT_TRUE(watchdog);
+    EXPECT_TRUE(status);
+    ASSERT_EQ(::kill(pid, SIGTERM), 0);
+    bool stopping = false;
+    for (int i = 0; i < 20 && !stopping; ++i) stopping = receive() == "STOPPING=1";
+    EXPECT_TRUE(stopping);
+    int exit_status = 0;
+    ASSERT_EQ(::waitpid(pid, &exit_status, 0), pid);
+    EXPECT_TRUE(WIFEXITED(exit_status) && WEXITSTATUS(exit_status) == 0);
+    ::close(fd);
 }
 
 }  // namespace
