@@ -40,6 +40,7 @@ constexpr std::size_t kColumnHeaderSize = 12;
 // Header field offsets: STANDARD / FUSA.
 constexpr std::size_t kInitIdOffset[] = {4, 1};
 constexpr std::size_t kProdSnOffset[] = {7, 11};
+constexpr std::size_t kAlertFlagsOffset[] = {12, 8};
 
 void store(std::uint8_t* p, std::uint64_t value, std::size_t bytes) {
     std::memcpy(p, &value, bytes);  // little-endian host
@@ -236,6 +237,11 @@ std::uint64_t PacketFormat::prod_sn(const std::uint8_t* pkt) const {
     return fetch(pkt + kProdSnOffset[k], 5);
 }
 
+std::uint8_t PacketFormat::alert_flags(const std::uint8_t* pkt) const {
+    if (header_type() == HeaderType::kLegacy) return 0;
+    return pkt[kAlertFlagsOffset[header_type() == HeaderType::kFusa ? 1 : 0]];
+}
+
 std::uint8_t PacketFormat::countdown_thermal_shutdown(const std::uint8_t* pkt) const {
     return header_type() == HeaderType::kLegacy ? 0 : pkt[16];
 }
@@ -325,6 +331,11 @@ void PacketFormat::set_prod_sn(std::uint8_t* pkt, std::uint64_t value) const {
     if (header_type() == HeaderType::kLegacy) return;
     const int k = header_type() == HeaderType::kFusa ? 1 : 0;
     store(pkt + kProdSnOffset[k], value & 0xFFFFFFFFFFULL, 5);
+}
+
+void PacketFormat::set_alert_flags(std::uint8_t* pkt, std::uint8_t value) const {
+    if (header_type() == HeaderType::kLegacy) return;
+    pkt[kAlertFlagsOffset[header_type() == HeaderType::kFusa ? 1 : 0]] = value;
 }
 
 void PacketFormat::set_countdown_thermal_shutdown(std::uint8_t* pkt, std::uint8_t value) const {

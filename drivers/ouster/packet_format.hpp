@@ -10,14 +10,15 @@
 //                         measurement_id u16, frame_id u16, encoder_count u32) + pixels +
 //                         4 B footer (status u32, 0xFFFFFFFF when valid); no packet footer.
 //   STANDARD header type: 32 B packet header (packet_type u16 @0, frame_id u16 @2,
-//                         init_id u24 @4, prod_sn u40 @7, countdown_thermal_shutdown u8
+//                         init_id u24 @4, prod_sn u40 @7, alert_flags u8 @12 (FW 2.5+),
+//                         countdown_thermal_shutdown u8
 //                         @16, countdown_shot_limiting u8 @17, thermal_shutdown u4 @18,
 //                         shot_limiting u4 @19); column = 12 B header (timestamp u64,
 //                         measurement_id u16, status u16, bit 0 = valid) + pixels;
 //                         32 B packet footer whose last 8 B hold a CRC-64 (filled by
 //                         FW 2.5+ in the sample captures; zero on older firmware).
 //   FUSA header type:     as STANDARD except packet_type u8 @0, init_id u24 @1,
-//                         frame_id u32 @4, prod_sn u40 @11.
+//                         frame_id u32 @4, alert_flags u8 @8, prod_sn u40 @11.
 // Pixel fields (values returned after masking and the profile's upshift):
 //   LEGACY        12 B: range u20 @0, reflectivity @4 (low byte), signal u16 @6, nir u16 @8
 //   RNG19 single  12 B: range u19 @0, reflectivity u8 @4, signal u16 @6, nir u16 @8
@@ -142,6 +143,8 @@ public:
     std::uint32_t init_id(const std::uint8_t* pkt) const;
     // 40-bit serial number; LEGACY: 0.
     std::uint64_t prod_sn(const std::uint8_t* pkt) const;
+    // Alert flags byte (FW 2.5+; 0 on older firmware); LEGACY: 0.
+    std::uint8_t alert_flags(const std::uint8_t* pkt) const;
     std::uint8_t countdown_thermal_shutdown(const std::uint8_t* pkt) const;
     std::uint8_t countdown_shot_limiting(const std::uint8_t* pkt) const;
     std::uint8_t thermal_shutdown(const std::uint8_t* pkt) const;
@@ -216,6 +219,7 @@ public:
     void set_frame_id(std::uint8_t* pkt, std::uint32_t value) const;
     void set_init_id(std::uint8_t* pkt, std::uint32_t value) const;
     void set_prod_sn(std::uint8_t* pkt, std::uint64_t value) const;
+    void set_alert_flags(std::uint8_t* pkt, std::uint8_t value) const;
     void set_countdown_thermal_shutdown(std::uint8_t* pkt, std::uint8_t value) const;
     void set_countdown_shot_limiting(std::uint8_t* pkt, std::uint8_t value) const;
     void set_thermal_shutdown(std::uint8_t* pkt, std::uint8_t value) const;

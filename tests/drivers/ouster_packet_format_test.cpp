@@ -111,12 +111,14 @@ void round_trip(UdpProfileLidar profile, int rows, int columns, std::mt19937_64*
     const std::uint64_t serial = (*rng)() & 0xFFFFFFFFFFULL;
     const auto countdown = static_cast<std::uint8_t>((*rng)());
     const auto shot = static_cast<std::uint8_t>((*rng)() & 0x0F);
+    const auto alerts = static_cast<std::uint8_t>((*rng)());
     f.set_packet_type(pkt.data(), PacketFormat::kLidarPacketType);
     f.set_frame_id(pkt.data(), frame_id);
     f.set_init_id(pkt.data(), init_id);
     f.set_prod_sn(pkt.data(), serial);
     f.set_countdown_thermal_shutdown(pkt.data(), countdown);
     f.set_shot_limiting(pkt.data(), shot);
+    f.set_alert_flags(pkt.data(), alerts);
 
     struct Col {
         std::uint64_t ts;
@@ -157,6 +159,7 @@ void round_trip(UdpProfileLidar profile, int rows, int columns, std::mt19937_64*
     EXPECT_EQ(f.packet_type(pkt.data()), legacy ? 0 : 1);
     EXPECT_EQ(f.countdown_thermal_shutdown(pkt.data()), legacy ? 0 : countdown);
     EXPECT_EQ(f.shot_limiting(pkt.data()), legacy ? 0 : shot);
+    EXPECT_EQ(f.alert_flags(pkt.data()), legacy ? 0 : alerts);
     std::vector<std::uint32_t> column_values(static_cast<std::size_t>(rows));
     for (int c = 0; c < columns; ++c) {
         const Col& col = cols[static_cast<std::size_t>(c)];
@@ -308,6 +311,7 @@ TEST(OusterPacketFormat, SamePortCapturesAreToldApartByHeader) {
             EXPECT_EQ(dual.init_id(p), 9342165u);
             EXPECT_EQ(dual.prod_sn(p), 122239000672ULL);
             EXPECT_EQ(dual.check_crc(p), CrcStatus::kValid);
+            EXPECT_EQ(dual.alert_flags(p), 0x8E);  // as captured
             // Column headers at the STANDARD offsets: 16 consecutive ids, all valid.
             const std::uint16_t first = dual.column_measurement_id(dual.column(p, 0));
             for (int c = 0; c < 16; ++c) {
@@ -323,6 +327,7 @@ TEST(OusterPacketFormat, SamePortCapturesAreToldApartByHeader) {
             EXPECT_EQ(fusa.prod_sn(p), 122247000785ULL);
             EXPECT_EQ(fusa.frame_id(p), 1093u);
             EXPECT_EQ(fusa.check_crc(p), CrcStatus::kAbsent);
+            EXPECT_EQ(fusa.alert_flags(p), 0xA7);  // as captured
             ++fusa_packets;
         }
     }
