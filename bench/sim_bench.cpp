@@ -58,7 +58,8 @@ int main(int argc, char** argv) {
         Simulator sim(p);
         CountSink sink;
         const SimStats s = sim.run(sink);
-        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+        const double wall =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
         report("render", p, static_cast<double>(s.rays), wall, cpu_seconds() - c0);
         std::printf("sim_render_returns_share %.3f share\n",
                     static_cast<double>(s.returns) / static_cast<double>(s.rays));
@@ -69,7 +70,8 @@ int main(int argc, char** argv) {
         const auto w0 = std::chrono::steady_clock::now();
         Simulator sim(p);
         const SimStats s = write_simulation(sim, dir, {});
-        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+        const double wall =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
         report("pcap", p, static_cast<double>(s.rays), wall, cpu_seconds() - c0);
         std::printf("sim_pcap_bytes %.0f bytes\n",
                     static_cast<double>(std::filesystem::file_size(dir / "capture.pcap")));

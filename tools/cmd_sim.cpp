@@ -2,8 +2,8 @@
 // sensors in a synthetic roadside scene; writes capture.pcap, <sensor>.json,
 // ground_truth.csv and station.yaml (drivers/sim/sim_outputs.hpp).
 #include <chrono>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 
 #include "drivers/sim/live_sink.hpp"
 #include "drivers/sim/sim_outputs.hpp"
@@ -52,7 +52,9 @@ sim::SimParams parse_params(const Args& args) {
     sim::SimParams p;
     const std::string scenario = args.required("--scenario");
     const auto s = sim::scenario_from_string(scenario);
-    if (!s) throw UsageError("--scenario must be curve, straight or intersection, got '" + scenario + "'");
+    if (!s)
+        throw UsageError("--scenario must be curve, straight or intersection, got '" + scenario +
+                         "'");
     p.scenario = *s;
     p.sensors = static_cast<int>(args.integer("--sensors", 4));
     p.seconds = args.number("--seconds", 10.0);
@@ -99,7 +101,8 @@ int run_sim(int argc, char** argv) {
         const auto colon = live_host.rfind(':');
         if (colon != std::string::npos) {
             const long long port = std::atoll(live_host.c_str() + colon + 1);
-            if (port < 1024 || port > 65535) throw UsageError("--to: bad port in '" + live_host + "'");
+            if (port < 1024 || port > 65535)
+                throw UsageError("--to: bad port in '" + live_host + "'");
             params.first_lidar_port = static_cast<std::uint16_t>(port);
             live_host.resize(colon);
         }
@@ -117,22 +120,27 @@ int run_sim(int argc, char** argv) {
         stats = simulator.run(sink);
         std::printf("sim_live_sent %llu datagrams\n", static_cast<unsigned long long>(sink.sent()));
         std::printf("sim_live_late %llu datagrams\n", static_cast<unsigned long long>(sink.late()));
-        std::printf("sim_live_send_errors %llu datagrams\n", static_cast<unsigned long long>(sink.errors()));
+        std::printf("sim_live_send_errors %llu datagrams\n",
+                    static_cast<unsigned long long>(sink.errors()));
     } else {
         stats = sim::write_simulation(simulator, out, options);
     }
-    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     std::printf("sim_rays %llu rays\n", static_cast<unsigned long long>(stats.rays));
     std::printf("sim_returns %llu points\n", static_cast<unsigned long long>(stats.returns));
-    std::printf("sim_datagrams %llu datagrams\n", static_cast<unsigned long long>(stats.datagrams_sent));
-    std::printf("sim_rays_per_s %.0f rays/s\n", static_cast<double>(stats.rays) / stats.render_wall_s);
+    std::printf("sim_datagrams %llu datagrams\n",
+                static_cast<unsigned long long>(stats.datagrams_sent));
+    std::printf("sim_rays_per_s %.0f rays/s\n",
+                static_cast<double>(stats.rays) / stats.render_wall_s);
     std::printf("sim_realtime_ratio %.2f x\n", params.seconds / wall);
     return 0;
 }
 
 }  // namespace
 
-LIDARFUSE_REGISTER_COMMAND("sim", "simulate OS1-64 sensors in a street: pcap, metadata, ground truth",
+LIDARFUSE_REGISTER_COMMAND("sim",
+                           "simulate OS1-64 sensors in a street: pcap, metadata, ground truth",
                            run_sim);
 
 }  // namespace lidarfuse::tools

@@ -37,7 +37,8 @@ int sensor_index(const std::string& spec, const std::string& name, int sensors) 
     for (int k = 0; k < sensors; ++k) {
         if (name == "lidar" + std::to_string(k)) return k;
     }
-    fail(spec, "unknown sensor \"" + name + "\" (lidar0..lidar" + std::to_string(sensors - 1) + ")");
+    fail(spec,
+         "unknown sensor \"" + name + "\" (lidar0..lidar" + std::to_string(sensors - 1) + ")");
 }
 
 }  // namespace
@@ -58,7 +59,8 @@ std::int64_t FaultPlan::clock_offset_ns(int sensor) const {
 std::uint32_t FaultPlan::init_id_at(int sensor, std::uint32_t initial, double t_s) const {
     std::uint32_t id = initial;
     for (const auto& c : init_id_changes) {
-        if (c.sensor == sensor && t_s >= c.at_s) id = static_cast<std::uint32_t>(mix64(id) & 0xFFFFFFu);
+        if (c.sensor == sensor && t_s >= c.at_s)
+            id = static_cast<std::uint32_t>(mix64(id) & 0xFFFFFFu);
     }
     return id;
 }
@@ -80,21 +82,24 @@ void parse_fault(const std::string& spec, int sensors, FaultPlan* plan) {
         r.share = number(spec, f[1], "SHARE");
         if (r.share < 0 || r.share > 1) fail(spec, "SHARE must be in 0..1");
         if (f.size() == 3) r.sensor = sensor_index(spec, f[2], sensors);
-        (kind == "drop" ? plan->drop
-         : kind == "reorder" ? plan->reorder
+        (kind == "drop"        ? plan->drop
+         : kind == "reorder"   ? plan->reorder
          : kind == "duplicate" ? plan->duplicate
                                : plan->truncate) = r;
     } else if (kind == "init-id") {
         if (f.size() != 3) fail(spec, "expected init-id:SENSOR:AT_S");
-        plan->init_id_changes.push_back({sensor_index(spec, f[1], sensors), number(spec, f[2], "AT_S")});
+        plan->init_id_changes.push_back(
+            {sensor_index(spec, f[1], sensors), number(spec, f[2], "AT_S")});
     } else if (kind == "silence") {
         if (f.size() != 4) fail(spec, "expected silence:SENSOR:FROM_S:DUR_S");
         const double dur = number(spec, f[3], "DUR_S");
         if (dur < 0) fail(spec, "DUR_S must not be negative");
-        plan->silences.push_back({sensor_index(spec, f[1], sensors), number(spec, f[2], "FROM_S"), dur});
+        plan->silences.push_back(
+            {sensor_index(spec, f[1], sensors), number(spec, f[2], "FROM_S"), dur});
     } else if (kind == "clock-offset") {
         if (f.size() != 3) fail(spec, "expected clock-offset:SENSOR:OFFSET_S");
-        plan->clock_offsets.push_back({sensor_index(spec, f[1], sensors), number(spec, f[2], "OFFSET_S")});
+        plan->clock_offsets.push_back(
+            {sensor_index(spec, f[1], sensors), number(spec, f[2], "OFFSET_S")});
     } else {
         fail(spec, "unknown fault \"" + kind +
                        "\" (drop, reorder, duplicate, truncate, init-id, silence, clock-offset)");
@@ -108,7 +113,8 @@ PacketFate packet_fate(const FaultPlan& plan, std::uint64_t seed, int sensor,
         fate.drop = true;
         return fate;
     }
-    CounterRng rng(seed ^ 0x6661756C74ULL /* "fault" */, static_cast<std::uint64_t>(sensor), sequence);
+    CounterRng rng(seed ^ 0x6661756C74ULL /* "fault" */, static_cast<std::uint64_t>(sensor),
+                   sequence);
     const double u_drop = rng.uniform(), u_dup = rng.uniform(), u_reorder = rng.uniform(),
                  u_trunc = rng.uniform(), u_len = rng.uniform();
     if (plan.drop.applies(sensor) && u_drop < plan.drop.share) {

@@ -28,9 +28,19 @@ struct FaultRate {
 
 struct FaultPlan {
     FaultRate drop, reorder, duplicate, truncate;
-    struct InitIdChange { int sensor; double at_s; };
-    struct Silence { int sensor; double from_s; double duration_s; };
-    struct ClockOffset { int sensor; double offset_s; };
+    struct InitIdChange {
+        int sensor;
+        double at_s;
+    };
+    struct Silence {
+        int sensor;
+        double from_s;
+        double duration_s;
+    };
+    struct ClockOffset {
+        int sensor;
+        double offset_s;
+    };
     std::vector<InitIdChange> init_id_changes;
     std::vector<Silence> silences;
     std::vector<ClockOffset> clock_offsets;
@@ -51,8 +61,8 @@ void parse_fault(const std::string& spec, int sensors, FaultPlan* plan);
 struct PacketFate {
     bool drop = false;
     bool duplicate = false;
-    bool reorder = false;          // hold it and send it after the sensor's next packet
-    std::size_t truncate_to = 0;   // 0 = keep the full size
+    bool reorder = false;         // hold it and send it after the sensor's next packet
+    std::size_t truncate_to = 0;  // 0 = keep the full size
 };
 
 PacketFate packet_fate(const FaultPlan& plan, std::uint64_t seed, int sensor,

@@ -10,18 +10,18 @@ const MaterialProps& material_props(Material m) {
     // Albedos at 865 nm from typical lidar reflectivity tables (asphalt dark, vegetation
     // bright in the near infrared, white paint and retro-reflective sheeting brightest).
     static const MaterialProps kTable[] = {
-        {0.12, 0.0, false},  // asphalt
-        {0.60, 0.0, false},  // lane marking
-        {0.30, 0.0, false},  // concrete
-        {0.45, 0.0, false},  // grass
-        {0.35, 0.0, false},  // facade
-        {0.08, 0.0, false},  // glass
-        {0.25, 0.0, false},  // bark
-        {0.50, 0.55, false}, // foliage: more than half of the rays pass a crown's surface
-        {0.40, 0.0, false},  // metal
-        {0.90, 0.0, true},   // sign face
-        {0.30, 0.0, false},  // car paint
-        {0.40, 0.0, false},  // cloth
+        {0.12, 0.0, false},   // asphalt
+        {0.60, 0.0, false},   // lane marking
+        {0.30, 0.0, false},   // concrete
+        {0.45, 0.0, false},   // grass
+        {0.35, 0.0, false},   // facade
+        {0.08, 0.0, false},   // glass
+        {0.25, 0.0, false},   // bark
+        {0.50, 0.55, false},  // foliage: more than half of the rays pass a crown's surface
+        {0.40, 0.0, false},   // metal
+        {0.90, 0.0, true},    // sign face
+        {0.30, 0.0, false},   // car paint
+        {0.40, 0.0, false},   // cloth
     };
     static_assert(sizeof(kTable) / sizeof(kTable[0]) == static_cast<int>(Material::kCount));
     return kTable[static_cast<int>(m)];
@@ -54,8 +54,8 @@ void Mesh::add_quad(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Ei
     materials.push_back(m);
 }
 
-void Mesh::add_box(const Eigen::Isometry3d& T_world_box, const Eigen::Vector3d& half_m,
-                   Material m, bool with_bottom) {
+void Mesh::add_box(const Eigen::Isometry3d& T_world_box, const Eigen::Vector3d& half_m, Material m,
+                   bool with_bottom) {
     std::array<Eigen::Vector3d, 8> c;
     for (int i = 0; i < 8; ++i) {
         const Eigen::Vector3d local((i & 1) ? half_m.x() : -half_m.x(),
@@ -71,8 +71,8 @@ void Mesh::add_box(const Eigen::Isometry3d& T_world_box, const Eigen::Vector3d& 
     if (with_bottom) add_quad(c[0], c[2], c[3], c[1], m);
 }
 
-void Mesh::add_cylinder(const Eigen::Vector3d& base, double radius_m, double height_m,
-                        Material m, int sides) {
+void Mesh::add_cylinder(const Eigen::Vector3d& base, double radius_m, double height_m, Material m,
+                        int sides) {
     const Eigen::Vector3d top = base + Eigen::Vector3d(0, 0, height_m);
     for (int i = 0; i < sides; ++i) {
         const double a0 = 2 * M_PI * i / sides, a1 = 2 * M_PI * (i + 1) / sides;
@@ -83,8 +83,8 @@ void Mesh::add_cylinder(const Eigen::Vector3d& base, double radius_m, double hei
     }
 }
 
-void Mesh::add_ellipsoid(const Eigen::Vector3d& centre, const Eigen::Vector3d& radii_m,
-                         Material m, int levels) {
+void Mesh::add_ellipsoid(const Eigen::Vector3d& centre, const Eigen::Vector3d& radii_m, Material m,
+                         int levels) {
     using Tri = std::array<Eigen::Vector3d, 3>;
     const Eigen::Vector3d px(1, 0, 0), nx(-1, 0, 0), py(0, 1, 0), ny(0, -1, 0), pz(0, 0, 1),
         nz(0, 0, -1);

@@ -13,23 +13,23 @@ namespace lidarfuse::sim {
 enum class Material : std::uint8_t {
     kAsphalt,
     kLaneMarking,
-    kConcrete,   // curbs, sidewalks
+    kConcrete,  // curbs, sidewalks
     kGrass,
     kFacade,
     kGlass,
     kBark,
-    kFoliage,    // tree crowns: partly transmissive
-    kMetal,      // poles, sign backs, traffic light housings
-    kSignFace,   // retro-reflective sign faces
+    kFoliage,   // tree crowns: partly transmissive
+    kMetal,     // poles, sign backs, traffic light housings
+    kSignFace,  // retro-reflective sign faces
     kCarPaint,
-    kCloth,      // pedestrians, cyclists
+    kCloth,  // pedestrians, cyclists
     kCount
 };
 
 struct MaterialProps {
-    double reflectivity;   // Lambertian albedo at 865 nm, 0..1
-    double transmission;   // probability that a ray passes through a hit (foliage only)
-    bool retro;            // retro-reflector: strong return, little dependence on incidence
+    double reflectivity;  // Lambertian albedo at 865 nm, 0..1
+    double transmission;  // probability that a ray passes through a hit (foliage only)
+    bool retro;           // retro-reflector: strong return, little dependence on incidence
 };
 const MaterialProps& material_props(Material m);
 
@@ -40,8 +40,8 @@ struct Mesh {
 
     std::size_t triangle_count() const { return triangles.size(); }
     void append(const Mesh& other);
-    void add_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                      const Eigen::Vector3d& c, Material m);
+    void add_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                      Material m);
     // Quad a-b-c-d (counter-clockwise seen from the outside) as two triangles.
     void add_quad(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
                   const Eigen::Vector3d& d, Material m);

@@ -4,9 +4,9 @@
 
 namespace lidarfuse::sim {
 
-void encode_lidar_packet(const ouster::PacketFormat& f, const PacketHeaderValues& h,
-                         int first_m, int columns_per_frame, const std::uint64_t* ts,
-                         const PixelReturn* pixels, std::uint8_t* pkt) {
+void encode_lidar_packet(const ouster::PacketFormat& f, const PacketHeaderValues& h, int first_m,
+                         int columns_per_frame, const std::uint64_t* ts, const PixelReturn* pixels,
+                         std::uint8_t* pkt) {
     using ouster::Field;
     std::memset(pkt, 0, f.lidar_packet_size());
     const bool legacy = f.header_type() == ouster::HeaderType::kLegacy;

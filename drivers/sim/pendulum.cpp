@@ -58,7 +58,8 @@ PendulumTrajectory::PendulumTrajectory(const PendulumInit& init, double duration
     const auto steps = static_cast<std::size_t>(std::ceil(duration_s / params.step_s)) + 2;
     states_.reserve(steps);
     states_.push_back(state_from_spherical(init));
-    while (states_.size() < steps) states_.push_back(rk4_step(states_.back(), params.step_s, params));
+    while (states_.size() < steps)
+        states_.push_back(rk4_step(states_.back(), params.step_s, params));
 }
 
 PendulumState PendulumTrajectory::sample(double t_s) const {
@@ -84,7 +85,8 @@ Eigen::Quaterniond PendulumTrajectory::tilt(double t_s) const {
 }
 
 PendulumInit draw_pendulum_init(std::uint64_t seed, int sensor_index) {
-    CounterRng rng(seed, 0x70656E64756CULL /* "pendul" */, static_cast<std::uint64_t>(sensor_index));
+    CounterRng rng(seed, 0x70656E64756CULL /* "pendul" */,
+                   static_cast<std::uint64_t>(sensor_index));
     PendulumInit init;
     init.phi = rng.uniform(0.0, 0.7 * M_PI);
     init.phi_dot = rng.uniform(-0.2 * M_PI, 0.2 * M_PI);

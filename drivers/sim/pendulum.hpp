@@ -35,8 +35,8 @@ struct PendulumParams {
 };
 
 struct PendulumState {
-    Eigen::Vector3d u = Eigen::Vector3d::UnitZ();      // unit direction base -> head
-    Eigen::Vector3d u_dot = Eigen::Vector3d::Zero();   // 1/s
+    Eigen::Vector3d u = Eigen::Vector3d::UnitZ();     // unit direction base -> head
+    Eigen::Vector3d u_dot = Eigen::Vector3d::Zero();  // 1/s
 };
 
 PendulumState state_from_spherical(const PendulumInit& init);

@@ -16,8 +16,8 @@ void check(RTCDevice device, const char* what) {
     }
 }
 
-RTCRayHit make_ray(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_near,
-                   double t_far, float time01) {
+RTCRayHit make_ray(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_near, double t_far,
+                   float time01) {
     RTCRayHit rh;
     rh.ray.org_x = static_cast<float>(o.x());
     rh.ray.org_y = static_cast<float>(o.y());
@@ -53,13 +53,15 @@ StaticScene::StaticScene(const RayDevice& device, const Mesh& mesh) : mesh_(&mes
     scene_ = rtcNewScene(dev);
     rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
     RTCGeometry geom = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
-        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.vertices.size()));
+    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                          RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                          mesh.vertices.size()));
     for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
         for (int k = 0; k < 3; ++k) v[3 * i + k] = mesh.vertices[i][k];
     }
-    auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), mesh.triangles.size()));
+    auto* idx = static_cast<unsigned*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(unsigned), mesh.triangles.size()));
     for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
         for (int k = 0; k < 3; ++k) idx[3 * i + k] = mesh.triangles[i][k];
     }
@@ -93,8 +95,7 @@ RayHit StaticScene::cast(const Eigen::Vector3d& origin, const Eigen::Vector3d& d
         out.material = mesh_->materials[rh.hit.primID];
     }
     if (dynamic && !dynamic->empty()) {
-        RTCRayHit dh = make_ray(origin, dir, t_near,
-                                out.hit ? out.distance_m : t_far, time01);
+        RTCRayHit dh = make_ray(origin, dir, t_near, out.hit ? out.distance_m : t_far, time01);
         rtcIntersect1(dynamic->handle(), &ctx, &dh);
         if (dh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
             out.hit = true;
@@ -134,8 +135,9 @@ DynamicScene::DynamicScene(const RayDevice& device, const std::vector<MovingBox>
             for (int k = 0; k < 3; ++k) v[3 * i + k] = m.vertices[i][k];
         }
     }
-    auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), m0.triangles.size()));
+    auto* idx = static_cast<unsigned*>(
+        rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(unsigned), m0.triangles.size()));
     for (std::size_t i = 0; i < m0.triangles.size(); ++i) {
         for (int k = 0; k < 3; ++k) idx[3 * i + k] = m0.triangles[i][k];
     }

@@ -38,10 +38,10 @@ private:
 
 struct RayHit {
     bool hit = false;
-    double distance_m = 0;        // along the (unit) direction from the ray origin
-    Eigen::Vector3d normal;       // unit geometric normal facing the ray origin
+    double distance_m = 0;   // along the (unit) direction from the ray origin
+    Eigen::Vector3d normal;  // unit geometric normal facing the ray origin
     Material material = Material::kAsphalt;
-    bool dynamic = false;         // hit a road user
+    bool dynamic = false;  // hit a road user
 };
 
 class DynamicScene;

@@ -11,8 +11,8 @@ namespace lidarfuse::sim {
 
 namespace {
 
-constexpr double kPoleLateralM = 14.0;   // sensor poles stand at the back of the sidewalk
-constexpr double kAimDistanceM = 25.0;   // sensors look at a road point this far away
+constexpr double kPoleLateralM = 14.0;  // sensor poles stand at the back of the sidewalk
+constexpr double kAimDistanceM = 25.0;  // sensors look at a road point this far away
 constexpr double kSceneHalfSizeM = 400.0;
 
 double yaw_towards(const Eigen::Vector3d& from, const Eigen::Vector2d& to) {
@@ -52,7 +52,7 @@ Scene build_street(const Path& centre, const SceneParams& p, bool zig_zag,
         if (zig_zag) {  // alternate sides, 25 m apart
             s = mid + (k - (n - 1) / 2.0) * 25.0;
             side = (k % 2 == 0) ? -1.0 : 1.0;
-        } else {        // pairs facing each other across the road, 40 m apart
+        } else {  // pairs facing each other across the road, 40 m apart
             const int pairs = (n + 1) / 2;
             s = mid + (k / 2 - (pairs - 1) / 2.0) * 40.0;
             side = (k % 2 == 0) ? -1.0 : 1.0;
@@ -76,7 +76,7 @@ Scene build_curve(const SceneParams& p) {
     const double r = 90.0;
     const Path centre(arc_points({0.0, r}, r, -M_PI / 2 - 1.2, -M_PI / 2 + 1.2, 1.0));
     RoadsideParams roadside;
-    roadside.tree_spacing_m = 30.0;   // sparse vegetation
+    roadside.tree_spacing_m = 30.0;  // sparse vegetation
     roadside.tree_probability = 0.5;
     return build_street(centre, p, false, roadside);
 }
@@ -84,7 +84,7 @@ Scene build_curve(const SceneParams& p) {
 Scene build_straight(const SceneParams& p) {
     const Path centre({{-160.0, 0.0}, {160.0, 0.0}});
     RoadsideParams roadside;
-    roadside.tree_spacing_m = 14.0;   // buildings and vegetation
+    roadside.tree_spacing_m = 14.0;  // buildings and vegetation
     roadside.tree_probability = 0.8;
     return build_street(centre, p, true, roadside);
 }
@@ -173,9 +173,12 @@ Scene build_intersection(const SceneParams& p) {
 
 const char* to_string(Scenario s) {
     switch (s) {
-        case Scenario::kCurve: return "curve";
-        case Scenario::kStraight: return "straight";
-        case Scenario::kIntersection: return "intersection";
+        case Scenario::kCurve:
+            return "curve";
+        case Scenario::kStraight:
+            return "straight";
+        case Scenario::kIntersection:
+            return "intersection";
     }
     return "?";
 }
@@ -202,9 +205,12 @@ Scene build_scene(const SceneParams& p) {
                                     std::to_string(p.sensors));
     }
     switch (p.scenario) {
-        case Scenario::kCurve: return build_curve(p);
-        case Scenario::kStraight: return build_straight(p);
-        case Scenario::kIntersection: return build_intersection(p);
+        case Scenario::kCurve:
+            return build_curve(p);
+        case Scenario::kStraight:
+            return build_straight(p);
+        case Scenario::kIntersection:
+            return build_intersection(p);
     }
     throw std::invalid_argument("sim: unknown scenario");
 }

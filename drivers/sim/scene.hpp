@@ -26,8 +26,8 @@ enum class TrackKind : std::uint8_t { kRoadLane, kCyclePath, kSidewalk };
 struct Track {
     Path path;
     TrackKind kind = TrackKind::kRoadLane;
-    int lane_index = 0;         // road lanes: 0 = inner (fast) .. 2 = outer (trucks)
-    double z_m = 0.0;           // surface height (sidewalks are raised)
+    int lane_index = 0;  // road lanes: 0 = inner (fast) .. 2 = outer (trucks)
+    double z_m = 0.0;    // surface height (sidewalks are raised)
     double speed_mps = 10.0;
     double mean_headway_s = 4.0;  // mean time between spawns
     // Intersection only: arc-length interval inside the junction box and the signal group
@@ -57,7 +57,7 @@ struct SensorMount {
 
 struct Scene {
     Scenario scenario = Scenario::kStraight;
-    Mesh mesh;                        // all static geometry
+    Mesh mesh;  // all static geometry
     std::vector<Track> tracks;
     std::vector<SensorMount> mounts;  // one per sensor
     std::optional<SignalPlan> signals;

@@ -29,10 +29,10 @@ struct SensorModelParams {
     double noise_sigma_m = 0.1 / 3.0;  // 3 sigma = 10 cm (PAPER.md)
     double min_range_m = 0.3;
     double max_range_m = 120.0;
-    double signal_gain = 1.1e6;        // photons * m^2 at albedo 1, normal incidence
-    double detection_signal = 8.0;     // S0: 63 % detection probability
-    bool dropouts = true;              // false: every hit in range is returned
-    int max_transmissions = 6;         // crown surfaces a ray may pass before it stops
+    double signal_gain = 1.1e6;     // photons * m^2 at albedo 1, normal incidence
+    double detection_signal = 8.0;  // S0: 63 % detection probability
+    bool dropouts = true;           // false: every hit in range is returned
+    int max_transmissions = 6;      // crown surfaces a ray may pass before it stops
 };
 
 struct PixelReturn {
@@ -60,7 +60,7 @@ public:
 private:
     SensorModelParams params_;
     ouster::XyzLut lut_;
-    double beam_offset_m_;      // n: the ray starts this far along the direction
+    double beam_offset_m_;  // n: the ray starts this far along the direction
     std::uint32_t range_quantum_mm_;
 };
 

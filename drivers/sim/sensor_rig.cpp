@@ -21,12 +21,15 @@ ouster::SensorInfo make_sensor_info(const SensorRigParams& p) {
                    static_cast<std::uint32_t>(rng.next() & 0xFFFFu);
     info.columns_per_frame = p.columns_per_frame;
     info.frames_per_second = p.frames_per_second;
-    info.lidar_mode = std::to_string(p.columns_per_frame) + "x" + std::to_string(p.frames_per_second);
+    info.lidar_mode =
+        std::to_string(p.columns_per_frame) + "x" + std::to_string(p.frames_per_second);
     info.pixels_per_column = os1_64::kBeams;
     info.columns_per_packet = 16;
     info.udp_profile_lidar = p.profile;
-    info.beam_altitude_angles_deg.assign(os1_64::kBeamAltitudeDeg.begin(), os1_64::kBeamAltitudeDeg.end());
-    info.beam_azimuth_angles_deg.assign(os1_64::kBeamAzimuthDeg.begin(), os1_64::kBeamAzimuthDeg.end());
+    info.beam_altitude_angles_deg.assign(os1_64::kBeamAltitudeDeg.begin(),
+                                         os1_64::kBeamAltitudeDeg.end());
+    info.beam_azimuth_angles_deg.assign(os1_64::kBeamAzimuthDeg.begin(),
+                                        os1_64::kBeamAzimuthDeg.end());
     info.pixel_shift_by_row =
         ouster::pixel_shift_from_azimuths(info.beam_azimuth_angles_deg, p.columns_per_frame);
     info.column_window = {0, p.columns_per_frame - 1};
@@ -49,7 +52,9 @@ ouster::SensorInfo make_sensor_info(const SensorRigParams& p) {
 }
 
 SensorRig::SensorRig(const SensorMount& mount, const SensorRigParams& params)
-    : mount_(mount), params_(params), name_(sensor_name(params.index)),
+    : mount_(mount),
+      params_(params),
+      name_(sensor_name(params.index)),
       info_(make_sensor_info(params)) {
     const auto problems = ouster::validate_sensor_info(info_);
     if (!problems.empty()) {
@@ -57,14 +62,16 @@ SensorRig::SensorRig(const SensorMount& mount, const SensorRigParams& params)
         for (const auto& p : problems) all += "\n  " + p;
         throw std::logic_error("sim: metadata of " + name_ + " is invalid:" + all);
     }
-    CounterRng rng(params.seed, 0x7068617365ULL /* "phase" */, static_cast<std::uint64_t>(params.index));
+    CounterRng rng(params.seed, 0x7068617365ULL /* "phase" */,
+                   static_cast<std::uint64_t>(params.index));
     const double frame_ns = 1e9 / params.frames_per_second;
     phase_ns_ = static_cast<std::int64_t>(rng.uniform(0.0, 0.25) * frame_ns);
     first_frame_id_ = static_cast<std::uint16_t>(rng.next() & 0xFFFFu);
     if (params.motion) {
         PendulumParams pp;
         pp.length_m = mount.pole_height_m;
-        pendulum_.emplace(draw_pendulum_init(params.seed, params.index), params.duration_s + 1.0, pp);
+        pendulum_.emplace(draw_pendulum_init(params.seed, params.index), params.duration_s + 1.0,
+                          pp);
     }
 }
 

@@ -25,14 +25,16 @@ struct SensorRigParams {
     ouster::UdpProfileLidar profile = ouster::UdpProfileLidar::kLegacy;
     std::uint64_t seed = 1;
     bool motion = true;
-    double duration_s = 10.0;  // pendulum integrated over [0, duration + 1 s]
+    double duration_s = 10.0;               // pendulum integrated over [0, duration + 1 s]
     std::uint16_t first_lidar_port = 7502;  // sensor k: first_lidar_port + 2k
 };
 
 // Network identity: sensor k sends from 169.254.10.(11+k) to 169.254.10.1, lidar port
 // first_lidar_port + 2k, by default 7502 + 2k (IMU port one above).
 constexpr std::uint32_t kHostIp = 0xA9FE0A01u;  // 169.254.10.1
-inline std::uint32_t sensor_ip(int index) { return 0xA9FE0A0Bu + static_cast<std::uint32_t>(index); }
+inline std::uint32_t sensor_ip(int index) {
+    return 0xA9FE0A0Bu + static_cast<std::uint32_t>(index);
+}
 inline std::uint16_t sensor_lidar_port(int index, std::uint16_t first = 7502) {
     return static_cast<std::uint16_t>(first + 2 * index);
 }

@@ -17,7 +17,7 @@
 namespace lidarfuse::sim {
 
 struct OutputOptions {
-    bool fragment = true;  // false: whole datagrams (like a loopback capture)
+    bool fragment = true;      // false: whole datagrams (like a loopback capture)
     std::string station_name;  // empty: "sim-<scenario>"
 };
 

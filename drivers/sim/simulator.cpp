@@ -30,8 +30,9 @@ void check_params(const SimParams& p) {
     if (!(p.seconds > 0) || p.seconds > 3600) problems.push_back("--seconds must be in (0, 3600]");
     if (!ouster::parse_lidar_mode(std::to_string(p.columns_per_frame) + "x" +
                                   std::to_string(p.frames_per_second))) {
-        problems.push_back("--mode must be one of Ouster's modes (512x10, 512x20, 1024x10, "
-                           "1024x20, 2048x10, 4096x5)");
+        problems.push_back(
+            "--mode must be one of Ouster's modes (512x10, 512x20, 1024x10, "
+            "1024x20, 2048x10, 4096x5)");
     }
     if (p.sensor.noise_sigma_m < 0 || p.sensor.noise_sigma_m > 1) {
         problems.push_back("--noise-sigma-m must be in [0, 1]");
@@ -101,7 +102,8 @@ std::vector<io::PoseRecord> Simulator::ground_truth() const {
     for (int f = 0; f < frames_; ++f) {
         for (const auto& rig : rigs_) {
             const std::int64_t t = column_time_ns(rig.index(), f, 0);
-            out.push_back({f, rig.name(), t, rig.T_world_sensor(static_cast<double>(t - kEpochNs) * 1e-9)});
+            out.push_back(
+                {f, rig.name(), t, rig.T_world_sensor(static_cast<double>(t - kEpochNs) * 1e-9)});
         }
     }
     return out;
@@ -129,9 +131,11 @@ SimStats Simulator::run(DatagramSink& sink) {
     std::vector<MovingBox> boxes;
 
     auto flush = [&](std::int64_t before_ns) {
-        std::stable_sort(pending.begin(), pending.end(), [](const SimDatagram& a, const SimDatagram& b) {
-            return a.capture_ns != b.capture_ns ? a.capture_ns < b.capture_ns : a.sensor < b.sensor;
-        });
+        std::stable_sort(pending.begin(), pending.end(),
+                         [](const SimDatagram& a, const SimDatagram& b) {
+                             return a.capture_ns != b.capture_ns ? a.capture_ns < b.capture_ns
+                                                                 : a.sensor < b.sensor;
+                         });
         std::size_t i = 0;
         for (; i < pending.size() && pending[i].capture_ns < before_ns; ++i) {
             sink.write(pending[i]);
@@ -203,7 +207,8 @@ SimStats Simulator::run(DatagramSink& sink) {
                 const std::uint64_t seq = sequence[k]++;
                 CounterRng jitter(params_.seed ^ 0x6E6574ULL, static_cast<std::uint64_t>(k), seq);
                 SimDatagram d;
-                d.capture_ns = t_last + 30'000 + static_cast<std::int64_t>(jitter.uniform() * 40'000);
+                d.capture_ns =
+                    t_last + 30'000 + static_cast<std::int64_t>(jitter.uniform() * 40'000);
                 d.sensor = k;
                 d.src_ip = rig.src_ip();
                 d.dst_ip = kHostIp;

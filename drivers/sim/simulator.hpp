@@ -42,7 +42,7 @@ struct SimParams {
     bool traffic = true;
     SensorModelParams sensor;  // noise sigma, ranges, dropouts
     FaultPlan faults;
-    int threads = 0;           // 0: std::thread::hardware_concurrency()
+    int threads = 0;                        // 0: std::thread::hardware_concurrency()
     std::uint16_t first_lidar_port = 7502;  // sensor k sends to first_lidar_port + 2k
 };
 

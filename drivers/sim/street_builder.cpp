@@ -131,9 +131,9 @@ void add_road_surface(Mesh& mesh, const Path& centre, double s0, double s1) {
     const auto ss = stations(s0, s1);
     // Markings 0.15 m wide (edge lines, dashed lane lines, solid centre line) and the
     // asphalt between them, from right to left; every band lies at z = 0, none overlap.
-    const std::vector<std::pair<double, bool>> lines = {
-        {-10.2, false}, {-7.0, true}, {-3.5, true}, {0.0, false}, {3.5, true}, {7.0, true},
-        {10.2, false}};
+    const std::vector<std::pair<double, bool>> lines = {{-10.2, false}, {-7.0, true}, {-3.5, true},
+                                                        {0.0, false},   {3.5, true},  {7.0, true},
+                                                        {10.2, false}};
     double o = -kRoadHalfWidthM;
     for (const auto& [c, dashed] : lines) {
         add_band(mesh, centre, ss, o, c - 0.075, 0.0, Material::kAsphalt);
@@ -159,8 +159,8 @@ void add_sidewalks(Mesh& mesh, const Path& centre, double s0, double s1) {
     }
 }
 
-void add_roadside(Mesh& mesh, const Path& centre, double s0, double s1,
-                  const RoadsideParams& p, CounterRng& rng) {
+void add_roadside(Mesh& mesh, const Path& centre, double s0, double s1, const RoadsideParams& p,
+                  CounterRng& rng) {
     for (const double side : {-1.0, 1.0}) {
         // Buildings in blocks along the side.
         double s = std::max(s0, p.buildings_from_m) + rng.uniform(0.0, 6.0);
@@ -183,11 +183,13 @@ void add_roadside(Mesh& mesh, const Path& centre, double s0, double s1,
         }
         for (double t = s0 + rng.uniform(3.0, p.lamp_spacing_m); t < s1 - 2.0;
              t += p.lamp_spacing_m) {
-            if (!kept_out(p, street_point(centre, t, side * 10.8, 0))) add_lamp(mesh, centre, t, side);
+            if (!kept_out(p, street_point(centre, t, side * 10.8, 0)))
+                add_lamp(mesh, centre, t, side);
         }
         for (double t = s0 + rng.uniform(5.0, p.sign_spacing_m); t < s1 - 2.0;
              t += p.sign_spacing_m * rng.uniform(0.6, 1.4)) {
-            if (!kept_out(p, street_point(centre, t, side * 14.1, 0))) add_sign(mesh, centre, t, side);
+            if (!kept_out(p, street_point(centre, t, side * 14.1, 0)))
+                add_sign(mesh, centre, t, side);
         }
         for (double t = s0 + 4.0; t < s1 - 4.0; t += 6.0) {
             if (rng.uniform() < p.parked_car_probability) {

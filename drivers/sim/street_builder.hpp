@@ -36,7 +36,7 @@ struct RoadsideParams {
     double lamp_spacing_m = 32.0;
     double sign_spacing_m = 45.0;
     double parked_car_probability = 0.45;
-    double buildings_from_m = 0.0;      // arc-length range that gets buildings
+    double buildings_from_m = 0.0;  // arc-length range that gets buildings
     double buildings_to_m = 1e9;
     std::vector<Eigen::Vector2d> keep_out;  // no furniture within 4 m of these (sensor poles)
 };

@@ -12,7 +12,7 @@ namespace {
 struct Part {
     Eigen::Vector3d centre;  // in the agent frame
     Eigen::Vector3d half;
-    bool painted;            // paint colour, else glass/cloth by class
+    bool painted;  // paint colour, else glass/cloth by class
 };
 
 // Body parts of a class for a given length (metres).
@@ -40,18 +40,24 @@ std::vector<Part> parts(AgentClass c, double L) {
 
 Material unpainted(AgentClass c) {
     switch (c) {
-        case AgentClass::kCar: return Material::kGlass;
-        case AgentClass::kTruck: return Material::kFacade;  // trailer box
-        default: return Material::kCloth;
+        case AgentClass::kCar:
+            return Material::kGlass;
+        case AgentClass::kTruck:
+            return Material::kFacade;  // trailer box
+        default:
+            return Material::kCloth;
     }
 }
 
 AgentClass draw_class(const Track& t, CounterRng& rng) {
     const double u = rng.uniform();
     switch (t.kind) {
-        case TrackKind::kSidewalk: return AgentClass::kPedestrian;
-        case TrackKind::kCyclePath: return AgentClass::kBicycle;
-        case TrackKind::kRoadLane: break;
+        case TrackKind::kSidewalk:
+            return AgentClass::kPedestrian;
+        case TrackKind::kCyclePath:
+            return AgentClass::kBicycle;
+        case TrackKind::kRoadLane:
+            break;
     }
     if (t.lane_index >= 2 && u < 0.3) return AgentClass::kTruck;
     if (t.lane_index == 0 && u < 0.15) return AgentClass::kMotorcycle;
@@ -60,11 +66,16 @@ AgentClass draw_class(const Track& t, CounterRng& rng) {
 
 double draw_length(AgentClass c, CounterRng& rng) {
     switch (c) {
-        case AgentClass::kCar: return rng.uniform(4.0, 5.0);
-        case AgentClass::kTruck: return rng.uniform(9.0, 16.5);
-        case AgentClass::kMotorcycle: return rng.uniform(2.0, 2.3);
-        case AgentClass::kBicycle: return rng.uniform(1.6, 1.9);
-        case AgentClass::kPedestrian: return 0.4;
+        case AgentClass::kCar:
+            return rng.uniform(4.0, 5.0);
+        case AgentClass::kTruck:
+            return rng.uniform(9.0, 16.5);
+        case AgentClass::kMotorcycle:
+            return rng.uniform(2.0, 2.3);
+        case AgentClass::kBicycle:
+            return rng.uniform(1.6, 1.9);
+        case AgentClass::kPedestrian:
+            return 0.4;
     }
     return 4.5;
 }
@@ -73,11 +84,16 @@ double draw_length(AgentClass c, CounterRng& rng) {
 
 const char* to_string(AgentClass c) {
     switch (c) {
-        case AgentClass::kCar: return "car";
-        case AgentClass::kTruck: return "truck";
-        case AgentClass::kMotorcycle: return "motorcycle";
-        case AgentClass::kBicycle: return "bicycle";
-        case AgentClass::kPedestrian: return "pedestrian";
+        case AgentClass::kCar:
+            return "car";
+        case AgentClass::kTruck:
+            return "truck";
+        case AgentClass::kMotorcycle:
+            return "motorcycle";
+        case AgentClass::kBicycle:
+            return "bicycle";
+        case AgentClass::kPedestrian:
+            return "pedestrian";
     }
     return "?";
 }
@@ -99,8 +115,8 @@ Traffic::Traffic(const Scene& scene, const TrafficParams& params) : scene_(&scen
             a.length_m = draw_length(a.cls, rng);
             a.paint = paints[static_cast<int>(rng.uniform() * 4) % 4];
             // Enforce a gap of 3 m (pedestrians 1 m) to the agent ahead.
-            const double gap_m = (a.length_m + prev_length) / 2 +
-                                 (a.cls == AgentClass::kPedestrian ? 1.0 : 3.0);
+            const double gap_m =
+                (a.length_m + prev_length) / 2 + (a.cls == AgentClass::kPedestrian ? 1.0 : 3.0);
             const double min_dt = gap_m / track.speed_mps;
             a.enter_time_s = t;
             bool allowed = true;
@@ -126,7 +142,8 @@ Eigen::Isometry3d Traffic::agent_pose(const Agent& a, double t_s) const {
     const Eigen::Vector2d p = track.path.position(s);
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.translation() = Eigen::Vector3d(p.x(), p.y(), track.z_m);
-    T.linear() = Eigen::AngleAxisd(track.path.heading(s), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    T.linear() =
+        Eigen::AngleAxisd(track.path.heading(s), Eigen::Vector3d::UnitZ()).toRotationMatrix();
     return T;
 }
 

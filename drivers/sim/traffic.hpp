@@ -22,7 +22,7 @@ const char* to_string(AgentClass c);
 struct Agent {
     AgentClass cls = AgentClass::kCar;
     int track = 0;
-    double enter_time_s = 0;   // time at which the agent's centre is at arc length 0
+    double enter_time_s = 0;  // time at which the agent's centre is at arc length 0
     double length_m = 4.5;
     Material paint = Material::kCarPaint;
 };

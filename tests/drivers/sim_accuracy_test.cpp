@@ -37,7 +37,10 @@ std::map<std::string, std::vector<WorldPoint>> world_points(const simtest::Decod
             for (std::size_t i = 0; i < scan.points_sensor.size(); ++i) {
                 auto it = poses.find(scan.t_ns[i]);
                 if (it == poses.end()) {
-                    it = poses.emplace(scan.t_ns[i], simtest::truth_at(cap.truth, name, scan.t_ns[i])).first;
+                    it =
+                        poses
+                            .emplace(scan.t_ns[i], simtest::truth_at(cap.truth, name, scan.t_ns[i]))
+                            .first;
                 }
                 out[name].push_back({it->second * scan.points_sensor[i],
                                      it->second.linear() * scan.dirs_sensor[i]});
@@ -49,7 +52,8 @@ std::map<std::string, std::vector<WorldPoint>> world_points(const simtest::Decod
 
 std::string run_sim(const test::TempDir& dir, const std::string& extra) {
     std::string log;
-    const std::string cmd = test::tool_path() + " sim --scenario curve --out " + dir.path().string() +
+    const std::string cmd = test::tool_path() + " sim --scenario curve --out " +
+                            dir.path().string() +
                             " --sensors 2 --seconds 0.3 --mode 512x20 --threads 2 " + extra;
     EXPECT_EQ(test::run_command(cmd, &log), 0) << log;
     return log;
@@ -76,8 +80,8 @@ TEST(SimAccuracy, RoadIsAtZeroWithTheConfiguredRangeNoise) {
         }
         ASSERT_GT(n, 5000u);
         const double mean = sum / n, sd = std::sqrt(sum2 / n - mean * mean);
-        std::printf("%s: %zu road points, range error mean %.2f mm, sigma %.2f mm\n", name.c_str(), n,
-                    mean * 1e3, sd * 1e3);
+        std::printf("%s: %zu road points, range error mean %.2f mm, sigma %.2f mm\n", name.c_str(),
+                    n, mean * 1e3, sd * 1e3);
         EXPECT_LT(std::abs(mean), 0.003);
         EXPECT_NEAR(sd, kSigmaM, 0.05 * kSigmaM);
     }

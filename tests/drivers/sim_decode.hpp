@@ -27,11 +27,11 @@ struct DecodedScan {
     std::uint32_t frame_id = 0;
     std::uint32_t init_id = 0;
     double completeness = 0;
-    std::vector<Eigen::Vector3d> points_sensor;   // sensor frame, metres
-    std::vector<Eigen::Vector3d> dirs_sensor;     // unit ray direction of each point
-    std::vector<std::int64_t> t_ns;               // column timestamp of each point
+    std::vector<Eigen::Vector3d> points_sensor;  // sensor frame, metres
+    std::vector<Eigen::Vector3d> dirs_sensor;    // unit ray direction of each point
+    std::vector<std::int64_t> t_ns;              // column timestamp of each point
     std::int64_t first_column_ns = 0;
-    std::vector<std::uint32_t> range_mm;          // every pixel (H x W staggered)
+    std::vector<std::uint32_t> range_mm;  // every pixel (H x W staggered)
 };
 
 struct DecodedCapture {
@@ -73,8 +73,10 @@ inline DecodedCapture decode_sim_output(const std::filesystem::path& dir) {
                     const std::size_t col = i % W;
                     if (scan.range_mm[i] == 0 || !scan.received[col]) continue;
                     const int row = static_cast<int>(i / W);
-                    d.points_sensor.push_back(lut->point(row, static_cast<int>(col), scan.range_mm[i]));
-                    d.dirs_sensor.push_back(lut->direction.row(static_cast<Eigen::Index>(i)).transpose());
+                    d.points_sensor.push_back(
+                        lut->point(row, static_cast<int>(col), scan.range_mm[i]));
+                    d.dirs_sensor.push_back(
+                        lut->direction.row(static_cast<Eigen::Index>(i)).transpose());
                     d.t_ns.push_back(static_cast<std::int64_t>(scan.timestamp_ns[col]));
                 }
                 scans->push_back(std::move(d));
@@ -113,8 +115,8 @@ inline Eigen::Isometry3d truth_at(const std::vector<io::PoseRecord>& truth,
     };
     const auto ii = static_cast<std::ptrdiff_t>(i);
     const io::PoseRecord* p[4] = {at(ii - 1), at(ii), at(ii + 1), at(ii + 2)};
-    const double a = static_cast<double>(t_ns - p[1]->t_ns) /
-                     static_cast<double>(p[2]->t_ns - p[1]->t_ns);
+    const double a =
+        static_cast<double>(t_ns - p[1]->t_ns) / static_cast<double>(p[2]->t_ns - p[1]->t_ns);
     const Eigen::Matrix3d R1 = p[1]->pose.linear();
     Eigen::Vector3d x[4], w[4];
     for (int k = 0; k < 4; ++k) {
@@ -124,14 +126,16 @@ inline Eigen::Isometry3d truth_at(const std::vector<io::PoseRecord>& truth,
     }
     const auto cr = [a](const Eigen::Vector3d* v) {
         const double a2 = a * a, a3 = a2 * a;
-        return 0.5 * ((2 * v[1]) + (-v[0] + v[2]) * a + (2 * v[0] - 5 * v[1] + 4 * v[2] - v[3]) * a2 +
-                      (-v[0] + 3 * v[1] - 3 * v[2] + v[3]) * a3);
+        return 0.5 *
+               ((2 * v[1]) + (-v[0] + v[2]) * a + (2 * v[0] - 5 * v[1] + 4 * v[2] - v[3]) * a2 +
+                (-v[0] + 3 * v[1] - 3 * v[2] + v[3]) * a3);
     };
     const Eigen::Vector3d wi = cr(w);
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.translation() = cr(x);
-    T.linear() = R1 * (wi.norm() > 0 ? Eigen::AngleAxisd(wi.norm(), wi.normalized()).toRotationMatrix()
-                                     : Eigen::Matrix3d::Identity());
+    T.linear() =
+        R1 * (wi.norm() > 0 ? Eigen::AngleAxisd(wi.norm(), wi.normalized()).toRotationMatrix()
+                            : Eigen::Matrix3d::Identity());
     return T;
 }
 

@@ -65,9 +65,16 @@ TEST(SimDeterminism, CommandLineRunsAreByteIdentical) {
     test::TempDir a("sim_det_a"), b("sim_det_b");
     const std::string args = " sim --scenario straight --sensors 2 --seconds 0.1 --mode 512x20 ";
     std::string log;
-    ASSERT_EQ(test::run_command(test::tool_path() + args + "--threads 1 --out " + a.path().string(), &log), 0) << log;
-    ASSERT_EQ(test::run_command(test::tool_path() + args + "--threads 2 --out " + b.path().string(), &log), 0) << log;
-    for (const char* f : {"capture.pcap", "ground_truth.csv", "station.yaml", "lidar0.json", "lidar1.json"}) {
+    ASSERT_EQ(test::run_command(test::tool_path() + args + "--threads 1 --out " + a.path().string(),
+                                &log),
+              0)
+        << log;
+    ASSERT_EQ(test::run_command(test::tool_path() + args + "--threads 2 --out " + b.path().string(),
+                                &log),
+              0)
+        << log;
+    for (const char* f :
+         {"capture.pcap", "ground_truth.csv", "station.yaml", "lidar0.json", "lidar1.json"}) {
         EXPECT_EQ(file_md5(a.path() / f), file_md5(b.path() / f)) << f;
     }
 }

@@ -40,9 +40,9 @@ Collected run(const std::vector<std::string>& faults,
     c.rendered = sim.run(sink).packets_rendered;
     c.datagrams = std::move(sink.out);
     for (int k = 0; k < 2; ++k) {
-        ouster::ScanAssembler assembler(sim.rigs()[k].info(), {}, [&c, k](const ouster::LidarScan& s) {
-            c.scans[k].push_back(s);
-        });
+        ouster::ScanAssembler assembler(
+            sim.rigs()[k].info(), {},
+            [&c, k](const ouster::LidarScan& s) { c.scans[k].push_back(s); });
         for (const auto& d : c.datagrams) {
             if (d.sensor == k) assembler.add_packet(d.payload.data(), d.payload.size());
         }
@@ -64,8 +64,9 @@ TEST(SimFaults, SpecsAreParsedAndBadOnesRejected) {
     EXPECT_FALSE(plan.silenced(1, 3.5));
     EXPECT_FALSE(plan.silenced(0, 2.0));
     EXPECT_EQ(plan.clock_offset_ns(0), -250'000'000);
-    for (const char* bad : {"drop", "drop:1.5", "drop:x", "bogus:0.1", "silence:lidar2:1:1",
-                            "init-id:lidar0", "duplicate:0.1:lidar0:extra", "clock-offset:lidar0:1s"}) {
+    for (const char* bad :
+         {"drop", "drop:1.5", "drop:x", "bogus:0.1", "silence:lidar2:1:1", "init-id:lidar0",
+          "duplicate:0.1:lidar0:extra", "clock-offset:lidar0:1s"}) {
         EXPECT_THROW(parse_fault(bad, 2, &plan), std::invalid_argument) << bad;
     }
 }
@@ -127,7 +128,8 @@ TEST(SimFaults, ClockOffsetShiftsOnlyThatSensorsTimestamps) {
     const auto clean = run({});
     const auto shifted = run({"clock-offset:lidar1:0.5"});
     ASSERT_EQ(clean.scans.at(1).size(), shifted.scans.at(1).size());
-    EXPECT_EQ(shifted.scans.at(1)[0].timestamp_ns[7], clean.scans.at(1)[0].timestamp_ns[7] + 500'000'000u);
+    EXPECT_EQ(shifted.scans.at(1)[0].timestamp_ns[7],
+              clean.scans.at(1)[0].timestamp_ns[7] + 500'000'000u);
     EXPECT_EQ(shifted.scans.at(0)[0].timestamp_ns[7], clean.scans.at(0)[0].timestamp_ns[7]);
     EXPECT_EQ(shifted.datagrams.front().capture_ns, clean.datagrams.front().capture_ns);
 }

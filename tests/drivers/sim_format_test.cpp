@@ -42,9 +42,13 @@ TEST_P(SimProfiles, FilesFollowTheirContractsAndPacketsAssembleCleanly) {
     const std::string profile = GetParam();
     test::TempDir dir("sim_format");
     std::string log;
-    ASSERT_EQ(test::run_command(test::tool_path() + " sim --scenario curve --sensors 3 --seconds 0.1"
-                                " --mode 512x20 --threads 2 --profile " + profile + " --out " +
-                                dir.path().string(), &log), 0) << log;
+    ASSERT_EQ(test::run_command(test::tool_path() +
+                                    " sim --scenario curve --sensors 3 --seconds 0.1"
+                                    " --mode 512x20 --threads 2 --profile " +
+                                    profile + " --out " + dir.path().string(),
+                                &log),
+              0)
+        << log;
 
     EXPECT_EQ(read_text(dir.path() / "station.yaml"),
               "station: sim-curve\nroot: lidar0\nsensors:\n"
@@ -77,9 +81,8 @@ TEST_P(SimProfiles, FilesFollowTheirContractsAndPacketsAssembleCleanly) {
         init_ids.insert(info.init_id);
         const auto& c = cap.counters.at(s.name);
         EXPECT_EQ(c.lidar_packets, 2u * 32u);
-        EXPECT_EQ(c.bad_size + c.bad_profile + c.crc_errors + c.late_packets +
-                      c.duplicate_packets + c.bad_columns + c.frames_incomplete + c.resets +
-                      c.missing_columns,
+        EXPECT_EQ(c.bad_size + c.bad_profile + c.crc_errors + c.late_packets + c.duplicate_packets +
+                      c.bad_columns + c.frames_incomplete + c.resets + c.missing_columns,
                   0u);
         if (profile != "LEGACY") {
             EXPECT_EQ(c.crc_valid, c.lidar_packets);
@@ -109,8 +112,13 @@ INSTANTIATE_TEST_SUITE_P(Profiles, SimProfiles,
 TEST(SimFormat, WholeDatagramsOptionWritesNoFragments) {
     test::TempDir dir("sim_whole");
     std::string log;
-    ASSERT_EQ(test::run_command(test::tool_path() + " sim --scenario straight --sensors 1 --seconds 0.05"
-                                " --mode 512x20 --whole-datagrams --out " + dir.path().string(), &log), 0) << log;
+    ASSERT_EQ(test::run_command(test::tool_path() +
+                                    " sim --scenario straight --sensors 1 --seconds 0.05"
+                                    " --mode 512x20 --whole-datagrams --out " +
+                                    dir.path().string(),
+                                &log),
+              0)
+        << log;
     const auto cap = simtest::decode_sim_output(dir.path());
     EXPECT_EQ(cap.pcap_stats.fragments, 0u);
     EXPECT_EQ(cap.pcap_stats.udp_datagrams, 32u);
@@ -118,11 +126,16 @@ TEST(SimFormat, WholeDatagramsOptionWritesNoFragments) {
 
 TEST(SimFormat, BadArgumentsAreRejectedWithAMessage) {
     std::string log;
-    EXPECT_NE(test::run_command(test::tool_path() + " sim --scenario roundabout --out /tmp/x", &log), 0);
+    EXPECT_NE(
+        test::run_command(test::tool_path() + " sim --scenario roundabout --out /tmp/x", &log), 0);
     EXPECT_NE(log.find("scenario"), std::string::npos) << log;
-    EXPECT_NE(test::run_command(test::tool_path() + " sim --scenario curve --out /tmp/x --mode 1000x3", &log), 0);
+    EXPECT_NE(test::run_command(
+                  test::tool_path() + " sim --scenario curve --out /tmp/x --mode 1000x3", &log),
+              0);
     EXPECT_NE(log.find("--mode"), std::string::npos) << log;
-    EXPECT_NE(test::run_command(test::tool_path() + " sim --scenario curve --out /tmp/x --fault drop:2", &log), 0);
+    EXPECT_NE(test::run_command(
+                  test::tool_path() + " sim --scenario curve --out /tmp/x --fault drop:2", &log),
+              0);
     EXPECT_NE(log.find("drop:2"), std::string::npos) << log;
     EXPECT_EQ(test::run_command(test::tool_path() + " sim --help", &log), 0);
     EXPECT_NE(log.find("clock-offset:SENSOR:OFFSET_S"), std::string::npos) << log;

@@ -34,10 +34,10 @@ public:
         double best = 1e9;
         for (const std::size_t t : cells_[cell(p.x()) * kN + cell(p.y())]) {
             const auto& tri = mesh_.triangles[t];
-            best = std::min(best, sim::point_triangle_distance(
-                                      p, mesh_.vertices[tri[0]].cast<double>(),
-                                      mesh_.vertices[tri[1]].cast<double>(),
-                                      mesh_.vertices[tri[2]].cast<double>()));
+            best = std::min(best,
+                            sim::point_triangle_distance(p, mesh_.vertices[tri[0]].cast<double>(),
+                                                         mesh_.vertices[tri[1]].cast<double>(),
+                                                         mesh_.vertices[tri[2]].cast<double>()));
         }
         return best;
     }
@@ -71,8 +71,8 @@ TEST_P(SimGeometry, NoiseFreePointsLieOnTheSceneWithinOneMillimetre) {
     for (const auto& [name, scans] : cap.scans) {
         SCOPED_TRACE(name);
         const auto& c = cap.counters.at(name);
-        EXPECT_EQ(c.bad_size + c.bad_profile + c.crc_errors + c.late_packets +
-                      c.duplicate_packets + c.bad_columns + c.frames_incomplete + c.resets,
+        EXPECT_EQ(c.bad_size + c.bad_profile + c.crc_errors + c.late_packets + c.duplicate_packets +
+                      c.bad_columns + c.frames_incomplete + c.resets,
                   0u);
         EXPECT_EQ(c.frames_complete, 2u);
         ASSERT_EQ(scans.size(), 2u);
@@ -82,7 +82,8 @@ TEST_P(SimGeometry, NoiseFreePointsLieOnTheSceneWithinOneMillimetre) {
             ASSERT_NE(row, nullptr) << "no ground-truth row at the scan's timestamp";
             ASSERT_GT(scan.points_sensor.size(), 4000u);
             double worst = 0;
-            for (const auto& p : scan.points_sensor) worst = std::max(worst, dist.distance(row->pose * p));
+            for (const auto& p : scan.points_sensor)
+                worst = std::max(worst, dist.distance(row->pose * p));
             EXPECT_LT(worst, 1e-3) << "farthest point from any scene surface, metres";
             RecordProperty(name + "_worst_mm", std::to_string(worst * 1e3));
             std::printf("%s frame %u: %zu points, worst %.3f mm\n", name.c_str(), scan.frame_id,

@@ -39,14 +39,18 @@ TEST(SimLive, SendsEveryPacketToTheSensorsPortsInRealTime) {
         const ouster::PacketFormat f(ouster::UdpProfileLidar::kLegacy, 64, 16);
         while (!stop) {
             const auto n = ::recv(fd, buf.data(), buf.size(), 0);
-            if (n > 0 && f.classify(buf.data(), static_cast<std::size_t>(n)) == ouster::PacketKind::kLidar) ++good;
+            if (n > 0 &&
+                f.classify(buf.data(), static_cast<std::size_t>(n)) == ouster::PacketKind::kLidar)
+                ++good;
         }
     });
     test::TempDir dir("sim_live");
     std::string log;
-    const int rc = test::run_command(test::tool_path() + " sim --scenario straight --sensors 1 --seconds 0.5"
-                                     " --mode 512x20 --no-traffic --live --to 127.0.0.1:" +
-                                     std::to_string(port) + " --out " + dir.path().string(), &log);
+    const int rc = test::run_command(test::tool_path() +
+                                         " sim --scenario straight --sensors 1 --seconds 0.5"
+                                         " --mode 512x20 --no-traffic --live --to 127.0.0.1:" +
+                                         std::to_string(port) + " --out " + dir.path().string(),
+                                     &log);
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     stop = true;
     rx.join();

@@ -84,7 +84,8 @@ TEST(SimPendulum, DrawnInitialValuesStayInThePapersRanges) {
     double max_disp = 0;
     for (int k = 0; k < 16; ++k) {
         PendulumTrajectory traj(draw_pendulum_init(1, k), 10.0);
-        for (const auto& s : traj.states()) max_disp = std::max(max_disp, 6.0 * s.u.head<2>().norm());
+        for (const auto& s : traj.states())
+            max_disp = std::max(max_disp, 6.0 * s.u.head<2>().norm());
     }
     EXPECT_GT(max_disp, 0.1);
     EXPECT_LT(max_disp, 0.6);

@@ -76,8 +76,8 @@ TEST_P(SimScenes, SensorsStandOnSixMetrePolesAndNeighboursOverlap) {
         const auto& a = rigs[static_cast<std::size_t>(k)];
         const auto& b = rigs[static_cast<std::size_t>((k + 1) % 4)];
         const double ab = view_overlap(caster, a, b), ba = view_overlap(caster, b, a);
-        std::printf("%s: overlap %s->%s %.2f, %s->%s %.2f\n", to_string(GetParam()), a.name().c_str(),
-                    b.name().c_str(), ab, b.name().c_str(), a.name().c_str(), ba);
+        std::printf("%s: overlap %s->%s %.2f, %s->%s %.2f\n", to_string(GetParam()),
+                    a.name().c_str(), b.name().c_str(), ab, b.name().c_str(), a.name().c_str(), ba);
         EXPECT_GT(std::max(ab, ba), 0.2);
         EXPECT_GT(std::min(ab, ba), 0.1);
     }
@@ -95,7 +95,8 @@ TEST(SimScene, IntersectionCornerBuildingsBlockNeighbouringSensors) {
     for (int k = 0; k < 4; ++k) {
         const Eigen::Vector3d a = rigs[k].nominal_T_world_sensor().translation();
         const Eigen::Vector3d b = rigs[(k + 1) % 4].nominal_T_world_sensor().translation();
-        const RayHit h = caster.cast(a, (b - a).normalized(), 0.5, (b - a).norm() - 0.5, nullptr, 0.f);
+        const RayHit h =
+            caster.cast(a, (b - a).normalized(), 0.5, (b - a).norm() - 0.5, nullptr, 0.f);
         EXPECT_TRUE(h.hit) << "line of sight lidar" << k << " -> lidar" << (k + 1) % 4;
         if (h.hit) {
             EXPECT_EQ(h.material, Material::kFacade);
@@ -130,7 +131,8 @@ TEST(SimScene, EveryClassOfRoadUserMovesAlongItsTrack) {
     traffic.moving_boxes(5.0, 5.05, &boxes);
     EXPECT_GT(boxes.size(), 20u);
     for (const auto& b : boxes) {
-        const double moved = (b.T_world_box_t1.translation() - b.T_world_box_t0.translation()).norm();
+        const double moved =
+            (b.T_world_box_t1.translation() - b.T_world_box_t0.translation()).norm();
         EXPECT_LT(moved, 16.0 * 0.05 + 1e-6);
     }
 }
