@@ -20,6 +20,7 @@
 #include "daemon/pipeline.hpp"
 #include "daemon/systemd_notify.hpp"
 #include "drivers/build_info.hpp"
+#include "drivers/process_env.hpp"
 
 namespace {
 
@@ -41,6 +42,7 @@ std::string status_line(const lidarfuse::daemon::PipelineStats& st) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    lidarfuse::drivers::ensure_passive_openmp(argv);
     std::string config_path, output_dir;
     bool check_only = false;
     for (int i = 1; i < argc; ++i) {

@@ -5,6 +5,7 @@
 #include <exception>
 
 #include "drivers/build_info.hpp"
+#include "drivers/process_env.hpp"
 #include "tools/command.hpp"
 
 namespace lidarfuse::tools {
@@ -40,6 +41,7 @@ void print_usage(std::FILE* out) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    lidarfuse::drivers::ensure_passive_openmp(argv);
     if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
         print_usage(argc < 2 ? stderr : stdout);
         return argc < 2 ? 2 : 0;
