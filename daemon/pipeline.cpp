@@ -175,22 +175,12 @@ struct Pipeline::Impl {
                     return;
                 }
                 if (!ouster::project_scan(scan, s->lut, ouster::ProjectionParams{}, &s->cloud)) return;
-                std::int64_t t = 0;
-                for (std::size_t c = 0; c < scan.columns(); ++c) {
-                    if (scan.received[c]) {
-                        t = static_cast<std::int64_t>(scan.timestamp_ns[c]);
-                        break;
-                    }
-                }
+                const std::uint64_t t = ouster::scan_reference_time_ns(scan);
                 ScanMessage m;
                 m.sensor = s->index;
-                m.t_ns = t + s->time_offset_ns;
+                m.t_ns = static_cast<std::int64_t>(t) + s->time_offset_ns;
                 m.points = s->cloud.cloud.points;
-                m.point_dt_s.resize(m.points.size());
-                for (std::size_t i = 0; i < m.points.size(); ++i) {
-                    m.point_dt_s[i] = static_cast<float>(
-                        static_cast<double>(static_cast<std::int64_t>(s->cloud.timestamp_ns_of(i)) - t) * 1e-9);
-                }
+                ouster::point_times_s(s->cloud, t, &m.point_dt_s);
                 s->last_scan_steady_ns.store(steady_ns(), std::memory_order_relaxed);
                 queue->push(std::move(m));
             });

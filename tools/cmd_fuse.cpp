@@ -10,6 +10,7 @@
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/io/cloud_ply.hpp"
 #include "drivers/io/pose_csv.hpp"
+#include "drivers/ouster/projection.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
 
@@ -119,12 +120,11 @@ int run_fuse(int argc, char** argv) {
         ++frames;
     };
 
-    std::vector<float> dt;
     capture.run([&](const capture::CaptureScan& scan) {
         PendingScan pending;
         pending.t_ns = scan.t_ns;
         pending.points = scan.cloud->cloud.points;
-        capture::point_times_s(scan, &pending.point_dt_s);
+        ouster::point_times_s(*scan.cloud, static_cast<std::uint64_t>(scan.sensor_t_ns), &pending.point_dt_s);
         synchroniser.push(scan.sensor, scan.t_ns, scan.capture_time_ns, std::move(pending));
         while (frames < max_frames) {
             auto frame = synchroniser.poll(scan.capture_time_ns);

@@ -16,19 +16,6 @@ struct StationCapture::Sensor {
     ouster::ScanCloud cloud;
 };
 
-void point_times_s(const CaptureScan& scan, std::vector<float>* out) {
-    const auto& cloud = *scan.cloud;
-    out->resize(cloud.cloud.size());
-    if (cloud.pixel_index.size() != cloud.cloud.size() || cloud.columns == 0) {
-        std::fill(out->begin(), out->end(), 0.0f);
-        return;
-    }
-    for (std::size_t i = 0; i < out->size(); ++i) {
-        const auto t = static_cast<std::int64_t>(cloud.timestamp_ns_of(i));
-        (*out)[i] = static_cast<float>(static_cast<double>(t - scan.sensor_t_ns) * 1e-9);
-    }
-}
-
 StationCapture::StationCapture(const station::StationConfig& station,
                                const std::filesystem::path& pcap_file)
     : station_(station), pcap_file_(pcap_file) {
@@ -79,14 +66,7 @@ void StationCapture::run(const std::function<bool(const CaptureScan&)>& on_scan)
                 if (!keep_going) return;
                 ouster::ProjectionParams projection;
                 if (!ouster::project_scan(scan, sensor->lut, projection, &sensor->cloud)) return;
-                // Column 0's time, or the first column that arrived (windowed or lossy).
-                std::int64_t t = 0;
-                for (std::size_t c = 0; c < scan.columns(); ++c) {
-                    if (scan.received[c]) {
-                        t = static_cast<std::int64_t>(scan.timestamp_ns[c]);
-                        break;
-                    }
-                }
+                const auto t = static_cast<std::int64_t>(ouster::scan_reference_time_ns(scan));
                 CaptureScan out;
                 out.sensor = sensor->index;
                 out.scan = &scan;

@@ -33,9 +33,6 @@ struct CaptureScan {
     std::int64_t capture_time_ns = 0;  // pcap time of the datagram that completed it
 };
 
-// Each point's acquisition time relative to the scan's timestamp, in seconds (deskew).
-void point_times_s(const CaptureScan& scan, std::vector<float>* out);
-
 class StationCapture {
 public:
     // Loads every enabled sensor's metadata; throws naming the sensor and file on errors.

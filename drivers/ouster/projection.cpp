@@ -42,4 +42,21 @@ bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionPara
     return true;
 }
 
+std::uint64_t scan_reference_time_ns(const LidarScan& scan) {
+    for (std::size_t c = 0; c < scan.columns(); ++c) {
+        if (scan.received[c]) return scan.timestamp_ns[c];
+    }
+    return 0;
+}
+
+void point_times_s(const ScanCloud& cloud, std::uint64_t reference_ns, std::vector<float>* out) {
+    out->assign(cloud.cloud.size(), 0.0f);
+    if (cloud.pixel_index.size() != cloud.cloud.size() || cloud.columns == 0) return;
+    const auto reference = static_cast<std::int64_t>(reference_ns);
+    for (std::size_t i = 0; i < out->size(); ++i) {
+        const auto t = static_cast<std::int64_t>(cloud.timestamp_ns_of(i));
+        (*out)[i] = static_cast<float>(static_cast<double>(t - reference) * 1e-9);
+    }
+}
+
 }  // namespace lidarfuse::ouster

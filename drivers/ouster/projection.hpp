@@ -44,6 +44,14 @@ struct ScanCloud {
     }
 };
 
+// The instant a scan's pose refers to: column 0's timestamp, or the first column that
+// arrived when column 0 did not (azimuth window, loss). Sensor clock, ns; 0 if none arrived.
+std::uint64_t scan_reference_time_ns(const LidarScan& scan);
+
+// Each point's acquisition time relative to `reference_ns`, in seconds (for deskewing).
+// Needs the pixel indices (ProjectionParams::keep_pixel_index); zeros otherwise.
+void point_times_s(const ScanCloud& cloud, std::uint64_t reference_ns, std::vector<float>* out);
+
 // Projects `scan` into `out` (previous contents replaced). The LUT must have the scan's
 // H x W; a mismatch, or a second return the scan lacks, yields an empty cloud and false.
 bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionParams& params,
