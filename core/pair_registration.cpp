@@ -19,6 +19,7 @@ struct Candidate {
     Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
     GicpResult gicp;
     P2pErrorResult p2p;
+    FreeSpaceResult free_space;
     std::size_t ransac_inliers = 0;
     int round = 0;
 };
@@ -34,6 +35,7 @@ const char* to_string(PairStatus status) {
         case PairStatus::kRefinementFailed: return "G-ICP refinement failed";
         case PairStatus::kLowOverlap: return "overlap too small";
         case PairStatus::kDegenerate: return "degenerate (weak or singular G-ICP Hessian)";
+        case PairStatus::kFreeSpaceViolated: return "points in the other sensor's free space";
         case PairStatus::kRejectedByPoseGraph: return "inconsistent with the other pairs";
     }
     return "unknown";
@@ -71,6 +73,7 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
     std::vector<Candidate> candidates;
     bool any_consensus = false;
     int weak_candidates = 0;
+    int free_space_rejected = 0;
     for (int round = 0; round < std::max(1, params.max_candidates) && remaining.size() >= 3; ++round) {
         start = Clock::now();
         RansacParams ransac_params = params.ransac;
@@ -112,7 +115,16 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
             } else if (information_per_inlier < params.min_information_per_inlier) {
                 ++weak_candidates;
             } else {
-                candidates.push_back(candidate);
+                candidate.free_space = free_space_violations_both(
+                    source.gicp.cloud().points, target.gicp.cloud().points, candidate.T_target_source,
+                    params.free_space);
+                if (candidate.free_space.violation_share > params.max_free_space_violation_share) {
+                    ++free_space_rejected;
+                    result.worst_rejected_violation_share =
+                        std::max(result.worst_rejected_violation_share, candidate.free_space.violation_share);
+                } else {
+                    candidates.push_back(candidate);
+                }
             }
         }
 
@@ -127,7 +139,8 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
     }
     result.candidates = static_cast<int>(candidates.size());
     if (candidates.empty()) {
-        result.status = weak_candidates > 0 ? PairStatus::kDegenerate
+        result.status = free_space_rejected > 0 ? PairStatus::kFreeSpaceViolated
+                        : weak_candidates > 0   ? PairStatus::kDegenerate
                         : any_consensus     ? PairStatus::kRefinementFailed
                                             : PairStatus::kNoConsensus;
         return result;
@@ -155,6 +168,7 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
     result.gicp_inliers = best->gicp.num_inliers;
     result.min_hessian_eigenvalue = best->gicp.H_eigenvalues(0);
     result.min_translation_hessian_eigenvalue = best->gicp.H_translation_eigenvalues(0);
+    result.free_space_violation_share = best->free_space.violation_share;
     if (best->gicp.inlier_ratio < params.min_overlap_share) {
         result.status = PairStatus::kLowOverlap;
         return result;

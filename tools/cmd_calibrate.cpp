@@ -196,8 +196,8 @@ int run_calibrate(int argc, char** argv) {
         node["reason"] = "disabled in the station config";
         doc["sensors"].push_back(node);
     }
-    std::printf("\n%-16s %-16s %-28s %10s %8s %8s %12s\n", "source", "target", "status", "p2p_m",
-                "inliers", "overlap", "min_eig_H");
+    std::printf("\n%-16s %-16s %-28s %10s %8s %8s %12s %10s\n", "source", "target", "status", "p2p_m",
+                "inliers", "overlap", "min_eig_H", "free_viol");
     for (const auto& p : result.pairs) {
         YAML::Node node;
         node["source"] = sensors[order[p.source]].name;
@@ -208,10 +208,12 @@ int run_calibrate(int argc, char** argv) {
         node["p2p_inliers"] = p.p2p_inliers;
         node["overlap_share"] = p.overlap_share;
         node["min_hessian_eigenvalue"] = p.min_hessian_eigenvalue;
+        node["free_space_violation_share"] = p.free_space_violation_share;
         doc["pairs"].push_back(node);
-        std::printf("%-16s %-16s %-28s %10.3f %8zu %8.2f %12.4g\n", sensors[order[p.source]].name.c_str(),
+        std::printf("%-16s %-16s %-28s %10.3f %8zu %8.2f %12.4g %10.3f\n", sensors[order[p.source]].name.c_str(),
                     sensors[order[p.target]].name.c_str(), core::to_string(p.status), p.p2p_error_m,
-                    p.gicp_inliers, p.overlap_share, p.min_hessian_eigenvalue);
+                    p.gicp_inliers, p.overlap_share, p.min_hessian_eigenvalue,
+                    std::max(p.free_space_violation_share, p.worst_rejected_violation_share));
     }
     std::ofstream out(out_path);
     if (!out) throw std::runtime_error(out_path + ": cannot open for writing");
