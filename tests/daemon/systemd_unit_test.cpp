@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <regex>
 
 #include "tests/support/test_data.hpp"
 
@@ -32,10 +31,9 @@ TEST(SystemdUnit, OfflineSecurityExposureIsLow) {
     if (!have_systemd_analyze()) GTEST_SKIP() << "systemd-analyze not installed (Debian package systemd)";
     std::string out;
     test::run_command("systemd-analyze security --offline=yes " + test_unit().string(), &out);
-    std::smatch m;
-    ASSERT_TRUE(std::regex_search(out, m, std::regex("Overall exposure level for lidarfused.service: ([0-9.]+)")))
-        << out;
-    EXPECT_LE(std::stod(m[1]), 2.0) << out;
+    const auto level = test::line_after(out, "Overall exposure level for lidarfused.service: ");
+    ASSERT_TRUE(level.has_value()) << out;
+    EXPECT_LE(std::stod(*level), 2.0) << out;
 }
 
 }  // namespace

@@ -72,4 +72,26 @@ int run_command(const std::string& command, std::string* output) {
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+std::optional<std::string> line_after(const std::string& output, const std::string& prefix) {
+    const auto at = output.find(prefix);
+    if (at == std::string::npos) return std::nullopt;
+    const auto begin = at + prefix.size();
+    const auto end = output.find('\n', begin);
+    return output.substr(begin, end == std::string::npos ? std::string::npos : end - begin);
+}
+
+std::optional<double> figure(const std::string& output, const std::string& name) {
+    std::size_t at = 0;
+    while ((at = output.find(name + " ", at)) != std::string::npos) {
+        if (at == 0 || output[at - 1] == '\n') {
+            const char* begin = output.c_str() + at + name.size() + 1;
+            char* end = nullptr;
+            const double value = std::strtod(begin, &end);
+            if (end != begin) return value;
+        }
+        at += name.size();
+    }
+    return std::nullopt;
+}
+
 }  // namespace lidarfuse::test

@@ -40,6 +40,14 @@ std::string daemon_path();  // lidarfused
 // Runs a shell command, captures stdout+stderr into `output`, returns the exit status.
 int run_command(const std::string& command, std::string* output);
 
+// The value of a `name value unit` line in a command's output (the benchmark and tool
+// convention), or nullopt when no line starts with `name `. (No std::regex: GCC 12 warns
+// inside it under the sanitizers, and warnings are errors.)
+std::optional<double> figure(const std::string& output, const std::string& name);
+
+// The text after `prefix` up to the end of its line, at the first occurrence.
+std::optional<std::string> line_after(const std::string& output, const std::string& prefix);
+
 }  // namespace lidarfuse::test
 
 // Skips the current test, with a visible reason, when a sample file is not available.

@@ -4,7 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
-#include <regex>
 
 #include "drivers/io/pose_csv.hpp"
 #include "tests/support/test_data.hpp"
@@ -15,9 +14,7 @@ namespace {
 using ::testing::HasSubstr;
 
 double figure(const std::string& output, const std::string& name) {
-    std::smatch m;
-    if (!std::regex_search(output, m, std::regex(name + " ([0-9.eE+-]+) "))) return -1;
-    return std::stod(m[1]);
+    return test::figure(output, name).value_or(-1);
 }
 
 TEST(FuseCommand, SimulatedStationIsFusedAgainstGroundTruth) {
