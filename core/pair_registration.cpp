@@ -84,13 +84,23 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         if (!ransac.success) break;
         any_consensus = true;
 
+        const FreeSpaceResult coarse_free_space = free_space_violations_both(
+            source.gicp.cloud().points, target.gicp.cloud().points, ransac.T_target_source, params.free_space);
+        const bool hopeless = coarse_free_space.violation_share > params.max_coarse_free_space_violation_share;
+        if (hopeless) {
+            ++free_space_rejected;
+            result.worst_rejected_violation_share =
+                std::max(result.worst_rejected_violation_share, coarse_free_space.violation_share);
+        }
+
         start = Clock::now();
         Candidate candidate;
         candidate.round = round;
         candidate.ransac_inliers = ransac.inliers.size();
         candidate.T_target_source = ransac.T_target_source;
-        bool refined = true;
+        bool refined = !hopeless;
         for (double max_distance_m : params.gicp_max_correspondence_m) {
+            if (!refined) break;
             gicp_params.max_correspondence_distance_m = max_distance_m;
             gicp.set_params(gicp_params);
             candidate.gicp = gicp.align(target.gicp, source.gicp.cloud(), candidate.T_target_source);

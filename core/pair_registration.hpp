@@ -38,7 +38,7 @@ struct PairRegistrationParams {
     // r_c of the p2p error (m); the paper: about the largest octree voxel size.
     double p2p_cutoff_m = 1.0;
     // Candidates (RANSAC rounds) of the wrong-majority guard; 1 disables it.
-    int max_candidates = 2;
+    int max_candidates = 6;
     double min_support_share = 0.5;
     // The winner's G-ICP inliers / source points must reach this.
     double min_overlap_share = 0.15;
@@ -60,6 +60,10 @@ struct PairRegistrationParams {
     // 0.15-0.23 m and overlap 0.85, better than the right candidates' 0.36 m and 0.5).
     FreeSpaceParams free_space{};
     double max_free_space_violation_share = 0.03;
+    // The same check on the RANSAC transform, before G-ICP (saves refining hopeless
+    // candidates); looser, because the RANSAC transform is off by up to ~the RANSAC inlier
+    // threshold.
+    double max_coarse_free_space_violation_share = 0.35;
     int num_threads = 1;
 };
 
