@@ -7,9 +7,9 @@
 #include <cmath>
 #include <fstream>
 #include <map>
-#include <regex>
 #include <sstream>
 
+#include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "tests/support/test_data.hpp"
 
@@ -21,29 +21,11 @@ struct Estimate {
     Eigen::Isometry3d T_root_sensor = Eigen::Isometry3d::Identity();
 };
 
+// Reads extrinsics.yaml with the project's reader (drivers/io/extrinsics_yaml.hpp).
 std::map<std::string, Estimate> read_extrinsics(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream text;
-    text << in.rdbuf();
-    const std::string s = text.str();
     std::map<std::string, Estimate> result;
-    const std::regex entry(
-        R"(- name: (\S+)\n\s+registered: (true|false)(\n\s+T_root_sensor:\n\s+translation: \[([^\]]*)\]\n\s+rotation_wxyz: \[([^\]]*)\])?)");
-    for (auto it = std::sregex_iterator(s.begin(), s.end(), entry); it != std::sregex_iterator(); ++it) {
-        Estimate e;
-        e.registered = (*it)[2] == "true";
-        if (e.registered && (*it)[3].matched) {
-            double t[3];
-            double q[4];
-            char comma;
-            std::istringstream ts((*it)[4].str());
-            ts >> t[0] >> comma >> t[1] >> comma >> t[2];
-            std::istringstream qs((*it)[5].str());
-            qs >> q[0] >> comma >> q[1] >> comma >> q[2] >> comma >> q[3];
-            e.T_root_sensor.linear() = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
-            e.T_root_sensor.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
-        }
-        result[(*it)[1].str()] = e;
+    for (const auto& entry : io::read_extrinsics_yaml(path, nullptr)) {
+        result[entry.name] = Estimate{entry.registered, entry.T_root_sensor};
     }
     return result;
 }
