@@ -8,6 +8,8 @@
 // A point p measured at t_k in the sensor frame of that instant is, in the sensor frame at
 // t_ref:   p' = exp(xi * (t_k - t_ref)) * p.
 // The twist comes from the last two pose estimates: xi = log(T_{n-1}^-1 T_n) / dt.
+// Caution: fed back through the registration, that estimate can run away (see
+// FusionParams::deskew); the engine leaves deskew off by default.
 
 #include <cstdint>
 #include <vector>

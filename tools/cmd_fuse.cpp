@@ -27,7 +27,7 @@ struct PendingScan {
 const char* kUsage =
     "usage: lidarfuse fuse CAPTURE.pcap --config station.yaml --out DIR [--voxel-size M]\n"
     "                      [--window K] [--threads N] [--save-cloud FRAME ...] [--max-frames N]\n"
-    "                      [--no-deskew] [--no-dynamic]\n"
+    "                      [--deskew] [--no-dynamic]\n"
     "Decodes the capture with the production ingest, groups one scan per sensor into frames,\n"
     "and runs the FusionEngine on every frame. Writes DIR/poses.csv (T_root_sensor per sensor\n"
     "and frame; header frame,sensor,t_ns,x,y,z,qw,qx,qy,qz), DIR/timing.csv (ms per stage per\n"
@@ -37,7 +37,7 @@ int run_fuse(int argc, char** argv) {
     const Args args(argc, argv,
                     {"--config", "--out", "--voxel-size", "--window", "--threads", "--save-cloud",
                      "--max-frames"},
-                    {"--no-deskew", "--no-dynamic"});
+                    {"--deskew", "--no-dynamic"});
     if (args.help()) {
         std::printf("%s", kUsage);
         return 0;
@@ -54,7 +54,7 @@ int run_fuse(int argc, char** argv) {
     params.voxel_size_m = args.number("--voxel-size", params.voxel_size_m);
     params.window_frames = static_cast<int>(args.integer("--window", params.window_frames));
     params.num_threads = static_cast<int>(args.integer("--threads", 2));
-    params.deskew = !args.flag("--no-deskew");
+    params.deskew = args.flag("--deskew");
     params.remove_dynamic = !args.flag("--no-dynamic");
     if (!(params.voxel_size_m > 0)) throw UsageError("--voxel-size must be positive");
     if (params.window_frames < 2) throw UsageError("--window must be at least 2");

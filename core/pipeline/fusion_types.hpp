@@ -43,7 +43,11 @@ struct FusionParams {
     double correspondence_factor = 1.5;
     // Huber delta of the pose graph in sigmas (edge information is calibrated, see engine).
     double huber_delta = 3.0;
-    bool deskew = true;
+    // Per-column motion compensation from the frame-to-frame velocity. Off by default: on
+    // simulated 20 Hz captures the velocity estimate and the registration fed each other
+    // (a skewed cloud biases the pose, which biases the next velocity) until the root
+    // drifted metres; the velocity model needs damping and bounds before it can be on.
+    bool deskew = false;
     bool remove_dynamic = true;
     BackgroundModelParams background{};
     InitialRegistrationParams initial = default_initial_registration_params();
