@@ -23,31 +23,32 @@ inline int wrap_column(long long column, int width) {
 }
 }  // namespace detail
 
-// `shift` must have `height` entries; width > 0.
+namespace detail {
+// out(row, (m + sign * shift[row]) mod W) = in(row, m): destagger with sign +1, restagger
+// (its inverse) with sign -1.
 template <typename T>
-void destagger(const T* in, int height, int width, const std::vector<int>& shift, T* out) {
+void shift_rows(const T* in, int height, int width, const std::vector<int>& shift, int sign, T* out) {
     for (int row = 0; row < height; ++row) {
         const T* src = in + static_cast<std::size_t>(row) * width;
         T* dst = out + static_cast<std::size_t>(row) * width;
-        const int s = detail::wrap_column(shift[row], width);
+        const int s = wrap_column(static_cast<long long>(sign) * shift[row], width);
         for (int m = 0; m < width; ++m) {
             const int c = m + s < width ? m + s : m + s - width;
             dst[c] = src[m];
         }
     }
 }
+}  // namespace detail
+
+// `shift` must have `height` entries; width > 0.
+template <typename T>
+void destagger(const T* in, int height, int width, const std::vector<int>& shift, T* out) {
+    detail::shift_rows(in, height, width, shift, +1, out);
+}
 
 template <typename T>
 void restagger(const T* in, int height, int width, const std::vector<int>& shift, T* out) {
-    for (int row = 0; row < height; ++row) {
-        const T* src = in + static_cast<std::size_t>(row) * width;
-        T* dst = out + static_cast<std::size_t>(row) * width;
-        const int s = detail::wrap_column(shift[row], width);
-        for (int m = 0; m < width; ++m) {
-            const int c = m + s < width ? m + s : m + s - width;
-            dst[m] = src[c];
-        }
-    }
+    detail::shift_rows(in, height, width, shift, -1, out);
 }
 
 // Instantiated once in destagger.cpp for the LidarScan pixel types.
