@@ -1,0 +1,283 @@
+// Our G-ICP against PCL's GeneralizedIterativeClosestPoint on the same pairs of simulated
+// OS1-64 scans, with the same parameters (issue 4's comparison). Built only with
+// -DLIDARFUSE_WITH_PCL=ON (needs Debian's libpcl-dev); never part of the test command.
+//
+// Pairs come from a `lidarfuse sim` capture (decoded with the production ingest) and its
+// ground_truth.csv:
+//   temporal: each sensor, frame k+1 onto frame k, started 0.1 m / 1 degree off the true
+//             motion (the sway between two frames is millimetres, so a start at identity
+//             would reward whichever stops first rather than whichever converges)
+//   spatial:  each sensor onto the root sensor, same frame, started at the true pose
+//             perturbed by 0.3 m and 2 degrees
+// Both registrations get the same voxel-grid clouds, the same k for the covariances, the
+// same correspondence bound, iteration cap and convergence thresholds, one thread each.
+// Timed per pair: everything each needs from the two clouds (k-d trees, covariances,
+// optimisation), because PCL computes its covariances inside align().
+//
+// Usage: gicp_pcl_bench [CAPTURE_DIR [FRAMES]]   (no CAPTURE_DIR: simulates the curve scene,
+// seed 1, 4 sensors, into a temporary folder). Output: `name value unit` lines.
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/registration/gicp.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/gicp.hpp"
+#include "core/normals.hpp"
+#include "core/se3.hpp"
+#include "core/voxel_grid.hpp"
+#include "drivers/capture/station_capture.hpp"
+#include "drivers/io/pose_csv.hpp"
+#include "drivers/station/station_config.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using lidarfuse::core::PointCloud;
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+constexpr int kCovarianceNeighbours = 20;  // PCL's default k_correspondences
+constexpr int kMaxIterations = 30;
+constexpr double kTranslationEpsM = 1e-4;
+constexpr double kRotationEpsRad = 1e-4;
+
+void print(const std::string& name, double value, const char* unit) {
+    std::printf("%s %.6g %s\n", name.c_str(), value, unit);
+}
+
+double ms_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+        .count();
+}
+
+struct Pair {
+    const char* kind;
+    const std::vector<Eigen::Vector3d>* target;
+    const std::vector<Eigen::Vector3d>* source;
+    Eigen::Isometry3d T_true;  // T_target_source
+    Eigen::Isometry3d T_init;
+};
+
+struct Outcome {
+    double ms = 0.0, trans_err_m = 0.0, rot_err_deg = 0.0;
+    int iterations = 0;
+};
+
+PointCloud downsample(const std::vector<Eigen::Vector3d>& points, double voxel_m) {
+    lidarfuse::core::VoxelGrid grid;
+    PointCloud out;
+    grid.downsample(points, lidarfuse::core::VoxelGridParams{voxel_m, 1}, &out);
+    return out;
+}
+
+lidarfuse::core::NormalParams covariance_params() {
+    lidarfuse::core::NormalParams np;
+    np.k_neighbors = kCovarianceNeighbours;
+    np.compute_normals = false;
+    np.num_threads = 1;
+    return np;
+}
+
+// shared_covariances: the clouds already carry covariances (the same ones go to PCL) and
+// only the alignment is timed; otherwise the covariances are computed inside the timing.
+Outcome run_ours(const PointCloud& target_in, const PointCloud& source_in, const Pair& pair,
+                 double max_corr_m, bool shared_covariances) {
+    lidarfuse::core::GicpParams gp;
+    gp.max_correspondence_distance_m = max_corr_m;
+    gp.max_iterations = kMaxIterations;
+    gp.translation_eps_m = kTranslationEpsM;
+    gp.rotation_eps_rad = kRotationEpsRad;
+    gp.num_threads = 1;
+
+    PointCloud target = target_in, source = source_in;
+    const auto start = std::chrono::steady_clock::now();
+    if (!shared_covariances) {
+        lidarfuse::core::estimate_normals_covariances(&target, covariance_params());
+        lidarfuse::core::estimate_normals_covariances(&source, covariance_params());
+    }
+    const lidarfuse::core::GicpTarget gicp_target(std::move(target));
+    const lidarfuse::core::GicpResult r =
+        lidarfuse::core::align_gicp(gicp_target, source, pair.T_init, gp);
+    Outcome o;
+    o.ms = ms_since(start);
+    o.iterations = r.iterations;
+    o.trans_err_m = lidarfuse::core::translation_error_m(r.T_target_source, pair.T_true);
+    o.rot_err_deg = lidarfuse::core::rotation_error_deg(r.T_target_source, pair.T_true);
+    return o;
+}
+
+pcl::PointCloud<pcl::PointXYZ>::Ptr to_pcl(const PointCloud& cloud) {
+    auto out = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+    out->reserve(cloud.size());
+    for (const Eigen::Vector3d& p : cloud.points) {
+        out->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                                     static_cast<float>(p.z())));
+    }
+    return out;
+}
+
+// PCL 1.13 keeps the iteration count in a protected member with no getter.
+class CountingGicp : public pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> {
+public:
+    int iterations() const { return nr_iterations_; }
+};
+
+CountingGicp::MatricesVectorPtr to_pcl_covariances(const PointCloud& cloud) {
+    auto out = pcl::make_shared<CountingGicp::MatricesVector>(cloud.covariances.begin(),
+                                                              cloud.covariances.end());
+    return out;
+}
+
+Outcome run_pcl(const PointCloud& target_in, const PointCloud& source_in, const Pair& pair,
+                double max_corr_m, bool shared_covariances) {
+    const auto target = to_pcl(target_in);
+    const auto source = to_pcl(source_in);
+    CountingGicp::MatricesVectorPtr target_cov, source_cov;
+    if (shared_covariances) {
+        target_cov = to_pcl_covariances(target_in);
+        source_cov = to_pcl_covariances(source_in);
+    }
+    CountingGicp gicp;
+    gicp.setCorrespondenceRandomness(kCovarianceNeighbours);
+    gicp.setMaxCorrespondenceDistance(max_corr_m);
+    gicp.setMaximumIterations(kMaxIterations);
+    // GICP compares these with the change of each matrix element per outer iteration:
+    // metres for the translation column, ~radians for the rotation block.
+    gicp.setTransformationEpsilon(kTranslationEpsM);
+    gicp.setRotationEpsilon(kRotationEpsRad);
+    pcl::PointCloud<pcl::PointXYZ> aligned;
+    const auto start = std::chrono::steady_clock::now();
+    gicp.setInputTarget(target);
+    gicp.setInputSource(source);
+    if (shared_covariances) {
+        gicp.setTargetCovariances(target_cov);
+        gicp.setSourceCovariances(source_cov);
+    }
+    gicp.align(aligned, pair.T_init.matrix().cast<float>());
+    Outcome o;
+    o.ms = ms_since(start);
+    Eigen::Isometry3d T(gicp.getFinalTransformation().cast<double>());
+    // Re-orthonormalise the float rotation before comparing.
+    const Eigen::Quaterniond q(T.linear());
+    T.linear() = q.normalized().toRotationMatrix();
+    o.iterations = gicp.iterations();
+    o.trans_err_m = lidarfuse::core::translation_error_m(T, pair.T_true);
+    o.rot_err_deg = lidarfuse::core::rotation_error_deg(T, pair.T_true);
+    return o;
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    fs::path dir;
+    fs::path temporary;
+    if (argc > 1) {
+        dir = argv[1];
+    } else {
+        temporary =
+            fs::temp_directory_path() / ("lidarfuse_gicp_pcl_" + std::to_string(::getpid()));
+        dir = temporary;
+        const std::string cmd = std::string("\"") + LIDARFUSE_TOOL_PATH +
+                                "\" sim --scenario curve --seed 1 --seconds 0.4 --out \"" +
+                                dir.string() + "\" > /dev/null";
+        if (std::system(cmd.c_str()) != 0) {
+            std::fprintf(stderr, "gicp_pcl_bench: %s failed\n", cmd.c_str());
+            return 1;
+        }
+    }
+    const std::size_t frames = argc > 2 ? static_cast<std::size_t>(std::atoi(argv[2])) : 4;
+
+    const auto station = lidarfuse::station::load_station_config(dir / "station.yaml");
+    lidarfuse::capture::StationCapture capture(station, dir / "capture.pcap");
+    const std::size_t n = station.sensors.size();
+    std::vector<std::vector<std::vector<Eigen::Vector3d>>> scans(n);  // [sensor][frame]
+    capture.run([&](const lidarfuse::capture::CaptureScan& s) {
+        if (scans[s.sensor].size() < frames) scans[s.sensor].push_back(s.cloud->cloud.points);
+        return true;
+    });
+    // Ground truth per sensor, in frame order.
+    std::map<std::string, std::vector<Eigen::Isometry3d>> truth;
+    for (const auto& r : lidarfuse::io::read_pose_csv(dir / "ground_truth.csv")) {
+        truth[r.sensor].push_back(r.pose);
+    }
+
+    std::vector<Pair> pairs;
+    lidarfuse::core::Vector6d nudge, small_nudge;  // rotation (rad) then translation (m)
+    nudge << 2.0 * kDeg, 0.0, 0.0, 0.3, 0.0, 0.0;
+    small_nudge << 0.0, 0.0, 1.0 * kDeg, 0.0, 0.1, 0.0;
+    for (std::size_t s = 0; s < n; ++s) {
+        const auto& gt = truth.at(station.sensors[s].name);
+        const auto& root_gt = truth.at(station.sensors[0].name);
+        for (std::size_t k = 0; k + 1 < scans[s].size() && k + 1 < gt.size(); ++k) {
+            const Eigen::Isometry3d T_motion = gt[k].inverse() * gt[k + 1];
+            pairs.push_back({"temporal", &scans[s][k], &scans[s][k + 1], T_motion,
+                             T_motion * lidarfuse::core::se3_exp(small_nudge)});
+            if (s > 0 && k < scans[0].size()) {
+                const Eigen::Isometry3d T_true = root_gt[k].inverse() * gt[k];
+                pairs.push_back({"spatial", &scans[0][k], &scans[s][k], T_true,
+                                 T_true * lidarfuse::core::se3_exp(nudge)});
+            }
+        }
+    }
+    print("gicp_pcl_pairs", static_cast<double>(pairs.size()), "pairs");
+
+    for (const double voxel_m : {1.0, 0.5}) {
+        const double max_corr_m = 2.0 * voxel_m;
+        for (const bool shared : {false, true}) {
+            std::map<std::string, std::vector<Outcome>> ours, theirs;
+            for (const Pair& p : pairs) {
+                PointCloud target = downsample(*p.target, voxel_m);
+                PointCloud source = downsample(*p.source, voxel_m);
+                if (shared) {
+                    lidarfuse::core::estimate_normals_covariances(&target, covariance_params());
+                    lidarfuse::core::estimate_normals_covariances(&source, covariance_params());
+                }
+                ours[p.kind].push_back(run_ours(target, source, p, max_corr_m, shared));
+                theirs[p.kind].push_back(run_pcl(target, source, p, max_corr_m, shared));
+            }
+            char tag[48];
+            std::snprintf(tag, sizeof(tag), "voxel%gm_%s", voxel_m, shared ? "align" : "full");
+            for (const char* kind : {"temporal", "spatial"}) {
+                auto figures = [&](const char* who, const std::vector<Outcome>& v) {
+                    std::vector<double> ms, te, re, it;
+                    for (const Outcome& o : v) {
+                        ms.push_back(o.ms);
+                        te.push_back(o.trans_err_m * 100.0);
+                        re.push_back(o.rot_err_deg);
+                        it.push_back(o.iterations);
+                    }
+                    const std::string prefix = std::string("gicp_") + who + "_" + tag + "_" + kind;
+                    print(prefix + "_median_time", median(ms), "ms");
+                    print(prefix + "_median_trans_error", median(te), "cm");
+                    print(prefix + "_max_trans_error", *std::max_element(te.begin(), te.end()),
+                          "cm");
+                    print(prefix + "_median_rot_error", median(re), "deg");
+                    print(prefix + "_max_rot_error", *std::max_element(re.begin(), re.end()),
+                          "deg");
+                    print(prefix + "_median_iterations", median(it), "iterations");
+                    return median(ms);
+                };
+                const double ours_ms = figures("ours", ours[kind]);
+                const double pcl_ms = figures("pcl", theirs[kind]);
+                print(std::string("gicp_speedup_") + tag + "_" + kind, pcl_ms / ours_ms, "x");
+            }
+        }
+    }
+    if (!temporary.empty()) fs::remove_all(temporary);
+    return 0;
+}
