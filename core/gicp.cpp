@@ -100,7 +100,8 @@ GicpRegistration::GicpRegistration(const GicpParams& params) : params_(params) {
 int GicpRegistration::num_threads() const { return std::max(1, params_.num_threads); }
 
 void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& source,
-                                 const Eigen::Isometry3d& T, Linearization* lin) {
+                                 const Eigen::Isometry3d& T, bool reuse_correspondences,
+                                 Linearization* lin) {
     const std::size_t n = source.size();
     const int threads = num_threads();
     target_index_.resize(n);
@@ -124,9 +125,17 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
         for (long long i = 0; i < count; ++i) {
             const Eigen::Vector3d& a = source.points[i];
             const Eigen::Vector3d Ta = R * a + t;
+            // Search bound: the correspondence limit, tightened to the previous neighbour's
+            // distance (slightly inflated so that neighbour itself is still found).
+            double bound = max_d2;
+            if (reuse_correspondences && target_index_[i] >= 0) {
+                const double d2_prev =
+                    (target_points[static_cast<std::size_t>(target_index_[i])] - Ta).squaredNorm();
+                bound = std::min(bound, d2_prev * (1.0 + 1e-9) + 1e-12);
+            }
             std::uint32_t j = 0;
             double d2 = 0.0;
-            if (!target.tree().nearest(Ta, &j, &d2) || d2 > max_d2) {
+            if (!target.tree().nearest_within(Ta, bound, &j, &d2) || d2 > max_d2) {
                 target_index_[i] = -1;
                 continue;
             }
@@ -143,17 +152,27 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
             target_index_[i] = static_cast<std::int32_t>(j);
             mahalanobis_[i] = M;
 
+            // J = [R [a]x, -R] = R [A, -I] with A = [a]x (see the header), so with
+            // N = R^T M R and d' = R^T d:
+            //   J^T M J = [[-A N A, A N], [(A N)^T, N]],  J^T M d = [u x a, -u], u = N d'.
+            // Cheaper than forming the 3x6 J (about half the multiply-adds), and the same
+            // numbers up to rounding.
             const Eigen::Vector3d d = target_points[j] - Ta;
-            const Eigen::Vector3d Md = M * d;
-            const double s = d.dot(Md);
+            const Eigen::Matrix3d N = R.transpose() * M * R;
+            const Eigen::Vector3d d_s = R.transpose() * d;
+            const Eigen::Vector3d u = N * d_s;
+            const double s = d_s.dot(u);
             const double w = kernel.weight(s);
-            // J = [R [a]x, -R] (see the header).
-            Eigen::Matrix<double, 3, 6> J;
-            J.leftCols<3>() = R * skew(a);
-            J.rightCols<3>() = -R;
-            const Eigen::Matrix<double, 3, 6> MJ = M * J;
-            local.H.noalias() += w * (J.transpose() * MJ);
-            local.b.noalias() += w * (J.transpose() * Md);
+            Eigen::Matrix3d AN;  // A N: column k is a x N.col(k)
+            for (int k = 0; k < 3; ++k) AN.col(k) = a.cross(N.col(k));
+            Eigen::Matrix3d ANA;  // -A N A: row i is a x (row i of A N)
+            for (int r = 0; r < 3; ++r) ANA.row(r) = a.cross(AN.row(r).transpose()).transpose();
+            local.H.topLeftCorner<3, 3>().noalias() += w * ANA;
+            local.H.topRightCorner<3, 3>().noalias() += w * AN;
+            local.H.bottomLeftCorner<3, 3>().noalias() += w * AN.transpose();
+            local.H.bottomRightCorner<3, 3>().noalias() += w * N;
+            local.b.head<3>() += w * u.cross(a);
+            local.b.tail<3>() -= w * u;
             local.error += kernel.rho(s);
             local.sum_sq_dist_m2 += d2;
             ++local.num_inliers;
@@ -210,7 +229,7 @@ GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& s
     result.status = GicpStatus::kMaxIterations;
 
     for (int iteration = 0; iteration < params_.max_iterations; ++iteration) {
-        linearize(target, source, T, &lin);
+        linearize(target, source, T, /*reuse_correspondences=*/iteration > 0, &lin);
         last_linearization_current = true;
         if (lin.num_inliers < params_.min_correspondences) {
             result.status = GicpStatus::kTooFewCorrespondences;
@@ -264,7 +283,8 @@ GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& s
     // Report H, error and inliers at the final T. After a converged step the last
     // linearisation is at most one sub-threshold step away; otherwise linearise again.
     if (!last_linearization_current && result.status != GicpStatus::kConverged) {
-        linearize(target, source, T, &lin);
+        // The loop's correspondences (if it ran) are this source's: reuse them as bounds.
+        linearize(target, source, T, /*reuse_correspondences=*/params_.max_iterations > 0, &lin);
     }
     result.converged = result.status == GicpStatus::kConverged;
     result.T_target_source = T;

@@ -153,8 +153,11 @@ private:
         void add(const Linearization& o);
     };
     // Correspondence search + H, b, error at T (correspondences kept in the buffers).
+    // reuse_correspondences: target_index_ holds this source's neighbours from the
+    // previous iteration of the same align(); the distance to that neighbour bounds the
+    // search (exact: the nearest can only be closer), which prunes most of the k-d tree.
     void linearize(const GicpTarget& target, const PointCloud& source, const Eigen::Isometry3d& T,
-                   Linearization* lin);
+                   bool reuse_correspondences, Linearization* lin);
     // Robust error over the stored correspondences at T (no k-d tree search).
     double evaluate(const GicpTarget& target, const PointCloud& source, const Eigen::Isometry3d& T);
     int num_threads() const;

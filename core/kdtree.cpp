@@ -17,8 +17,35 @@ struct VectorAdaptor {
     }
 };
 
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, VectorAdaptor>,
-                                                 VectorAdaptor, 3, std::uint32_t>;
+using Tree =
+    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, VectorAdaptor>,
+                                        VectorAdaptor, 3, std::uint32_t>;
+
+// A one-nearest result set that starts with an upper bound instead of infinity: the
+// search prunes every node farther than the best distance so far, so a tight start bound
+// skips most of the tree. Interface as nanoflann 1.4.3's searchLevel uses it.
+class BoundedNearestResult {
+public:
+    explicit BoundedNearestResult(double max_squared_distance) : best_d2_(max_squared_distance) {}
+    std::size_t size() const { return found_ ? 1 : 0; }
+    bool full() const { return true; }
+    bool addPoint(double d2, std::uint32_t index) {
+        if (d2 < best_d2_) {
+            best_d2_ = d2;
+            best_index_ = index;
+            found_ = true;
+        }
+        return true;
+    }
+    double worstDist() const { return best_d2_; }
+    bool found() const { return found_; }
+    std::uint32_t index() const { return best_index_; }
+
+private:
+    double best_d2_;
+    std::uint32_t best_index_ = 0;
+    bool found_ = false;
+};
 
 }  // namespace
 
@@ -28,7 +55,8 @@ struct KdTree::Impl {
     Impl(const std::vector<Eigen::Vector3d>& points, int leaf_max_size)
         : adaptor{&points},
           tree(3, adaptor,
-               nanoflann::KDTreeSingleIndexAdaptorParams(static_cast<std::size_t>(leaf_max_size))) {}
+               nanoflann::KDTreeSingleIndexAdaptorParams(static_cast<std::size_t>(leaf_max_size))) {
+    }
 };
 
 KdTree::KdTree(const std::vector<Eigen::Vector3d>& points, int leaf_max_size)
@@ -50,6 +78,17 @@ std::size_t KdTree::knn(const Eigen::Vector3d& query, std::size_t k, std::uint32
 bool KdTree::nearest(const Eigen::Vector3d& query, std::uint32_t* index,
                      double* squared_distance) const {
     return knn(query, 1, index, squared_distance) == 1;
+}
+
+bool KdTree::nearest_within(const Eigen::Vector3d& query, double max_squared_distance,
+                            std::uint32_t* index, double* squared_distance) const {
+    if (size() == 0 || !(max_squared_distance > 0.0)) return false;
+    BoundedNearestResult result(max_squared_distance);
+    impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
+    if (!result.found()) return false;
+    *index = result.index();
+    *squared_distance = result.worstDist();
+    return true;
 }
 
 std::size_t KdTree::radius(const Eigen::Vector3d& query, double radius_m,

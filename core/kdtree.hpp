@@ -30,6 +30,13 @@ public:
     bool nearest(const Eigen::Vector3d& query, std::uint32_t* index,
                  double* squared_distance) const;
 
+    // The nearest neighbour closer than sqrt(max_squared_distance); false when there is
+    // none. Exact, and much faster than nearest() when the bound is tight: subtrees
+    // farther than the bound are never visited (G-ICP passes its correspondence bound, or
+    // the distance to the previous iteration's neighbour when that is smaller).
+    bool nearest_within(const Eigen::Vector3d& query, double max_squared_distance,
+                        std::uint32_t* index, double* squared_distance) const;
+
     // All points within `radius_m` of `query` (index, squared distance), nearest first.
     // `out` is cleared first; reuse it across calls to avoid allocation.
     std::size_t radius(const Eigen::Vector3d& query, double radius_m,

@@ -50,12 +50,50 @@ TEST(KdTree, KnnAndRadiusMatchBruteForce) {
     }
 }
 
+// The bounded search finds exactly the brute-force nearest when it lies inside the
+// bound, and nothing otherwise, for bounds from tight to loose.
+TEST(KdTree, NearestWithinMatchesBruteForce) {
+    const auto points = random_points(3000, 11);
+    const auto queries = random_points(300, 12);
+    KdTree tree(points);
+    int inside = 0, outside = 0;
+    for (const auto& q : queries) {
+        double best = 1e300;
+        std::uint32_t best_i = 0;
+        for (std::uint32_t i = 0; i < points.size(); ++i) {
+            const double d2 = (points[i] - q).squaredNorm();
+            if (d2 < best) best = d2, best_i = i;
+        }
+        for (const double bound : {0.05, 0.3, 1.0, 4.0, 1e9}) {
+            std::uint32_t idx = 0;
+            double d2 = -1.0;
+            const bool found = tree.nearest_within(q, bound, &idx, &d2);
+            if (best < bound) {
+                ASSERT_TRUE(found) << "bound " << bound;
+                EXPECT_EQ(idx, best_i);
+                EXPECT_DOUBLE_EQ(d2, best);
+                ++inside;
+            } else {
+                EXPECT_FALSE(found) << "bound " << bound << " nearest " << best;
+                ++outside;
+            }
+        }
+    }
+    // Both branches were exercised.
+    EXPECT_GT(inside, 300);
+    EXPECT_GT(outside, 100);
+    std::uint32_t idx = 0;
+    double d2 = 0.0;
+    EXPECT_FALSE(tree.nearest_within(queries[0], 0.0, &idx, &d2));
+}
+
 TEST(KdTree, EmptyTreeAnswersNothing) {
     std::vector<Eigen::Vector3d> none;
     KdTree tree(none);
     std::uint32_t idx = 0;
     double d2 = 0;
     EXPECT_FALSE(tree.nearest(Eigen::Vector3d::Zero(), &idx, &d2));
+    EXPECT_FALSE(tree.nearest_within(Eigen::Vector3d::Zero(), 1.0, &idx, &d2));
     std::vector<std::pair<std::uint32_t, double>> found;
     EXPECT_EQ(tree.radius(Eigen::Vector3d::Zero(), 1.0, &found), 0u);
 }
