@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package lidarfuse needs to build, test and run. Idempotent and
 # non-interactive; uses sudo when not run as root. Nothing is downloaded outside apt.
+# Usage: scripts/setup.sh [--with-pcl]   (--with-pcl: also libpcl-dev, for the PCL
+# comparison in bench/ built with -DLIDARFUSE_WITH_PCL=ON; nothing else needs PCL)
 set -euo pipefail
 
 packages=(
@@ -12,6 +14,12 @@ packages=(
     libgtest-dev libgmock-dev libbenchmark-dev
     iproute2 procps
 )
+for arg in "$@"; do
+    case "$arg" in
+        --with-pcl) packages+=(libpcl-dev) ;;
+        *) echo "setup: unknown option $arg (expected --with-pcl)" >&2; exit 2 ;;
+    esac
+done
 
 sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
