@@ -28,6 +28,35 @@ const std::set<std::string> kTopLevelKeys = {"station", "root", "sensors", "sync
 const std::set<std::string> kSensorKeys = {"name",           "udp_port", "metadata",
                                            "source_address", "time_offset_ns", "enabled"};
 
+// A sensor name ends up unquoted in poses.csv, as a key in extrinsics.yaml and as a ROS tf
+// frame id: a comma, newline, colon or non-ASCII byte would corrupt those files.
+bool valid_sensor_name(const std::string& name) {
+    if (name.empty() || name.size() > 64) return false;
+    for (const char c : name) {
+        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                        c == '_' || c == '.' || c == '-';
+        if (!ok) return false;
+    }
+    return true;
+}
+
+// The name as it can go into an error message: non-printable bytes as \xNN, at most 80.
+std::string printable(const std::string& text) {
+    std::string out;
+    for (std::size_t i = 0; i < text.size() && out.size() < 80; ++i) {
+        const auto c = static_cast<unsigned char>(text[i]);
+        if (c >= 0x20 && c < 0x7F) {
+            out.push_back(static_cast<char>(c));
+        } else {
+            const char* hex = "0123456789abcdef";
+            out += "\\x";
+            out.push_back(hex[c >> 4]);
+            out.push_back(hex[c & 15]);
+        }
+    }
+    return out;
+}
+
 }  // namespace
 
 ConfigError::ConfigError(const std::string& source, std::vector<std::string> problems)
@@ -72,6 +101,11 @@ StationConfig parse_station_config(const std::string& yaml_text, const std::stri
             SensorConfig sensor;
             if (auto s = r.string(node["name"], path + ".name", true)) {
                 sensor.name = *s;
+                if (!valid_sensor_name(*s)) {
+                    r.problems.push_back(path + ".name: expected 1..64 characters of [A-Za-z0-9_.-] (it names "
+                                         "poses.csv rows, extrinsics.yaml keys and tf frames), got \"" +
+                                         printable(*s) + "\"");
+                }
                 if (!names.insert(*s).second) {
                     r.problems.push_back(path + ".name: \"" + *s + "\" is used by another sensor");
                 }

@@ -1,0 +1,258 @@
+// Builds the fuzzers' seed corpora from the sample captures at run time (nothing from the
+// data folder is ever stored in the repository):
+//   fuzz_seed_corpus DATA_DIR REPO_DIR OUT_DIR
+// writes OUT_DIR/<harness>/ for every harness in this folder:
+//   ouster_metadata   every metadata JSON of DATA_DIR, as is
+//   ouster_packets    for every capture and each metadata file named after it, the first
+//                     datagrams in fuzz_ouster_packets' input form (sensor description
+//                     taken from the metadata)
+//   pcap_reader       every capture cut after its first 12 records (written by libpcap)
+//   ipv4_reassembler  the first 24 records' IPv4 fragments in fuzz_ipv4_reassembler's form
+//   station_config    REPO_DIR/config/station.example.yaml and a station naming every
+//                     metadata file of DATA_DIR (read with LIDARFUSE_FUZZ_BASE_DIR=DATA_DIR)
+// Prints one line per corpus with its number of files.
+#include <pcap/pcap.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "drivers/ouster/metadata.hpp"
+#include "drivers/pcap/frame_decoder.hpp"
+#include "drivers/pcap/pcap_reader.hpp"
+#include "fuzz/fuzz_input.hpp"
+
+namespace fs = std::filesystem;
+namespace lf = lidarfuse;
+namespace ouster = lidarfuse::ouster;
+namespace fuzz = lidarfuse::fuzz;
+
+namespace {
+
+void write_file(const fs::path& file, const std::string& bytes) {
+    std::ofstream out(file, std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    if (!out) throw std::runtime_error("cannot write " + file.string());
+}
+
+std::string read_file(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+std::vector<fs::path> files_with(const fs::path& dir, const std::string& extension) {
+    std::vector<fs::path> out;
+    for (const auto& entry : fs::directory_iterator(dir)) {
+        if (entry.is_regular_file() && entry.path().extension() == extension) out.push_back(entry.path());
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+template <typename T, std::size_t N>
+int index_of(const T (&table)[N], T value) {
+    for (std::size_t i = 0; i < N; ++i) {
+        if (table[i] == value) return static_cast<int>(i);
+    }
+    return -1;
+}
+
+// fuzz_ouster_packets' 16-byte sensor description (see that file), or empty when the
+// metadata has a shape the harness cannot express.
+std::string packet_header(const ouster::SensorInfo& info) {
+    constexpr ouster::UdpProfileLidar kProfiles[] = {
+        ouster::UdpProfileLidar::kLegacy, ouster::UdpProfileLidar::kRng19Rfl8Sig16Nir16,
+        ouster::UdpProfileLidar::kRng15Rfl8Nir8, ouster::UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual,
+        ouster::UdpProfileLidar::kFusaRng15Rfl8Nir8Dual};
+    constexpr int kColumns[] = {512, 1024, 2048};
+    constexpr int kRows[] = {16, 32, 64, 128};
+    constexpr int kColumnsPerPacket[] = {16, 8, 32, 4};
+    const int profile = index_of(kProfiles, info.udp_profile_lidar);
+    const int columns = index_of(kColumns, info.columns_per_frame);
+    const int rows = index_of(kRows, info.pixels_per_column);
+    const int cpp = index_of(kColumnsPerPacket, info.columns_per_packet);
+    if (profile < 0 || columns < 0 || rows < 0 || cpp < 0) return {};
+    std::string h;
+    h.push_back(static_cast<char>(profile | (1 << 3)));  // two frames in flight, CRC checked
+    h.push_back(static_cast<char>(columns));
+    h.push_back(static_cast<char>(rows));
+    h.push_back(static_cast<char>(cpp));
+    for (int v : info.column_window) {
+        h.push_back(static_cast<char>(v & 0xFF));
+        h.push_back(static_cast<char>(v >> 8));
+    }
+    const std::uint64_t serial = info.serial_number();
+    for (int i = 0; i < 8; ++i) h.push_back(static_cast<char>((serial >> (8 * i)) & 0xFF));
+    return h;
+}
+
+int packet_seeds(const fs::path& data_dir, const fs::path& out) {
+    int written = 0;
+    for (const auto& capture : files_with(data_dir, ".pcap")) {
+        const std::string stem = capture.stem().string();
+        for (const auto& json : files_with(data_dir, ".json")) {
+            const std::string name = json.filename().string();
+            if (name.find(stem) == std::string::npos || name.find("_digest") != std::string::npos) continue;
+            ouster::SensorInfo info;
+            try {
+                info = ouster::load_metadata(json);
+            } catch (const std::exception&) {
+                continue;
+            }
+            const std::string header = packet_header(info);
+            if (header.empty()) continue;
+            // Datagrams of this sensor's size: lidar packets, and one IMU packet if any.
+            lf::pcap::PcapReader reader(capture);
+            lf::pcap::UdpDatagram d;
+            std::string two = header, one = header, imu = header;
+            int lidar = 0;
+            bool have_imu = false;
+            while (reader.next(&d) && (lidar < 2 || !have_imu) && reader.stats().records < 4000) {
+                if (d.size == 48 && !have_imu) {
+                    fuzz::append_record(&imu, d.data, d.size);
+                    have_imu = true;
+                } else if (d.size > 48 && lidar < 2) {
+                    fuzz::append_record(&two, d.data, d.size);
+                    if (lidar == 0) fuzz::append_record(&one, d.data, d.size);
+                    ++lidar;
+                }
+            }
+            if (lidar == 0) continue;
+            const std::string base = json.stem().string();
+            write_file(out / (base + ".1"), one);
+            write_file(out / (base + ".2"), two);
+            written += 2;
+            if (have_imu) {
+                write_file(out / (base + ".imu"), imu);
+                ++written;
+            }
+        }
+    }
+    return written;
+}
+
+int pcap_seeds(const fs::path& data_dir, const fs::path& out) {
+    int written = 0;
+    for (const auto& capture : files_with(data_dir, ".pcap")) {
+        char error[PCAP_ERRBUF_SIZE] = {};
+        pcap_t* in = pcap_open_offline(capture.c_str(), error);
+        if (!in) continue;
+        const fs::path target = out / (capture.stem().string() + ".head.pcap");
+        pcap_dumper_t* dumper = pcap_dump_open(in, target.c_str());
+        if (!dumper) {
+            pcap_close(in);
+            throw std::runtime_error("cannot write " + target.string());
+        }
+        pcap_pkthdr* header = nullptr;
+        const u_char* bytes = nullptr;
+        for (int i = 0; i < 12 && pcap_next_ex(in, &header, &bytes) == 1; ++i) {
+            pcap_dump(reinterpret_cast<u_char*>(dumper), header, bytes);
+        }
+        pcap_dump_close(dumper);
+        pcap_close(in);
+        ++written;
+    }
+    return written;
+}
+
+int reassembler_seeds(const fs::path& data_dir, const fs::path& out) {
+    int written = 0;
+    for (const auto& capture : files_with(data_dir, ".pcap")) {
+        char error[PCAP_ERRBUF_SIZE] = {};
+        pcap_t* in = pcap_open_offline(capture.c_str(), error);
+        if (!in) continue;
+        const int link = pcap_datalink(in);
+        std::string seed(1, '\x03');  // table of four
+        int fragments = 0;
+        pcap_pkthdr* header = nullptr;
+        const u_char* bytes = nullptr;
+        for (int i = 0; i < 24 && pcap_next_ex(in, &header, &bytes) == 1; ++i) {
+            lf::pcap::Ipv4Packet ip;
+            if (lf::pcap::decode_frame(link, bytes, header->caplen, &ip) != lf::pcap::FrameKind::kIpv4) continue;
+            if (!ip.is_fragment()) continue;
+            const std::uint8_t flags = static_cast<std::uint8_t>((ip.more_fragments ? 1 : 0) | (ip.id & 3) << 3 |
+                                                                 (ip.protocol == 17 ? 0x20 : 0));
+            seed.push_back(static_cast<char>(flags));
+            const std::uint32_t units = ip.offset_bytes / 8;
+            seed.push_back(static_cast<char>(units & 0xFF));
+            seed.push_back(static_cast<char>(units >> 8));
+            fuzz::append_record(&seed, ip.payload, ip.payload_size);
+            ++fragments;
+        }
+        pcap_close(in);
+        if (fragments == 0) continue;
+        write_file(out / (capture.stem().string() + ".fragments"), seed);
+        ++written;
+    }
+    return written;
+}
+
+int config_seeds(const fs::path& data_dir, const fs::path& repo_dir, const fs::path& out) {
+    int written = 0;
+    const fs::path example = repo_dir / "config" / "station.example.yaml";
+    if (fs::exists(example)) {
+        fs::copy_file(example, out / "station.example.yaml", fs::copy_options::overwrite_existing);
+        ++written;
+    }
+    std::ostringstream yaml;
+    yaml << "station: samples\nroot: s0\nsensors:\n";
+    int port = 7502, n = 0;
+    for (const auto& json : files_with(data_dir, ".json")) {
+        const std::string name = json.filename().string();
+        if (name.find("_digest") != std::string::npos || name.find("crc_test") == 0) continue;
+        yaml << "  - name: s" << n << "\n    udp_port: " << port << "\n    metadata: " << name << "\n";
+        if (n % 2 == 1) yaml << "    source_address: 169.254.10." << (11 + n) << "\n    time_offset_ns: -1500\n";
+        ++n;
+        port += 2;
+    }
+    yaml << "sync:\n  deadline_ms: 60\nhealth:\n  stale_after_ms: 300\n  lost_after_ms: 2500\n"
+            "output:\n  directory: out\n  extrinsics_interval_frames: 10\n";
+    write_file(out / "samples.yaml", yaml.str());
+    return written + 1;
+}
+
+int metadata_seeds(const fs::path& data_dir, const fs::path& out) {
+    int written = 0;
+    for (const auto& json : files_with(data_dir, ".json")) {
+        write_file(out / json.filename(), read_file(json));
+        ++written;
+    }
+    return written;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc != 4) {
+        std::fprintf(stderr, "usage: fuzz_seed_corpus DATA_DIR REPO_DIR OUT_DIR\n");
+        return 2;
+    }
+    const fs::path data_dir = argv[1], repo_dir = argv[2], out = argv[3];
+    if (!fs::is_directory(data_dir)) {
+        std::fprintf(stderr, "fuzz_seed_corpus: no data folder %s\n", data_dir.c_str());
+        return 1;
+    }
+    try {
+        const auto dir = [&](const char* name) {
+            const fs::path d = out / name;
+            fs::create_directories(d);
+            return d;
+        };
+        std::printf("seeds ouster_metadata %d\n", metadata_seeds(data_dir, dir("ouster_metadata")));
+        std::printf("seeds ouster_packets %d\n", packet_seeds(data_dir, dir("ouster_packets")));
+        std::printf("seeds pcap_reader %d\n", pcap_seeds(data_dir, dir("pcap_reader")));
+        std::printf("seeds ipv4_reassembler %d\n", reassembler_seeds(data_dir, dir("ipv4_reassembler")));
+        std::printf("seeds station_config %d\n", config_seeds(data_dir, repo_dir, dir("station_config")));
+    } catch (const std::exception& error) {
+        std::fprintf(stderr, "fuzz_seed_corpus: %s\n", error.what());
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,183 @@
+// Daemon-level faults through the Pipeline's public API (daemon/pipeline.hpp stats()):
+// a simulated station with the simulator's fault hooks, replayed in real time through
+// loopback sockets with `lidarfuse replay`.
+//  - one sensor silent for 5 s: OK -> STALE -> LOST -> OK, the other keeps fusing, it
+//    rejoins without a restart (same capture: the other sensor reboots (init_id), and
+//    has duplicated, reordered and lost packets)
+//  - all sensors silent for 3 s: the pipeline stays up, reports LOST, resumes when data
+//    returns
+//  - fusion slower than input: frames are dropped oldest-first and counted; every sent
+//    datagram reaches the assemblers
+#include <gtest/gtest.h>
+
+#include <map>
+
+#include "tests/reliability/station_fixture.hpp"
+
+namespace lidarfuse::reliability {
+namespace {
+
+using daemon::SensorState;
+using namespace std::chrono_literals;
+
+class SensorOutage : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        sim_dir_ = new test::TempDir("outage-sim");
+        // lidar1 silent in [2 s, 7 s); lidar0 reboots at 1 s and has a faulty link.
+        simulate(sim_dir_->path(), 9.0,
+                 {"silence:lidar1:2:5", "init-id:lidar0:1", "duplicate:0.02:lidar0", "reorder:0.02:lidar0",
+                  "drop:0.005:lidar0"});
+        silent_dir_ = new test::TempDir("outage-silent");
+        simulate(silent_dir_->path(), 6.0, {"silence:lidar0:1.5:3", "silence:lidar1:1.5:3"});
+    }
+    static void TearDownTestSuite() {
+        delete sim_dir_;
+        delete silent_dir_;
+        sim_dir_ = silent_dir_ = nullptr;
+    }
+    static std::filesystem::path capture() { return sim_dir_->path() / "capture.pcap"; }
+    static daemon::DaemonConfig config(const test::TempDir& out, int slot) {
+        return station_config(sim_dir_->path(), out.path(), slot);
+    }
+    static test::TempDir* sim_dir_;
+    static test::TempDir* silent_dir_;
+};
+test::TempDir* SensorOutage::sim_dir_ = nullptr;
+test::TempDir* SensorOutage::silent_dir_ = nullptr;
+
+// A state change of one sensor, with the pipeline's frame count when it was seen.
+struct Transition {
+    SensorState state;
+    std::uint64_t frames_synchronised;
+    double at_s;
+};
+
+TEST_F(SensorOutage, SilentSensorGoesStaleThenLostAndRejoinsWhileTheOtherKeepsFusing) {
+    test::TempDir out("outage-out");
+    daemon::Pipeline pipeline(config(out, 0));
+    pipeline.start();
+    const auto start = std::chrono::steady_clock::now();
+    std::map<std::size_t, std::vector<Transition>> seen;
+    BackgroundReplay replay(capture(), "--to 127.0.0.1" + port_map(0, 2));
+    while (!replay.done()) {
+        const auto st = pipeline.stats();
+        const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        for (std::size_t k = 0; k < st.sensors.size(); ++k) {
+            auto& list = seen[k];
+            if (list.empty() || list.back().state != st.sensors[k].state) {
+                list.push_back({st.sensors[k].state, st.frames_synchronised, t});
+            }
+        }
+        std::this_thread::sleep_for(10ms);
+    }
+    ASSERT_EQ(replay.join(), 0) << replay.output();
+    std::this_thread::sleep_for(200ms);
+    const auto st = pipeline.stats();
+    pipeline.stop();
+
+    std::string story;
+    for (const auto& [k, list] : seen) {
+        story += st.sensors[k].name + ":";
+        for (const auto& tr : list) story += std::string(" ") + daemon::to_string(tr.state) + "@" + std::to_string(tr.at_s);
+        story += "\n";
+    }
+    SCOPED_TRACE(story);
+
+    // lidar1: LOST (no data yet) -> OK -> STALE -> LOST -> OK, in that order.
+    std::vector<SensorState> order;
+    for (const auto& tr : seen[1]) order.push_back(tr.state);
+    const std::vector<SensorState> expected = {SensorState::kOk, SensorState::kStale, SensorState::kLost,
+                                               SensorState::kOk};
+    auto it = order.begin();
+    for (SensorState want : expected) {
+        it = std::find(it, order.end(), want);
+        ASSERT_NE(it, order.end()) << "lidar1 never reached " << daemon::to_string(want) << " in order";
+        ++it;
+    }
+    // While lidar1 was LOST, lidar0 was never LOST and frames kept leaving the synchroniser
+    // at (at least half) its 20 Hz rate without lidar1.
+    const Transition* lost = nullptr;
+    const Transition* back = nullptr;
+    for (const auto& tr : seen[1]) {
+        if (tr.state == SensorState::kLost && tr.at_s > 0.5 && !lost) lost = &tr;
+        if (lost && !back && tr.state == SensorState::kOk && &tr > lost) back = &tr;
+    }
+    ASSERT_TRUE(lost && back);
+    const double lost_s = back->at_s - lost->at_s;
+    EXPECT_GT(lost_s, 2.0);  // 5 s of silence minus the 2 s lost_after_ms, give or take
+    EXPECT_GE(static_cast<double>(back->frames_synchronised - lost->frames_synchronised), 0.5 * 20.0 * lost_s);
+    for (const auto& tr : seen[0]) {
+        if (tr.at_s > lost->at_s && tr.at_s < back->at_s) {
+            EXPECT_NE(tr.state, SensorState::kLost);
+        }
+    }
+    EXPECT_GT(st.frames_partial, 0u);
+    EXPECT_GT(st.frames_fused, 0u);
+    // It rejoined without a restart: it delivered scans after the silence and is OK.
+    EXPECT_EQ(st.sensors[1].state, SensorState::kOk);
+    EXPECT_GT(st.sensors[1].scans, 2u * 20u);
+    // lidar0's faults were seen and counted: a reboot (new init_id), duplicates, loss.
+    EXPECT_GE(st.sensors[0].resets, 1u);
+    EXPECT_GT(st.sensors[0].duplicate_packets, 0u);
+    EXPECT_GT(st.sensors[0].scans_incomplete, 0u);
+    EXPECT_EQ(st.sensors[1].duplicate_packets, 0u);
+    EXPECT_EQ(st.sensors[1].resets, 0u);
+}
+
+TEST_F(SensorOutage, AllSensorsSilentKeepsThePipelineUpReportingLostAndItResumes) {
+    test::TempDir out("outage-all");
+    daemon::Pipeline pipeline(config(out, 1));
+    pipeline.start();
+    const auto all_in = [&](SensorState state) {
+        const auto st = pipeline.stats();
+        for (const auto& s : st.sensors) {
+            if (s.state != state) return false;
+        }
+        return true;
+    };
+    // Both sensors send for 1.5 s, are silent for 3 s, then send for 1.5 s.
+    BackgroundReplay replay(silent_dir_->path() / "capture.pcap", "--to 127.0.0.1" + port_map(1, 2));
+    ASSERT_TRUE(wait_for([&] { return all_in(SensorState::kOk); }, 5s));
+    // Nothing arrives: every sensor goes LOST (lost_after_ms 2000), the threads keep
+    // running (the fusion heartbeat stays fresh), no frame is made out of nothing.
+    ASSERT_TRUE(wait_for([&] { return all_in(SensorState::kLost); }, 5s));
+    const auto quiet = pipeline.stats();
+    std::this_thread::sleep_for(300ms);
+    EXPECT_LT(std::chrono::steady_clock::now() - pipeline.heartbeat(), 1s);
+    EXPECT_TRUE(all_in(SensorState::kLost));
+    EXPECT_EQ(pipeline.stats().frames_synchronised, quiet.frames_synchronised);
+    // Data returns: every sensor is OK again and frames flow, without a restart.
+    EXPECT_TRUE(wait_for([&] { return all_in(SensorState::kOk); }, 5s));
+    ASSERT_EQ(replay.join(), 0) << replay.output();
+    const auto end = pipeline.stats();
+    pipeline.stop();
+    EXPECT_GT(end.frames_synchronised, quiet.frames_synchronised + 10);
+    for (const auto& s : end.sensors) EXPECT_EQ(s.resets, 0u) << s.name;
+}
+
+TEST_F(SensorOutage, FusionSlowerThanInputDropsOldestFramesAndNoPackets) {
+    test::TempDir out("outage-slow");
+    daemon::Pipeline pipeline(config(out, 2));
+    pipeline.start();
+    // Four times real time: 80 frames/s, more than one registration thread fuses.
+    BackgroundReplay replay(capture(), "--to 127.0.0.1 --rate 4" + port_map(2, 2));
+    ASSERT_EQ(replay.join(), 0) << replay.output();
+    const auto sent = test::figure(replay.output(), "replay_datagrams_sent");
+    ASSERT_TRUE(sent);
+    std::this_thread::sleep_for(500ms);
+    pipeline.stop();
+    const auto st = pipeline.stats();
+    EXPECT_GT(st.frame_queue_drops, 0u) << "fusion kept up at 80 frames/s: the test did not overload it";
+    EXPECT_LT(st.frames_fused, st.frames_synchronised);
+    // The receivers lost nothing: every datagram sent reached an assembler.
+    EXPECT_EQ(st.kernel_drops, 0u);
+    EXPECT_EQ(st.datagrams, static_cast<std::uint64_t>(*sent));
+    std::uint64_t packets = 0;
+    for (const auto& s : st.sensors) packets += s.packets;
+    EXPECT_EQ(packets + st.unassigned_datagrams, static_cast<std::uint64_t>(*sent));
+    EXPECT_EQ(st.scan_queue_drops, 0u);
+}
+
+}  // namespace
+}  // namespace lidarfuse::reliability
