@@ -92,11 +92,61 @@ void read_dynamics(YamlReader& r, const YAML::Node& n, core::FusionParams* f) {
     set_if(r.integer(n["cone_bins"], p + "cone_bins", 0, 10, false), &b.change.cone_bins);
 }
 
+// A ROS 2 namespace without the leading slash: segments of [A-Za-z0-9_], none starting with
+// a digit, separated by single slashes.
+bool valid_ros_namespace(const std::string& ns) {
+    if (ns.empty()) return true;
+    bool segment_start = true;
+    for (std::size_t i = 0; i < ns.size(); ++i) {
+        const char c = ns[i];
+        if (c == '/') {
+            if (segment_start || i + 1 == ns.size()) return false;
+            segment_start = true;
+            continue;
+        }
+        const bool digit = c >= '0' && c <= '9';
+        const bool word = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_' || digit;
+        if (!word || (segment_start && digit)) return false;
+        segment_start = false;
+    }
+    return true;
+}
+
+void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
+    if (!n || !r.optional_map(n, "output.dds")) return;
+    const std::string p = "output.dds.";
+    r.only_keys(n, "output.dds",
+                {"enabled", "domain_id", "namespace", "frame_id", "depth", "max_blocking_ms", "publish_points",
+                 "diagnostics_period_ms", "static_update_m", "static_update_deg"});
+    set_if(r.boolean(n["enabled"], p + "enabled"), &c->enabled);
+    // Cyclone maps domain d to UDP ports 7400 + 250 d + ..., so 232 is the largest id.
+    set_if(r.integer(n["domain_id"], p + "domain_id", -1, 232, false), &c->domain_id);
+    const YAML::Node ns_node = n["namespace"];
+    if (ns_node && ns_node.IsScalar() && ns_node.Scalar().empty()) {
+        c->topic_namespace.clear();  // "": rt/points, rt/poses
+    } else if (auto ns = r.string(ns_node, p + "namespace", false)) {
+        if (valid_ros_namespace(*ns)) {
+            c->topic_namespace = *ns;
+        } else {
+            r.problems.push_back(p + "namespace: expected ROS name segments ([A-Za-z_][A-Za-z0-9_]*) joined by "
+                                 "'/', without leading or trailing '/', got \"" + *ns + "\"");
+        }
+    }
+    set_if(r.string(n["frame_id"], p + "frame_id", false), &c->frame_id);
+    set_if(r.integer(n["depth"], p + "depth", 1, 100, false), &c->depth);
+    set_if(r.number(n["max_blocking_ms"], p + "max_blocking_ms", 0, 1000, false), &c->max_blocking_ms);
+    set_if(r.boolean(n["publish_points"], p + "publish_points"), &c->publish_points);
+    set_if(r.number(n["diagnostics_period_ms"], p + "diagnostics_period_ms", 10, 60000, false),
+           &c->diagnostics_period_ms);
+    set_if(r.number(n["static_update_m"], p + "static_update_m", 0, 100, false), &c->static_update_m);
+    set_if(r.number(n["static_update_deg"], p + "static_update_deg", 0, 180, false), &c->static_update_deg);
+}
+
 void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path& base, OutputConfig* c) {
     if (!n || !r.optional_map(n, "output")) return;
     r.only_keys(n, "output",
                 {"directory", "poses_csv", "extrinsics_yaml", "extrinsics_interval_frames",
-                 "record_clouds_every"});
+                 "record_clouds_every", "dds"});
     if (auto d = r.string(n["directory"], "output.directory", false)) {
         const std::filesystem::path dir = *d;
         c->directory = dir.is_absolute() ? dir : (base / dir).lexically_normal();
@@ -107,6 +157,7 @@ void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path
            &c->extrinsics_interval_frames);
     set_if(r.integer(n["record_clouds_every"], "output.record_clouds_every", 0, 1000000, false),
            &c->record_clouds_every);
+    read_dds(r, n["dds"], &c->dds);
 }
 
 void read_health(YamlReader& r, const YAML::Node& n, HealthConfig* c) {
@@ -160,6 +211,7 @@ DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string
     problems.insert(problems.end(), r.problems.begin(), r.problems.end());
     if (!problems.empty()) throw station::ConfigError(source_name, problems);
     config.fusion.root_sensor = config.station.root_index();
+    if (config.output.dds.frame_id.empty()) config.output.dds.frame_id = config.station.root;
     return config;
 }
 

@@ -25,12 +25,28 @@ struct SyncConfig {
     double reset_jump_ms = 2000.0;
 };
 
+// DDS output (daemon/dds_publisher.hpp): topics and types follow ROS 2's DDS mapping.
+struct DdsConfig {
+    bool enabled = true;
+    int domain_id = -1;                  // 0..232; -1: $ROS_DOMAIN_ID, or 0 when unset
+    std::string topic_namespace = "lidarfuse";  // rt/<ns>/points, rt/<ns>/poses ("" = rt/points)
+    std::string frame_id;                // fused frame's name; "" = the root sensor's name
+    int depth = 2;                       // keep-last history of every writer
+    double max_blocking_ms = 5.0;        // longest a write may wait for a slow reader
+    bool publish_points = true;          // rt/<ns>/points (the poses, tf and diagnostics always)
+    double diagnostics_period_ms = 1000.0;
+    // rt/tf_static is re-published when a sensor's pose moved this far from the last one sent.
+    double static_update_m = 0.05;
+    double static_update_deg = 0.5;
+};
+
 struct OutputConfig {
     std::filesystem::path directory = "/var/lib/lidarfuse";
     bool poses_csv = true;          // DIRECTORY/poses.csv, appended per frame
     bool extrinsics_yaml = true;    // DIRECTORY/extrinsics.yaml, rewritten atomically
     int extrinsics_interval_frames = 20;
     int record_clouds_every = 0;    // every Nth fused cloud as PLY; 0 = none
+    DdsConfig dds;
 };
 
 struct HealthConfig {

@@ -105,6 +105,10 @@ int main(int argc, char** argv) {
     for (auto p : pipeline->bound_ports()) ports += (ports.empty() ? "" : ",") + std::to_string(p);
     log->info("station {}: {} sensors, listening on UDP {}, output to {}", config.station.station,
               config.station.sensors.size(), ports, config.output.directory.string());
+    if (pipeline->dds_domain_id() >= 0) {
+        log->info("publishing on DDS domain {}: rt/tf, rt/tf_static, rt/diagnostics, rt/{}/{{points,poses}}",
+                  pipeline->dds_domain_id(), config.output.dds.topic_namespace);
+    }
     notifier.ready("listening on UDP " + ports);
 
     const auto watchdog_period = notifier.watchdog_period().value_or(std::chrono::seconds(5));
@@ -134,5 +138,9 @@ int main(int argc, char** argv) {
     pipeline->stop();
     const auto st = pipeline->stats();
     log->info("stopped: {}", status_line(st));
+    if (pipeline->dds_domain_id() >= 0) {
+        log->info("DDS: {} samples written, {} writes failed ({} timed out)", st.dds_samples_written,
+                  st.dds_write_failures, st.dds_write_timeouts);
+    }
     return 0;
 }

@@ -1,7 +1,9 @@
 #include "daemon/pipeline.hpp"
 
+#include <pthread.h>
 #include <spdlog/spdlog.h>
 
+#include <ctime>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -9,6 +11,7 @@
 
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/fusion_engine.hpp"
+#include "daemon/dds_publisher.hpp"
 #include "daemon/drop_oldest_queue.hpp"
 #include "drivers/io/cloud_ply.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
@@ -40,9 +43,16 @@ std::int64_t steady_ns() {
     return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
 }
 
+std::int64_t realtime_ns() {
+    timespec ts{};
+    ::clock_gettime(CLOCK_REALTIME, &ts);
+    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
 struct ScanMessage {
     std::size_t sensor = 0;
     std::int64_t t_ns = 0;
+    std::int64_t complete_steady_ns = 0;  // when the scan's last packet had been assembled
     std::vector<Eigen::Vector3d> points;
     std::vector<float> point_dt_s;
 };
@@ -58,6 +68,7 @@ struct SensorIngest {
     ouster::ScanCloud cloud;
     std::atomic<std::uint64_t> scans{0}, scans_incomplete{0}, scans_rejected{0};
     std::atomic<std::int64_t> last_scan_steady_ns{0};
+    std::atomic<std::int64_t> clock_offset_ns{0};  // sensor clock - host clock at the last scan
     std::atomic<double> last_completeness{0.0};
     mutable std::mutex counters_mutex;  // guards `counters`, a copy of the assembler's
     ouster::AssemblyCounters counters;
@@ -88,11 +99,27 @@ struct Pipeline::Impl {
     std::atomic<bool> reopen{false};
     std::shared_ptr<spdlog::logger> ingest_log, sync_log, fusion_log, output_log;
 
+    std::unique_ptr<DdsPublisher> dds;  // null when output.dds.enabled is false
+
+    // When each synchronised frame's last scan completed, for the output thread's latency
+    // figure: written by the sync thread, looked up by the members' timestamps (the
+    // FusionEngine passes them through), a ring of the last kFrameTimes frames.
+    struct FrameTime {
+        std::vector<std::int64_t> t_ns;  // per sensor, 0 = not included
+        std::int64_t last_scan_steady_ns = 0;
+    };
+    static constexpr std::size_t kFrameTimes = 64;
+    std::mutex frame_times_mutex;
+    std::vector<FrameTime> frame_times{kFrameTimes};
+    std::size_t frame_times_next = 0;
+
     mutable std::mutex stats_mutex;  // guards the fields below (written by sync/fusion/output)
     core::SyncCounters sync_counters;
     std::uint64_t frames_fused = 0;
     double last_fusion_ms = 0, sum_fusion_ms = 0;
     std::vector<core::SensorHealth> last_health;
+    double last_latency_ms = 0;
+    std::vector<double> offset_to_root_ms;
 
     explicit Impl(const DaemonConfig& c)
         : config(c), frames(c.queue_depth), results(c.queue_depth) {
@@ -148,6 +175,15 @@ struct Pipeline::Impl {
         }
         engine = std::make_unique<core::FusionEngine>(sensors.size(), config.fusion);
         last_health.assign(sensors.size(), core::SensorHealth{});
+        offset_to_root_ms.assign(sensors.size(), 0.0);
+        if (config.output.dds.enabled) {
+            StationFrames names;
+            names.station = config.station.station;
+            names.fused_frame = config.output.dds.frame_id;
+            for (const auto& sc : config.station.sensors) names.sensor_names.push_back(sc.name);
+            names.root = config.fusion.root_sensor;
+            dds = std::make_unique<DdsPublisher>(config.output.dds, names);
+        }
         heartbeat_ns = steady_ns();
     }
 
@@ -181,7 +217,9 @@ struct Pipeline::Impl {
                 m.t_ns = static_cast<std::int64_t>(t) + s->time_offset_ns;
                 m.points = s->cloud.cloud.points;
                 ouster::point_times_s(s->cloud, t, &m.point_dt_s);
-                s->last_scan_steady_ns.store(steady_ns(), std::memory_order_relaxed);
+                m.complete_steady_ns = steady_ns();
+                s->last_scan_steady_ns.store(m.complete_steady_ns, std::memory_order_relaxed);
+                s->clock_offset_ns.store(m.t_ns - realtime_ns(), std::memory_order_relaxed);
                 queue->push(std::move(m));
             });
     }
@@ -225,7 +263,10 @@ struct Pipeline::Impl {
                     sync.push(sensor, t, steady_ns(), std::move(*m));
                 }
             }
-            while (auto frame = sync.poll(steady_ns())) frames.push(std::move(*frame));
+            while (auto frame = sync.poll(steady_ns())) {
+                record_frame_time(*frame);
+                frames.push(std::move(*frame));
+            }
             {
                 std::lock_guard<std::mutex> lock(stats_mutex);
                 sync_counters = sync.counters();
@@ -233,6 +274,34 @@ struct Pipeline::Impl {
             if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(1));
         }
         frames.close();
+    }
+
+    void record_frame_time(const core::SyncedFrame<ScanMessage>& frame) {
+        std::lock_guard<std::mutex> lock(frame_times_mutex);
+        FrameTime& ft = frame_times[frame_times_next++ % kFrameTimes];
+        ft.t_ns.assign(sensors.size(), 0);
+        ft.last_scan_steady_ns = 0;
+        for (std::size_t s = 0; s < frame.members.size() && s < sensors.size(); ++s) {
+            if (!frame.members[s]) continue;
+            ft.t_ns[s] = frame.members[s]->t_ns;
+            ft.last_scan_steady_ns = std::max(ft.last_scan_steady_ns, frame.members[s]->complete_steady_ns);
+        }
+    }
+
+    // The steady time the frame's last scan completed, or 0 when it is no longer known.
+    std::int64_t frame_time(const core::FrameOutput& out) {
+        std::lock_guard<std::mutex> lock(frame_times_mutex);
+        for (const auto& ft : frame_times) {
+            bool match = !ft.t_ns.empty();
+            bool any = false;
+            for (std::size_t s = 0; match && s < out.health.size() && s < ft.t_ns.size(); ++s) {
+                if (!out.health[s].included) continue;
+                any = true;
+                match = ft.t_ns[s] == out.t_ns[s];
+            }
+            if (match && any) return ft.last_scan_steady_ns;
+        }
+        return 0;
     }
 
     void fusion_loop() {
@@ -296,6 +365,9 @@ struct Pipeline::Impl {
             }
         };
         std::int64_t frames_seen = 0;
+        const auto diagnostics_period_ns =
+            static_cast<std::int64_t>(config.output.dds.diagnostics_period_ms * 1e6);
+        std::int64_t next_diagnostics_ns = steady_ns();
         while (true) {
             auto result = results.pop_wait(std::chrono::milliseconds(100));
             if (reopen.exchange(false)) {
@@ -303,10 +375,16 @@ struct Pipeline::Impl {
                 write_extrinsics();
                 output_log->info("reopened poses.csv and rewrote extrinsics.yaml");
             }
+            if (dds && steady_ns() >= next_diagnostics_ns) {
+                next_diagnostics_ns = steady_ns() + diagnostics_period_ns;
+                dds->publish_diagnostics(collect_stats(), realtime_ns());
+            }
             if (!result) {
                 if (results.closed()) break;
                 continue;
             }
+            if (dds) dds->publish_frame(*result);
+            note_published(*result);
             for (std::size_t s = 0; s < sensors.size(); ++s) {
                 const auto& h = result->health[s];
                 if (!h.pose_valid) continue;
@@ -332,19 +410,53 @@ struct Pipeline::Impl {
             }
         }
         write_extrinsics();
+        // The final counters, so a subscriber sees how the run ended.
+        if (dds) dds->publish_diagnostics(collect_stats(), realtime_ns());
     }
+
+    // Output thread, after a frame went to DDS: its latency and the members' offsets to the root.
+    void note_published(const core::FrameOutput& out) {
+        const std::int64_t last_scan = frame_time(out);
+        const double latency_ms = last_scan > 0 ? static_cast<double>(steady_ns() - last_scan) * 1e-6 : 0.0;
+        const std::size_t root = config.fusion.root_sensor;
+        std::lock_guard<std::mutex> lock(stats_mutex);
+        if (last_scan > 0) last_latency_ms = latency_ms;
+        if (root >= out.health.size() || !out.health[root].included) return;
+        for (std::size_t s = 0; s < out.health.size() && s < offset_to_root_ms.size(); ++s) {
+            if (out.health[s].included) offset_to_root_ms[s] = static_cast<double>(out.t_ns[s] - out.t_ns[root]) * 1e-6;
+        }
+    }
+
+    PipelineStats collect_stats() const;
 };
 
 Pipeline::Pipeline(const DaemonConfig& config) : impl_(std::make_unique<Impl>(config)) {}
 
 Pipeline::~Pipeline() { stop(); }
 
+// Thread names (at most 15 characters) let `top -H` and the daemon bench tell the stages
+// apart: lf-recv-<port>, lf-sync, lf-fusion, lf-output.
 void Pipeline::start() {
     Impl& m = *impl_;
-    for (auto& r : m.receivers) r->thread = std::thread([&m, rp = r.get()] { m.receive_loop(rp); });
-    m.sync_thread = std::thread([&m] { m.sync_loop(); });
-    m.fusion_thread = std::thread([&m] { m.fusion_loop(); });
-    m.output_thread = std::thread([&m] { m.output_loop(); });
+    for (auto& r : m.receivers) {
+        const std::string name = "lf-recv-" + std::to_string(r->socket->sockets().front().port);
+        r->thread = std::thread([&m, rp = r.get(), name] {
+            ::pthread_setname_np(::pthread_self(), name.c_str());
+            m.receive_loop(rp);
+        });
+    }
+    m.sync_thread = std::thread([&m] {
+        ::pthread_setname_np(::pthread_self(), "lf-sync");
+        m.sync_loop();
+    });
+    m.fusion_thread = std::thread([&m] {
+        ::pthread_setname_np(::pthread_self(), "lf-fusion");
+        m.fusion_loop();
+    });
+    m.output_thread = std::thread([&m] {
+        ::pthread_setname_np(::pthread_self(), "lf-output");
+        m.output_loop();
+    });
 }
 
 void Pipeline::stop() {
@@ -370,14 +482,18 @@ std::chrono::steady_clock::time_point Pipeline::heartbeat() const {
 
 void Pipeline::request_reopen() { impl_->reopen.store(true); }
 
+int Pipeline::dds_domain_id() const { return impl_->dds ? impl_->dds->domain_id() : -1; }
+
 std::vector<std::uint16_t> Pipeline::bound_ports() const {
     std::vector<std::uint16_t> ports;
     for (const auto& r : impl_->receivers) ports.push_back(r->socket->sockets().front().port);
     return ports;
 }
 
-PipelineStats Pipeline::stats() const {
-    const Impl& m = *impl_;
+PipelineStats Pipeline::stats() const { return impl_->collect_stats(); }
+
+PipelineStats Pipeline::Impl::collect_stats() const {
+    const Impl& m = *this;
     PipelineStats out;
     const std::int64_t now = steady_ns();
     for (const auto& r : m.receivers) {
@@ -398,6 +514,13 @@ PipelineStats Pipeline::stats() const {
     out.frames_fused = m.frames_fused;
     out.last_fusion_ms = m.last_fusion_ms;
     out.mean_fusion_ms = m.frames_fused ? m.sum_fusion_ms / static_cast<double>(m.frames_fused) : 0.0;
+    out.last_latency_ms = m.last_latency_ms;
+    if (m.dds) {
+        const auto c = m.dds->counters();
+        out.dds_samples_written = c.written;
+        out.dds_write_failures = c.failures;
+        out.dds_write_timeouts = c.timeouts;
+    }
     for (std::size_t i = 0; i < m.sensors.size(); ++i) {
         const auto& s = *m.sensors[i];
         SensorStats ss;
@@ -420,6 +543,8 @@ PipelineStats Pipeline::stats() const {
         ss.last_completeness = s.last_completeness.load();
         const std::int64_t last = s.last_scan_steady_ns.load();
         ss.ms_since_last_scan = last > 0 ? static_cast<double>(now - last) * 1e-6 : -1.0;
+        ss.clock_offset_ms = static_cast<double>(s.clock_offset_ns.load()) * 1e-6;
+        ss.offset_to_root_ms = m.offset_to_root_ms[i];
         if (!m.config.station.sensors[i].enabled) {
             ss.state = SensorState::kDisabled;
         } else if (last == 0 || ss.ms_since_last_scan > m.config.health.lost_after_ms) {

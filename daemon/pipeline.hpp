@@ -33,6 +33,10 @@ struct SensorStats {
     std::uint64_t scans = 0, scans_incomplete = 0, scans_rejected = 0;  // rejected: below min completeness
     double last_completeness = 0.0;
     double ms_since_last_scan = -1.0;
+    // Sensor clock minus host clock (CLOCK_REALTIME) when its last scan completed (large
+    // when replaying an old capture or when the sensor is not time-synchronised), and its
+    // last fused scan's time minus the root's in the same frame.
+    double clock_offset_ms = 0.0, offset_to_root_ms = 0.0;
     bool pose_valid = false;
     std::string track_state;
     double fitness = 0.0;
@@ -44,6 +48,10 @@ struct PipelineStats {
     std::uint64_t frames_synchronised = 0, frames_partial = 0, scans_late = 0;
     std::uint64_t frames_fused = 0;
     double last_fusion_ms = 0.0, mean_fusion_ms = 0.0;
+    // Steady clock from the frame's last scan completing (its last packet) to its cloud
+    // having been written to DDS (or to the files when DDS is off).
+    double last_latency_ms = 0.0;
+    std::uint64_t dds_samples_written = 0, dds_write_failures = 0, dds_write_timeouts = 0;
     std::vector<int> granted_receive_buffers;
     std::vector<SensorStats> sensors;
 };
@@ -64,6 +72,8 @@ public:
     // Re-open poses.csv and rewrite extrinsics.yaml (SIGHUP, after logrotate).
     void request_reopen();
     std::vector<std::uint16_t> bound_ports() const;
+    // The DDS domain the publisher joined, or -1 when output.dds.enabled is false.
+    int dds_domain_id() const;
 
 private:
     struct Impl;

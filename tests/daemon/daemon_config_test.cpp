@@ -87,5 +87,61 @@ output: [1, 2]
     }
 }
 
+TEST_F(DaemonConfigTest, DdsDefaultsAndKeys) {
+    const auto defaults = parse_daemon_config(sensors_, "s.yaml", dir_.path());
+    EXPECT_TRUE(defaults.output.dds.enabled);
+    EXPECT_EQ(defaults.output.dds.domain_id, -1);  // ROS_DOMAIN_ID, else 0
+    EXPECT_EQ(defaults.output.dds.topic_namespace, "lidarfuse");
+    EXPECT_EQ(defaults.output.dds.frame_id, "a");  // the root sensor's name
+    EXPECT_EQ(defaults.output.dds.depth, 2);
+    EXPECT_TRUE(defaults.output.dds.publish_points);
+
+    const auto c = parse_daemon_config(sensors_ + R"(
+output:
+  dds: {enabled: false, domain_id: 42, namespace: site_7/fusion, frame_id: map, depth: 5,
+        max_blocking_ms: 2, publish_points: false, diagnostics_period_ms: 500,
+        static_update_m: 0.1, static_update_deg: 1}
+)",
+                                       "s.yaml", dir_.path());
+    EXPECT_FALSE(c.output.dds.enabled);
+    EXPECT_EQ(c.output.dds.domain_id, 42);
+    EXPECT_EQ(c.output.dds.topic_namespace, "site_7/fusion");
+    EXPECT_EQ(c.output.dds.frame_id, "map");
+    EXPECT_EQ(c.output.dds.depth, 5);
+    EXPECT_DOUBLE_EQ(c.output.dds.max_blocking_ms, 2.0);
+    EXPECT_FALSE(c.output.dds.publish_points);
+    EXPECT_DOUBLE_EQ(c.output.dds.diagnostics_period_ms, 500.0);
+    EXPECT_DOUBLE_EQ(c.output.dds.static_update_m, 0.1);
+    EXPECT_DOUBLE_EQ(c.output.dds.static_update_deg, 1.0);
+}
+
+TEST_F(DaemonConfigTest, EveryDdsProblemIsListed) {
+    try {
+        parse_daemon_config(sensors_ + R"(
+output:
+  dds: {domain_id: 233, namespace: /bad//name, depth: 0, max_blocking_ms: -1, publish_point: true,
+        enabled: maybe}
+)",
+                            "bad.yaml", dir_.path());
+        FAIL();
+    } catch (const station::ConfigError& error) {
+        const std::string text = error.what();
+        EXPECT_THAT(text, HasSubstr("output.dds.domain_id"));
+        EXPECT_THAT(text, HasSubstr("output.dds.namespace: expected ROS name segments"));
+        EXPECT_THAT(text, HasSubstr("output.dds.depth"));
+        EXPECT_THAT(text, HasSubstr("output.dds.max_blocking_ms"));
+        EXPECT_THAT(text, HasSubstr("output.dds.publish_point: unknown key"));
+        EXPECT_THAT(text, HasSubstr("output.dds.enabled"));
+        EXPECT_EQ(error.problems().size(), 6u);
+    }
+    for (const char* bad : {"1abc", "a/", "a b", "a//b"}) {
+        EXPECT_THROW(parse_daemon_config(sensors_ + "output: {dds: {namespace: \"" + bad + "\"}}\n", "s.yaml",
+                                         dir_.path()),
+                     station::ConfigError)
+            << bad;
+    }
+    EXPECT_NO_THROW(parse_daemon_config(sensors_ + "output: {dds: {namespace: \"\"}}\n", "s.yaml", dir_.path()));
+}
+
 }  // namespace
 }  // namespace lidarfuse::daemon

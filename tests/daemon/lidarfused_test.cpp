@@ -1,5 +1,5 @@
 // The lidarfused binary: config validation, and a simulated station replayed through its
-// sockets on loopback, stopped with SIGTERM.
+// sockets on loopback, subscribed to over DDS from this process, stopped with SIGTERM.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -11,10 +11,14 @@
 #include <chrono>
 #include <cstring>
 #include <fstream>
+#include <map>
+#include <set>
 #include <thread>
 
+#include "daemon/dds_messages.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/pose_csv.hpp"
+#include "tests/daemon/dds_test_support.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace lidarfuse {
@@ -23,6 +27,7 @@ namespace {
 using ::testing::HasSubstr;
 
 TEST(Lidarfused, CheckAcceptsAValidConfigAndListsEveryProblemOfABadOne) {
+    test::use_loopback_dds();
     test::TempDir dir("lfd");
     std::string out;
     ASSERT_EQ(test::run_command(test::tool_path() + " sim --scenario curve --sensors 2 --seconds 0.1 --out " +
@@ -42,18 +47,103 @@ TEST(Lidarfused, CheckAcceptsAValidConfigAndListsEveryProblemOfABadOne) {
 // Ports for this test: distinct per process so parallel test runs do not collide.
 std::uint16_t base_port() { return static_cast<std::uint16_t>(42000 + (::getpid() % 4000) * 4); }
 
-TEST(Lidarfused, FusesAReplayedStationAndStopsCleanlyOnSigterm) {
+// Kills the daemon when a test ends early (a failed ASSERT), so it never outlives the test.
+struct ChildGuard {
+    pid_t pid = 0;
+    ~ChildGuard() {
+        if (pid <= 0) return;
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, nullptr, 0);
+    }
+};
+
+// What the test's DDS readers saw of one run.
+struct DdsSeen {
+    std::set<std::int64_t> cloud_stamps, pose_frames;
+    std::size_t clouds = 0, poses = 0, tf_messages = 0, points = 0;
+    std::set<int> cloud_sensor_ids;
+    std::vector<io::PoseRecord> tf;  // rt/tf as poses.csv rows (frame = message number)
+    bool all_ok_seen = false;        // a diagnostics message with every sensor's state OK
+    std::set<std::string> registered;  // sensors some diagnostics message called registered
+    std::map<std::string, std::string> last_pipeline;  // the last pipeline status values
+};
+
+struct DaemonReaders {
+    explicit DaemonReaders(int domain)
+        : participant(dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr)),
+          points(participant, &sensor_msgs_msg_dds__PointCloud2__desc, "rt/lidarfuse/points", test::reader_qos(50)),
+          poses(participant, &lidarfuse_msgs_msg_dds__FramePoses__desc, "rt/lidarfuse/poses", test::reader_qos(50)),
+          tf(participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", test::reader_qos(50)),
+          diagnostics(participant, &diagnostic_msgs_msg_dds__DiagnosticArray__desc, "rt/diagnostics",
+                      test::reader_qos(50)) {}
+    ~DaemonReaders() { dds_delete(participant); }
+
+    void take(DdsSeen* seen) {
+        points.take([&](const sensor_msgs_msg_dds__PointCloud2_& m) {
+            ++seen->clouds;
+            seen->cloud_stamps.insert(daemon::from_ros_time(m.header.stamp));
+            seen->points += m.width;
+            for (std::uint32_t i = 0; i < m.width; i += 97) {
+                seen->cloud_sensor_ids.insert(m.data._buffer[i * m.point_step + daemon::kOffsetSensorId]);
+            }
+        });
+        poses.take([&](const lidarfuse_msgs_msg_dds__FramePoses_& m) {
+            ++seen->poses;
+            seen->pose_frames.insert(m.frame_index);
+        });
+        tf.take([&](const tf2_msgs_msg_dds__TFMessage_& m) {
+            const auto number = static_cast<std::int64_t>(seen->tf_messages++);
+            for (std::uint32_t i = 0; i < m.transforms._length; ++i) {
+                const auto& t = m.transforms._buffer[i];
+                EXPECT_STREQ(t.header.frame_id, "station_world");
+                seen->tf.push_back({number, t.child_frame_id, daemon::from_ros_time(t.header.stamp),
+                                    daemon::from_ros_transform(t.transform)});
+            }
+        });
+        diagnostics.take([&](const diagnostic_msgs_msg_dds__DiagnosticArray_& m) {
+            bool all_ok = m.status._length == 3;  // two sensors and the pipeline
+            for (std::uint32_t i = 0; i < m.status._length; ++i) {
+                const auto& st = m.status._buffer[i];
+                std::map<std::string, std::string> values;
+                for (std::uint32_t k = 0; k < st.values._length; ++k) {
+                    values[st.values._buffer[k].key] = st.values._buffer[k].value;
+                }
+                if (i + 1 == m.status._length) {
+                    seen->last_pipeline = values;
+                } else {
+                    all_ok = all_ok && values["state"] == "OK" && std::string(st.message).rfind("OK", 0) == 0;
+                    if (values["pose_valid"] == "true") seen->registered.insert(st.hardware_id);
+                }
+            }
+            seen->all_ok_seen = seen->all_ok_seen || all_ok;
+        });
+    }
+
+    dds_entity_t participant;
+    test::DdsReader<sensor_msgs_msg_dds__PointCloud2_> points;
+    test::DdsReader<lidarfuse_msgs_msg_dds__FramePoses_> poses;
+    test::DdsReader<tf2_msgs_msg_dds__TFMessage_> tf;
+    test::DdsReader<diagnostic_msgs_msg_dds__DiagnosticArray_> diagnostics;
+};
+
+TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     test::TempDir dir("lfd-run");
     const auto d = dir.path();
     std::string out;
     ASSERT_EQ(test::run_command(test::tool_path() + " sim --scenario curve --sensors 2 --seconds 1 --out " +
                                     (d / "sim").string(), &out), 0) << out;
     const std::uint16_t p0 = base_port(), p1 = static_cast<std::uint16_t>(p0 + 2);
+    test::use_loopback_dds();  // this process and the daemon
+    const int domain = test::unique_domain_id();
     std::ofstream(d / "sim" / "daemon.yaml")
         << "station: test\nroot: lidar0\nsensors:\n"
         << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"
         << "  - {name: lidar1, udp_port: " << p1 << ", metadata: lidar1.json}\n"
-        << "network: {bind_address: 127.0.0.1}\noutput: {directory: " << (d / "out").string() << "}\n";
+        << "network: {bind_address: 127.0.0.1}\noutput:\n  directory: " << (d / "out").string() << "\n"
+        << "  dds: {domain_id: " << domain << ", frame_id: station_world, diagnostics_period_ms: 200}\n";
+    // Subscribed before the daemon starts, so every frame it publishes can be counted.
+    DaemonReaders readers(domain);
+    DdsSeen seen;
 
     const pid_t pid = ::fork();
     ASSERT_GE(pid, 0);
@@ -65,6 +155,7 @@ TEST(Lidarfused, FusesAReplayedStationAndStopsCleanlyOnSigterm) {
         ::execl(test::daemon_path().c_str(), "lidarfused", "--config", config.c_str(), nullptr);
         ::_exit(127);
     }
+    ChildGuard guard{pid};
     // Wait until it listens (its log says so), then replay through its sockets.
     bool listening = false;
     for (int i = 0; i < 200 && !listening; ++i) {
@@ -74,16 +165,53 @@ TEST(Lidarfused, FusesAReplayedStationAndStopsCleanlyOnSigterm) {
         listening = text.find("listening on UDP") != std::string::npos;
     }
     ASSERT_TRUE(listening);
+    ASSERT_TRUE(readers.points.wait_matched()) << "the daemon's writer was not discovered";
     out.clear();
-    EXPECT_EQ(test::run_command(test::tool_path() + " replay " + (d / "sim" / "capture.pcap").string() +
-                                    " --port-map 7502:" + std::to_string(p0) + " --port-map 7504:" +
-                                    std::to_string(p1), &out), 0) << out;
-    std::this_thread::sleep_for(std::chrono::seconds(2));  // let fusion catch up
+    int replay_status = -1;
+    std::thread replay([&] {
+        replay_status = test::run_command(test::tool_path() + " replay " + (d / "sim" / "capture.pcap").string() +
+                                              " --port-map 7502:" + std::to_string(p0) + " --port-map 7504:" +
+                                              std::to_string(p1), &out);
+    });
+    // Take while the replay runs and for two seconds after (fusion catching up).
+    test::eventually([&] {
+        readers.take(&seen);
+        return replay_status >= 0;
+    }, 6000);
+    replay.join();
+    EXPECT_EQ(replay_status, 0) << out;
+    test::eventually([&] {
+        readers.take(&seen);
+        return false;
+    }, 200);
+    // A late joiner of rt/tf_static (transient-local, as tf2's static listener) gets the
+    // calibration from the running daemon.
+    std::set<std::string> static_transforms;
+    {
+        test::DdsReader<tf2_msgs_msg_dds__TFMessage_> tf_static(
+            readers.participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf_static", test::reader_qos(1, true));
+        test::eventually([&] {
+            tf_static.take([&](const tf2_msgs_msg_dds__TFMessage_& m) {
+                for (std::uint32_t i = 0; i < m.transforms._length; ++i) {
+                    static_transforms.insert(m.transforms._buffer[i].child_frame_id);
+                }
+            });
+            return !static_transforms.empty();
+        });
+    }
     ASSERT_EQ(::kill(pid, SIGTERM), 0);
     int status = 0;
     ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    guard.pid = 0;
     ASSERT_TRUE(WIFEXITED(status));
     EXPECT_EQ(WEXITSTATUS(status), 0);
+    // The final diagnostics went out during shutdown; then the daemon's writers are gone.
+    EXPECT_TRUE(test::eventually([&] {
+        readers.take(&seen);
+        dds_subscription_matched_status_t st{};
+        dds_get_subscription_matched_status(readers.diagnostics.reader(), &st);
+        return st.current_count == 0;
+    }));
 
     std::ifstream log(d / "daemon.log");
     const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
@@ -95,12 +223,49 @@ TEST(Lidarfused, FusesAReplayedStationAndStopsCleanlyOnSigterm) {
     std::size_t root_rows = 0;
     for (const auto& p : poses) root_rows += p.sensor == "lidar0";
     EXPECT_GE(root_rows, 1u) << text;
-    EXPECT_EQ(root_rows, std::stoul(*fused)) << text;
+    const std::size_t frames_fused = std::stoul(*fused);
+    EXPECT_EQ(root_rows, frames_fused) << text;
+
+    // DDS: one cloud, one poses message and one tf message per fused frame, none lost.
+    EXPECT_EQ(seen.clouds, frames_fused) << text;
+    EXPECT_EQ(seen.cloud_stamps.size(), frames_fused);
+    EXPECT_EQ(seen.poses, frames_fused);
+    EXPECT_EQ(seen.pose_frames.size(), frames_fused);
+    EXPECT_EQ(seen.tf_messages, frames_fused);
+    EXPECT_GT(seen.points, 1000u * frames_fused);
+    EXPECT_TRUE(seen.cloud_sensor_ids.count(0));  // the root's points, at least, are in the clouds
+    EXPECT_TRUE(seen.all_ok_seen) << "no diagnostics with every sensor OK";
+    EXPECT_EQ(seen.last_pipeline["frames_fused"], std::to_string(frames_fused));
+    EXPECT_EQ(seen.last_pipeline["dds_write_failures"], "0");
+    EXPECT_EQ(seen.last_pipeline["kernel_drops"], "0");
+    std::string registered_names;
+    for (const auto& name : seen.registered) registered_names += " " + name;
+    std::printf("lidarfused over DDS: %zu frames fused, %zu clouds, %zu points, registered:%s\n", frames_fused,
+                seen.clouds, seen.points, registered_names.c_str());
+    // Every sensor the daemon registered is on rt/tf_static, on rt/tf, and in the clouds.
+    std::set<std::string> on_tf;
+    for (const auto& r : seen.tf) on_tf.insert(r.sensor);
+    EXPECT_TRUE(seen.registered.count("lidar0"));
+    EXPECT_EQ(static_transforms, seen.registered);
+    EXPECT_EQ(on_tf, seen.registered);
+    if (seen.registered.count("lidar1")) {
+        EXPECT_TRUE(seen.cloud_sensor_ids.count(1));
+    }
+
+    // rt/tf against the simulator's ground truth, with the same evaluator as poses.csv.
+    io::write_pose_csv(d / "tf.csv", seen.tf);
+    std::string tf_eval;
+    ASSERT_EQ(test::run_command(test::tool_path() + " eval --gt " + (d / "sim" / "ground_truth.csv").string() +
+                                    " --poses " + (d / "tf.csv").string() + " --root lidar0", &tf_eval), 0) << tf_eval;
+    EXPECT_THAT(tf_eval, HasSubstr("eval_mean_strict_rmse_trans 0.0")) << tf_eval;  // below 10 cm
+    std::printf("rt/tf against ground truth: strict RMSE %s\n",
+                test::line_after(tf_eval, "eval_mean_strict_rmse_trans ").value_or("?").c_str());
     std::string root;
     const auto extrinsics = io::read_extrinsics_yaml(d / "out" / "extrinsics.yaml", &root);
     EXPECT_EQ(root, "lidar0");
     ASSERT_EQ(extrinsics.size(), 2u);
     EXPECT_TRUE(extrinsics[0].registered);
+    for (const auto& e : extrinsics) EXPECT_EQ(e.registered, seen.registered.count(e.name) > 0) << e.name;
     EXPECT_FALSE(std::filesystem::exists(d / "out" / "extrinsics.yaml.tmp"));
 
     out.clear();
@@ -112,6 +277,7 @@ TEST(Lidarfused, FusesAReplayedStationAndStopsCleanlyOnSigterm) {
 // The daemon speaks systemd's notify protocol: READY=1 once bound, WATCHDOG=1 while the
 // fusion heartbeat is fresh, STATUS= lines, STOPPING=1 on SIGTERM.
 TEST(Lidarfused, SpeaksTheSystemdNotifyProtocol) {
+    test::use_loopback_dds();
     test::TempDir dir("lfd-notify");
     const auto d = dir.path();
     std::string out;
@@ -119,7 +285,8 @@ TEST(Lidarfused, SpeaksTheSystemdNotifyProtocol) {
                                     (d / "sim").string(), &out), 0) << out;
     std::ofstream(d / "sim" / "daemon.yaml")
         << "sensors:\n  - {name: lidar0, udp_port: " << base_port() + 1 << ", metadata: lidar0.json}\n"
-        << "network: {bind_address: 127.0.0.1}\noutput: {directory: " << (d / "out").string() << "}\n";
+        << "network: {bind_address: 127.0.0.1}\noutput: {directory: " << (d / "out").string()
+        << ", dds: {domain_id: " << test::unique_domain_id() << "}}\n";
     const std::string socket_path = (d / "notify.sock").string();
     const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
     ASSERT_GE(fd, 0);

@@ -1,0 +1,258 @@
+#include "daemon/dds_messages.hpp"
+
+#include <cstdio>
+#include <cstring>
+
+namespace lidarfuse::daemon {
+
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "PointCloud2 data is written in host order");
+
+namespace {
+
+// The C structs hold `char*`; the builders only ever hand them strings they own and Cyclone
+// only reads them.
+char* c_str(const std::string& s) { return const_cast<char*>(s.c_str()); }
+
+template <typename T, typename Seq>
+void point_sequence(Seq* seq, std::vector<T>& items) {
+    seq->_buffer = items.empty() ? nullptr : items.data();
+    seq->_length = static_cast<std::uint32_t>(items.size());
+    seq->_maximum = seq->_length;
+    seq->_release = false;  // the builder owns the buffer, Cyclone must never free it
+}
+
+}  // namespace
+
+builtin_interfaces_msg_dds__Time_ to_ros_time(std::int64_t t_ns) {
+    std::int64_t sec = t_ns / 1'000'000'000;
+    std::int64_t nsec = t_ns % 1'000'000'000;
+    if (nsec < 0) {
+        nsec += 1'000'000'000;
+        --sec;
+    }
+    return {static_cast<std::int32_t>(sec), static_cast<std::uint32_t>(nsec)};
+}
+
+std::int64_t from_ros_time(const builtin_interfaces_msg_dds__Time_& t) {
+    return static_cast<std::int64_t>(t.sec) * 1'000'000'000 + static_cast<std::int64_t>(t.nanosec);
+}
+
+geometry_msgs_msg_dds__Transform_ to_ros_transform(const Eigen::Isometry3d& T) {
+    const Eigen::Quaterniond q(T.rotation());
+    const Eigen::Vector3d p = T.translation();
+    return {{p.x(), p.y(), p.z()}, {q.x(), q.y(), q.z(), q.w()}};
+}
+
+Eigen::Isometry3d from_ros_transform(const geometry_msgs_msg_dds__Transform_& t) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(t.translation.x, t.translation.y, t.translation.z);
+    T.linear() = Eigen::Quaterniond(t.rotation.w, t.rotation.x, t.rotation.y, t.rotation.z)
+                     .normalized()
+                     .toRotationMatrix();
+    return T;
+}
+
+FrameMessageBuilder::FrameMessageBuilder(StationFrames frames) : frames_(std::move(frames)) {
+    static const char* const kNames[6] = {"x", "y", "z", "intensity", "sensor_id", "dynamic"};
+    const std::uint32_t offsets[6] = {kOffsetX, kOffsetY, kOffsetZ, kOffsetIntensity, kOffsetSensorId,
+                                      kOffsetDynamic};
+    const std::uint8_t types[6] = {
+        sensor_msgs_msg_dds__PointField_Constants_FLOAT32, sensor_msgs_msg_dds__PointField_Constants_FLOAT32,
+        sensor_msgs_msg_dds__PointField_Constants_FLOAT32, sensor_msgs_msg_dds__PointField_Constants_FLOAT32,
+        sensor_msgs_msg_dds__PointField_Constants_UINT8,   sensor_msgs_msg_dds__PointField_Constants_UINT8};
+    for (int i = 0; i < 6; ++i) fields_[i] = {const_cast<char*>(kNames[i]), offsets[i], types[i], 1};
+    cloud_.fields._buffer = fields_;
+    cloud_.fields._length = cloud_.fields._maximum = 6;
+    cloud_.fields._release = false;
+    cloud_.header.frame_id = c_str(frames_.fused_frame);
+    cloud_.height = 1;
+    cloud_.is_bigendian = false;
+    cloud_.point_step = kPointStep;
+    cloud_.is_dense = true;
+    tf_.transforms._release = false;
+    poses_.header.frame_id = c_str(frames_.fused_frame);
+    poses_.root_sensor = c_str(frames_.sensor_names.at(frames_.root));
+    transforms_.reserve(frames_.sensor_names.size());
+    sensor_poses_.resize(frames_.sensor_names.size());
+}
+
+std::int64_t FrameMessageBuilder::frame_stamp_ns(const core::FrameOutput& frame) const {
+    const std::size_t root = frames_.root;
+    if (root < frame.health.size() && frame.health[root].included) return frame.t_ns[root];
+    std::int64_t earliest = 0;
+    bool any = false;
+    for (std::size_t s = 0; s < frame.health.size(); ++s) {
+        if (frame.health[s].included && (!any || frame.t_ns[s] < earliest)) earliest = frame.t_ns[s], any = true;
+    }
+    return any ? earliest : (root < frame.t_ns.size() ? frame.t_ns[root] : 0);
+}
+
+const sensor_msgs_msg_dds__PointCloud2_& FrameMessageBuilder::cloud(const core::FrameOutput& frame) {
+    const auto& c = frame.cloud;
+    const std::size_t n = c.points.size();
+    cloud_data_.resize(n * kPointStep);  // grows to the largest cloud, then stays
+    std::uint8_t* out = cloud_data_.data();
+    for (std::size_t i = 0; i < n; ++i, out += kPointStep) {
+        const float xyz[3] = {c.points[i].x(), c.points[i].y(), c.points[i].z()};
+        const float intensity = i < c.intensity.size() ? c.intensity[i] : 0.0f;
+        std::memcpy(out + kOffsetX, xyz, sizeof(xyz));
+        std::memcpy(out + kOffsetIntensity, &intensity, sizeof(float));
+        out[kOffsetSensorId] = i < c.sensor.size() ? c.sensor[i] : 0;
+        out[kOffsetDynamic] = i < c.dynamic.size() ? c.dynamic[i] : 0;
+        out[18] = out[19] = 0;
+    }
+    cloud_.header.stamp = to_ros_time(frame_stamp_ns(frame));
+    cloud_.width = static_cast<std::uint32_t>(n);
+    cloud_.row_step = static_cast<std::uint32_t>(n * kPointStep);
+    point_sequence(&cloud_.data, cloud_data_);
+    return cloud_;
+}
+
+const tf2_msgs_msg_dds__TFMessage_& FrameMessageBuilder::tf(const core::FrameOutput& frame) {
+    std::vector<bool> valid(frame.health.size());
+    for (std::size_t s = 0; s < valid.size(); ++s) valid[s] = frame.health[s].pose_valid;
+    return tf(frame.T_root_sensor, frame.t_ns, valid);
+}
+
+const tf2_msgs_msg_dds__TFMessage_& FrameMessageBuilder::tf(const std::vector<Eigen::Isometry3d>& T_root_sensor,
+                                                             const std::vector<std::int64_t>& t_ns,
+                                                             const std::vector<bool>& valid) {
+    transforms_.clear();
+    for (std::size_t s = 0; s < frames_.sensor_names.size() && s < T_root_sensor.size(); ++s) {
+        if (!valid[s] || frames_.sensor_names[s] == frames_.fused_frame) continue;
+        geometry_msgs_msg_dds__TransformStamped_ t{};
+        t.header.stamp = to_ros_time(t_ns[s]);
+        t.header.frame_id = c_str(frames_.fused_frame);
+        t.child_frame_id = c_str(frames_.sensor_names[s]);
+        t.transform = to_ros_transform(T_root_sensor[s]);
+        transforms_.push_back(t);
+    }
+    point_sequence(&tf_.transforms, transforms_);
+    return tf_;
+}
+
+const lidarfuse_msgs_msg_dds__FramePoses_& FrameMessageBuilder::poses(const core::FrameOutput& frame) {
+    poses_.header.stamp = to_ros_time(frame_stamp_ns(frame));
+    poses_.frame_index = frame.frame_index;
+    const std::size_t n = std::min(sensor_poses_.size(), frame.health.size());
+    for (std::size_t s = 0; s < n; ++s) {
+        auto& p = sensor_poses_[s];
+        const auto& h = frame.health[s];
+        p.name = c_str(frames_.sensor_names[s]);
+        p.stamp = to_ros_time(frame.t_ns[s]);
+        p.transform = to_ros_transform(frame.T_root_sensor[s]);
+        p.included = h.included;
+        p.pose_valid = h.pose_valid;
+        p.track_state = const_cast<char*>(core::to_string(h.state));
+        p.fitness = h.fitness_reference;
+    }
+    poses_.sensors._buffer = sensor_poses_.data();
+    poses_.sensors._length = poses_.sensors._maximum = static_cast<std::uint32_t>(n);
+    poses_.sensors._release = false;
+    return poses_;
+}
+
+DiagnosticsBuilder::DiagnosticsBuilder(StationFrames frames) : frames_(std::move(frames)) {
+    array_.header.frame_id = c_str(frames_.fused_frame);
+}
+
+void DiagnosticsBuilder::add(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values, const char* key,
+                             std::string value) {
+    strings_.push_back(std::move(value));
+    values->push_back({const_cast<char*>(key), c_str(strings_.back())});
+}
+
+namespace {
+
+std::string number(double v, const char* format = "%.3f") {
+    char buffer[64];
+    std::snprintf(buffer, sizeof(buffer), format, v);
+    return buffer;
+}
+
+}  // namespace
+
+const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(const PipelineStats& stats,
+                                                                           std::int64_t stamp_ns) {
+    strings_.clear();
+    values_.assign(stats.sensors.size() + 1, {});
+    status_.assign(stats.sensors.size() + 1, diagnostic_msgs_msg_dds__DiagnosticStatus_{});
+    const std::string prefix = "lidarfuse/" + frames_.station + "/";
+    for (std::size_t i = 0; i < stats.sensors.size(); ++i) {
+        const auto& s = stats.sensors[i];
+        auto& st = status_[i];
+        auto* v = &values_[i];
+        std::uint8_t level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_OK;
+        std::string message = to_string(s.state);
+        if (s.state == SensorState::kLost) {
+            level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_ERROR;
+        } else if (s.state == SensorState::kStale) {
+            level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN;
+        }
+        if (s.state != SensorState::kDisabled && stats.frames_fused > 0 && !s.pose_valid) {
+            level = std::max<std::uint8_t>(level, diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN);
+            message += "; not registered";
+        }
+        st.level = level;
+        strings_.push_back(prefix + s.name);
+        st.name = c_str(strings_.back());
+        strings_.push_back(std::move(message));
+        st.message = c_str(strings_.back());
+        strings_.push_back(s.name);
+        st.hardware_id = c_str(strings_.back());
+        add(v, "state", to_string(s.state));
+        add(v, "packets", std::to_string(s.packets));
+        add(v, "lidar_packets", std::to_string(s.lidar_packets));
+        add(v, "bad_packets", std::to_string(s.bad_packets));
+        add(v, "late_packets", std::to_string(s.late_packets));
+        add(v, "duplicate_packets", std::to_string(s.duplicate_packets));
+        add(v, "crc_errors", std::to_string(s.crc_errors));
+        add(v, "resets", std::to_string(s.resets));
+        add(v, "scans", std::to_string(s.scans));
+        add(v, "scans_incomplete", std::to_string(s.scans_incomplete));
+        add(v, "scans_rejected", std::to_string(s.scans_rejected));
+        add(v, "completeness", number(s.last_completeness, "%.4f"));
+        add(v, "ms_since_last_scan", number(s.ms_since_last_scan, "%.1f"));
+        add(v, "clock_offset_ms", number(s.clock_offset_ms, "%.3f"));
+        add(v, "offset_to_root_ms", number(s.offset_to_root_ms, "%.3f"));
+        add(v, "track_state", s.track_state);
+        add(v, "pose_valid", s.pose_valid ? "true" : "false");
+        add(v, "fitness", number(s.fitness, "%.4f"));
+    }
+    auto& p = status_.back();
+    auto* v = &values_.back();
+    const bool drops = stats.kernel_drops > 0 || stats.scan_queue_drops > 0;
+    p.level = drops ? diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN
+                    : diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_OK;
+    strings_.push_back(prefix + "pipeline");
+    p.name = c_str(strings_.back());
+    strings_.push_back(drops ? "packets or scans dropped" : "OK");
+    p.message = c_str(strings_.back());
+    strings_.push_back(frames_.station);
+    p.hardware_id = c_str(strings_.back());
+    add(v, "datagrams", std::to_string(stats.datagrams));
+    add(v, "unassigned_datagrams", std::to_string(stats.unassigned_datagrams));
+    add(v, "kernel_drops", std::to_string(stats.kernel_drops));
+    add(v, "scan_queue_drops", std::to_string(stats.scan_queue_drops));
+    add(v, "frame_queue_drops", std::to_string(stats.frame_queue_drops));
+    add(v, "result_queue_drops", std::to_string(stats.result_queue_drops));
+    add(v, "frames_synchronised", std::to_string(stats.frames_synchronised));
+    add(v, "frames_partial", std::to_string(stats.frames_partial));
+    add(v, "scans_late", std::to_string(stats.scans_late));
+    add(v, "frames_fused", std::to_string(stats.frames_fused));
+    add(v, "last_fusion_ms", number(stats.last_fusion_ms, "%.2f"));
+    add(v, "mean_fusion_ms", number(stats.mean_fusion_ms, "%.2f"));
+    add(v, "last_latency_ms", number(stats.last_latency_ms, "%.2f"));
+    add(v, "dds_samples_written", std::to_string(stats.dds_samples_written));
+    add(v, "dds_write_failures", std::to_string(stats.dds_write_failures));
+    for (std::size_t i = 0; i < status_.size(); ++i) {
+        status_[i].values._buffer = values_[i].data();
+        status_[i].values._length = status_[i].values._maximum = static_cast<std::uint32_t>(values_[i].size());
+        status_[i].values._release = false;
+    }
+    array_.header.stamp = to_ros_time(stamp_ns);
+    point_sequence(&array_.status, status_);
+    return array_;
+}
+
+}  // namespace lidarfuse::daemon

@@ -1,0 +1,94 @@
+#pragma once
+// FusionEngine results and pipeline statistics as ROS 2 messages on DDS (the C structs idlc
+// generates from daemon/idl/). The builders own every buffer the C structs point into and
+// reuse them from one message to the next, so a message stays valid until the builder's
+// next call, and the steady state allocates nothing per frame. Not thread safe: one
+// builder per thread (the output thread).
+//
+// Conventions (ROS 2): stamps are the sensors' clock split into sec/nanosec; a transform
+// T_parent_child has header.frame_id = parent, child_frame_id = child; PointCloud2 is
+// little endian, one row (height 1), fields x, y, z, intensity (float32), sensor_id and
+// dynamic (uint8), point_step 20 (two bytes of padding keep every float 4-byte aligned).
+
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <vector>
+
+#include "core/pipeline/fusion_types.hpp"
+#include "daemon/pipeline.hpp"
+#include "diagnostic_msgs.h"
+#include "lidarfuse_msgs.h"
+#include "sensor_msgs.h"
+#include "tf2_msgs.h"
+
+namespace lidarfuse::daemon {
+
+inline constexpr std::uint32_t kPointStep = 20;
+inline constexpr std::uint32_t kOffsetX = 0, kOffsetY = 4, kOffsetZ = 8, kOffsetIntensity = 12,
+                               kOffsetSensorId = 16, kOffsetDynamic = 17;
+
+builtin_interfaces_msg_dds__Time_ to_ros_time(std::int64_t t_ns);
+std::int64_t from_ros_time(const builtin_interfaces_msg_dds__Time_& t);
+geometry_msgs_msg_dds__Transform_ to_ros_transform(const Eigen::Isometry3d& T);
+Eigen::Isometry3d from_ros_transform(const geometry_msgs_msg_dds__Transform_& t);
+
+// Names and frames every message of one station uses.
+struct StationFrames {
+    std::string station;
+    std::string fused_frame;                // header.frame_id of clouds, tf and poses
+    std::vector<std::string> sensor_names;  // config order; child_frame_id of tf
+    std::size_t root = 0;
+};
+
+class FrameMessageBuilder {
+public:
+    explicit FrameMessageBuilder(StationFrames frames);
+
+    // The fused cloud in the fused frame, stamped with the root sensor's scan time (the
+    // frame's earliest included scan when the root is missing).
+    const sensor_msgs_msg_dds__PointCloud2_& cloud(const core::FrameOutput& frame);
+    // One TransformStamped per sensor with a valid pose, stamped with that sensor's scan
+    // time. A sensor whose name is the fused frame itself (the default: the root sensor's
+    // name) is left out: tf2 rejects a transform from a frame to itself.
+    const tf2_msgs_msg_dds__TFMessage_& tf(const core::FrameOutput& frame);
+    // The same transforms from explicit poses (rt/tf_static: the latest calibration).
+    const tf2_msgs_msg_dds__TFMessage_& tf(const std::vector<Eigen::Isometry3d>& T_root_sensor,
+                                           const std::vector<std::int64_t>& t_ns,
+                                           const std::vector<bool>& valid);
+    const lidarfuse_msgs_msg_dds__FramePoses_& poses(const core::FrameOutput& frame);
+
+    std::int64_t frame_stamp_ns(const core::FrameOutput& frame) const;
+
+private:
+    StationFrames frames_;
+    std::vector<std::uint8_t> cloud_data_;
+    sensor_msgs_msg_dds__PointField_ fields_[6];
+    sensor_msgs_msg_dds__PointCloud2_ cloud_{};
+    std::vector<geometry_msgs_msg_dds__TransformStamped_> transforms_;
+    tf2_msgs_msg_dds__TFMessage_ tf_{};
+    std::vector<lidarfuse_msgs_msg_dds__SensorPose_> sensor_poses_;
+    lidarfuse_msgs_msg_dds__FramePoses_ poses_{};
+};
+
+// rt/diagnostics: one DiagnosticStatus per sensor (level OK, WARN when STALE or when fusing
+// without a pose for it, ERROR when LOST) and one for the pipeline as a whole.
+class DiagnosticsBuilder {
+public:
+    explicit DiagnosticsBuilder(StationFrames frames);
+    const diagnostic_msgs_msg_dds__DiagnosticArray_& build(const PipelineStats& stats, std::int64_t stamp_ns);
+
+private:
+    void add(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values, const char* key, std::string value);
+
+    StationFrames frames_;
+    // Strings of the current message; the C structs point into them. A deque never moves
+    // its elements, so pointers stay valid while more are added (rebuilt at every call,
+    // about once a second).
+    std::deque<std::string> strings_;
+    std::vector<std::vector<diagnostic_msgs_msg_dds__KeyValue_>> values_;
+    std::vector<diagnostic_msgs_msg_dds__DiagnosticStatus_> status_;
+    diagnostic_msgs_msg_dds__DiagnosticArray_ array_{};
+};
+
+}  // namespace lidarfuse::daemon
