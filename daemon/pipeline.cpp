@@ -305,6 +305,25 @@ struct Pipeline::Impl {
     }
 
     void fusion_loop() {
+        // The initial registration (~1 s) runs on one worker thread that this function starts
+        // and joins before it returns, so stop() joining the fusion thread joins it too: the
+        // engine hands a job out (FrameOutput::initial_job), this thread passes it on and
+        // keeps fusing the sensors already tracked; a later process() applies the result.
+        // One job at a time (the engine's rule), so the queue of two never drops one.
+        DropOldestQueue<std::shared_ptr<core::InitialRegistrationJob>> init_jobs(2);
+        std::thread init_worker([this, &init_jobs] {
+            while (true) {
+                auto job = init_jobs.pop_wait(std::chrono::milliseconds(100));
+                if (job) {
+                    (*job)->run();
+                    fusion_log->info("initial registration done in {:.0f} ms{}", (*job)->run_ms(),
+                                     (*job)->error().empty() ? "" : ": " + (*job)->error());
+                } else if (init_jobs.closed()) {
+                    break;
+                }
+            }
+        });
+        std::shared_ptr<core::InitialRegistrationJob> last_job;
         while (!stopping.load(std::memory_order_acquire)) {
             heartbeat_ns.store(steady_ns(), std::memory_order_release);
             auto frame = frames.pop_wait(std::chrono::milliseconds(100));
@@ -320,6 +339,10 @@ struct Pipeline::Impl {
                 in.point_dt_s = std::move(frame->members[s]->point_dt_s);
             }
             auto out = engine->process(input);
+            if (out.initial_job) {
+                last_job = std::move(out.initial_job);
+                init_jobs.push(last_job);
+            }
             for (std::size_t s = 0; s < sensors.size(); ++s) {
                 if (!out.health[s].event.empty()) {
                     fusion_log->warn("frame {}: {}: {}", out.frame_index, sensors[s]->name, out.health[s].event);
@@ -334,6 +357,11 @@ struct Pipeline::Impl {
             }
             results.push(std::move(out));
         }
+        // Shutdown: a job not begun is skipped; one running finishes (register_initial has no
+        // cancel point inside), which is the longest stop() can wait here.
+        if (last_job) last_job->cancel();
+        init_jobs.close();
+        init_worker.join();
         results.close();
     }
 

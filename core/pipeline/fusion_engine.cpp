@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <chrono>
 #include <map>
+#include <optional>
 #include <set>
 
+#include "core/pipeline/initial_registration_job.hpp"
 #include "core/pipeline/sensor_track.hpp"
 #include "core/pose_graph.hpp"
 
@@ -46,6 +48,16 @@ struct EdgeTask {
     GicpResult result;
 };
 
+// An initial registration handed out (or run inline) and what applying it needs.
+struct PendingInitialisation {
+    std::shared_ptr<InitialRegistrationJob> job;
+    std::int64_t frame = 0;               // the frame of its scans
+    bool first = false;                   // the station's first registration
+    std::vector<std::size_t> order;       // the root, then the sensors to register
+    std::vector<SensorScanInput> scans;   // their scans of `frame`, in `order`
+    Eigen::Isometry3d T_root0_root = Eigen::Isometry3d::Identity();  // root pose at `frame`
+};
+
 }  // namespace
 
 struct FusionEngine::Impl {
@@ -59,15 +71,22 @@ struct FusionEngine::Impl {
     std::vector<int> suspicious;         // consecutive suspicious frames per sensor
     std::vector<bool> needs_reinit;
     std::set<PoseGraph::NodeId> window_nodes;  // non-reference nodes in the graph
+    std::optional<PendingInitialisation> pending;
+    std::vector<bool> started_first;  // this frame: started by the station's first registration
 
     Impl(std::size_t num_sensors, const FusionParams& p)
         : params(p), n(num_sensors), graph(graph_params(p)), suspicious(num_sensors, 0),
-          needs_reinit(num_sensors, false) {
+          needs_reinit(num_sensors, false), started_first(num_sensors, false) {
         for (std::size_t i = 0; i < n; ++i) tracks.push_back(std::make_unique<SensorTrack>(params));
         GicpParams g = params.gicp;
         g.max_correspondence_distance_m = params.correspondence_factor * params.voxel_size_m;
         g.num_threads = 1;  // edges already run in parallel
         for (int t = 0; t < std::max(1, params.num_threads); ++t) registrations.emplace_back(g);
+    }
+
+    // A worker that has not begun the job yet can skip it; the job outlives the engine.
+    ~Impl() {
+        if (pending) pending->job->cancel();
     }
 
     static PoseGraphParams graph_params(const FusionParams& p) {
@@ -77,47 +96,83 @@ struct FusionEngine::Impl {
         return g;
     }
 
-    // Initial registration of `sensors` (root first) on this frame's scans. Registers the
-    // root too when it is in the list (frame 0); otherwise poses are relative to the
-    // root's current pose. Returns the sensors that were (re)started.
-    std::vector<std::size_t> initialise(std::int64_t frame, const FrameInput& in,
-                                        const std::vector<std::size_t>& sensors,
-                                        const Eigen::Isometry3d& T_root0_root_now,
-                                        FrameOutput* out) {
-        std::vector<PointCloud> clouds;
-        std::vector<std::size_t> order;
-        order.push_back(params.root_sensor);
+    // Starts an initial registration of `sensors` on this frame's scans, relative to the
+    // root's pose at this frame (T_root0_root_now). Inline: runs and applies it at once.
+    // Otherwise hands it out in out->initial_job; on the station's first frame the root
+    // starts tracking right away (its pose is the identity by definition).
+    void request_initialisation(std::int64_t frame, const FrameInput& in,
+                                const std::vector<std::size_t>& sensors, bool first,
+                                const Eigen::Isometry3d& T_root0_root_now,
+                                std::vector<std::size_t>* started, FrameOutput* out) {
+        const std::size_t root = params.root_sensor;
+        PendingInitialisation p;
+        p.frame = frame;
+        p.first = first;
+        p.T_root0_root = T_root0_root_now;
+        p.order.push_back(root);
         for (std::size_t s : sensors) {
-            if (s != params.root_sensor) order.push_back(s);
+            if (s != root) p.order.push_back(s);
         }
-        for (std::size_t s : order) {
+        const bool run_inline = params.initial_registration_inline;
+        if (!run_inline && first) {
+            tracks[root]->start(frame, in.sensors[root], Eigen::Isometry3d::Identity());
+            graph.add_node(node_id(root, frame), Eigen::Isometry3d::Identity(), true);
+            started->push_back(root);
+            started_first[root] = true;
+            out->health[root].event = "initialised";
+            if (p.order.size() == 1) return;  // a station of one: nothing to register
+        }
+        std::vector<PointCloud> clouds;
+        for (std::size_t s : p.order) {
+            p.scans.push_back(in.sensors[s]);
             PointCloud c;
             c.points = in.sensors[s].points;
             clouds.push_back(std::move(c));
         }
         InitialRegistrationParams ip = params.initial;
-        ip.num_threads = params.num_threads;
-        const auto result = register_initial(clouds, ip);
-        std::vector<std::size_t> started;
-        for (std::size_t k = 0; k < order.size(); ++k) {
-            const std::size_t s = order[k];
+        ip.num_threads = std::max(1, run_inline ? params.num_threads : params.initial_threads);
+        p.job = std::make_shared<InitialRegistrationJob>(std::move(clouds), ip);
+        pending = std::move(p);
+        if (run_inline) {
+            pending->job->run();
+            apply_initialisation(frame, started, out);
+        } else {
+            out->initial_job = pending->job;
+            for (std::size_t k = 1; k < pending->order.size(); ++k) {
+                out->health[pending->order[k]].event = "initial registration started";
+            }
+        }
+    }
+
+    // Starts the tracks of the sensors the finished job registered. Their reference frame is
+    // the job's frame (its scans); when that is an earlier frame, they are tracked from this
+    // frame on like any sensor (reference edge from the registered pose, inter-sensor edges).
+    void apply_initialisation(std::int64_t frame, std::vector<std::size_t>* started, FrameOutput* out) {
+        const PendingInitialisation p = std::move(*pending);
+        pending.reset();
+        const auto& result = p.job->result();
+        bool any_failed = false;
+        for (std::size_t k = 0; k < p.order.size(); ++k) {
+            const std::size_t s = p.order[k];
             const bool is_root = s == params.root_sensor;
             if (is_root && tracks[s]->initialised()) continue;  // only a reference here
-            if (!result.sensors[k].registered) {
-                out->health[s].event = std::string("initial registration failed: ") +
-                                       to_string(result.sensors[k].status);
+            if (k >= result.sensors.size() || !result.sensors[k].registered) {
+                out->health[s].event =
+                    std::string("initial registration failed: ") +
+                    (k < result.sensors.size() ? to_string(result.sensors[k].status) : p.job->error().c_str());
+                any_failed = true;
                 continue;
             }
-            const Eigen::Isometry3d T = T_root0_root_now * result.sensors[k].T_root_sensor;
-            tracks[s]->start(frame, in.sensors[s], T);
-            const auto id = node_id(s, frame);
-            graph.add_node(id, T, is_root);
-            started.push_back(s);
-            out->health[s].event = frame == 0 || is_root ? "initialised" : "reinitialised";
+            const Eigen::Isometry3d T = p.T_root0_root * result.sensors[k].T_root_sensor;
+            tracks[s]->start(p.frame, p.scans[k], T);
+            graph.add_node(node_id(s, p.frame), T, is_root);
+            started->push_back(s);
+            started_first[s] = p.first;
+            out->health[s].event = p.first || is_root ? "initialised" : "reinitialised";
             suspicious[s] = 0;
             needs_reinit[s] = false;
         }
-        return started;
+        if (p.first || any_failed) last_retry_frame = frame;
     }
 
     void remove_track_nodes(std::size_t s) {
@@ -153,39 +208,46 @@ struct FusionEngine::Impl {
         }
         const std::size_t root = params.root_sensor;
 
-        // 1. Initial registration: the root and every sensor on the first frame the root is
-        // there; sensors that failed, retried now and then; diverged sensors, at once.
+        // 1. Initial registration, one job at a time: apply a finished one; start one for the
+        // root and every sensor on the first frame the root is there, for sensors that
+        // failed (retried now and then) and for diverged sensors (at once).
         std::vector<std::size_t> started;
+        started_first.assign(n, false);
         const auto t_init = Clock::now();
-        if (!tracks[root]->initialised()) {
+        if (pending && pending->job->done()) apply_initialisation(frame, &started, &out);
+        if (!pending && !tracks[root]->initialised()) {
             if (!in.sensors[root].present) return out;
             std::vector<std::size_t> all;
             for (std::size_t s = 0; s < n; ++s) {
                 if (in.sensors[s].present) all.push_back(s);
             }
-            started = initialise(frame, in, all, Eigen::Isometry3d::Identity(), &out);
-            last_retry_frame = frame;
-        } else if (in.sensors[root].present) {
-            std::vector<std::size_t> pending;
+            request_initialisation(frame, in, all, true, Eigen::Isometry3d::Identity(), &started, &out);
+        } else if (!pending && in.sensors[root].present) {
+            std::vector<std::size_t> wanted;
             const bool retry_due = frame - last_retry_frame >= params.retry_interval_frames;
             for (std::size_t s = 0; s < n; ++s) {
                 if (s == root || !in.sensors[s].present) continue;
-                if (needs_reinit[s] || (!tracks[s]->initialised() && retry_due)) pending.push_back(s);
+                if (needs_reinit[s] || (!tracks[s]->initialised() && retry_due)) wanted.push_back(s);
             }
-            if (!pending.empty()) {
-                for (std::size_t s : pending) {
+            if (!wanted.empty()) {
+                // A diverged sensor stops tracking until it is registered again.
+                for (std::size_t s : wanted) {
                     if (tracks[s]->initialised()) remove_track_nodes(s);
+                    tracks[s]->reset();
+                    needs_reinit[s] = false;
                 }
                 const Eigen::Isometry3d T_root_now = tracks[root]->predict(in.sensors[root].t_ns);
-                started = initialise(frame, in, pending, T_root_now, &out);
-                if (std::any_of(pending.begin(), pending.end(), [&](std::size_t s) { return !tracks[s]->initialised(); })) {
-                    last_retry_frame = frame;
-                }
+                request_initialisation(frame, in, wanted, false, T_root_now, &started, &out);
             }
         }
+        out.initial_registration_pending = pending.has_value();
         out.timings.initial_ms = ms_since(t_init);
         const auto is_started = [&](std::size_t s) {
             return std::find(started.begin(), started.end(), s) != started.end();
+        };
+        // Started on this very frame's scan (its reference): nothing to register this frame.
+        const auto is_fresh = [&](std::size_t s) {
+            return is_started(s) && tracks[s]->reference_frame() == frame;
         };
 
         // 2. Prepare every tracked sensor with a scan (in parallel).
@@ -202,7 +264,7 @@ struct FusionEngine::Impl {
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
         for (std::size_t k = 0; k < active.size(); ++k) {
             const std::size_t s = active[k];
-            if (!is_started(s)) tracks[s]->prepare(in.sensors[s], predicted[s]);
+            if (!is_fresh(s)) tracks[s]->prepare(in.sensors[s], predicted[s]);
         }
         out.timings.preprocess_ms = ms_since(t_prep);
 
@@ -210,7 +272,7 @@ struct FusionEngine::Impl {
         const auto t_reg = Clock::now();
         std::vector<EdgeTask> tasks;
         for (std::size_t s : active) {
-            if (is_started(s)) continue;
+            if (is_fresh(s)) continue;
             SensorTrack& track = *tracks[s];
             if (track.current_target().size() < 3) continue;
             if (const auto prev = track.previous()) {
@@ -250,7 +312,7 @@ struct FusionEngine::Impl {
         // 4. Pose graph: this frame's nodes at the predicted poses, the edges, solve.
         const auto t_graph = Clock::now();
         for (std::size_t s : active) {
-            if (is_started(s)) continue;
+            if (is_fresh(s)) continue;
             const auto id = node_id(s, frame);
             graph.add_node(id, predicted[s]);
             window_nodes.insert(id);
@@ -273,7 +335,7 @@ struct FusionEngine::Impl {
         std::vector<PoseGraph::NodeId> held;
         for (std::size_t s : active) {
             const auto id = node_id(s, frame);
-            if (!is_started(s) && degree[id] == 0) {
+            if (!is_fresh(s) && degree[id] == 0) {
                 graph.set_node_fixed(id, true);
                 held.push_back(id);
             }
@@ -296,7 +358,7 @@ struct FusionEngine::Impl {
             const auto node = graph.node_pose(node_id(s, frame));
             out.T_root_sensor[s] = node && summary.usable ? *node : predicted[s];
             if (is_started(s)) {
-                h.state = frame == 0 ? TrackState::kTracking : TrackState::kReinitialised;
+                h.state = started_first[s] ? TrackState::kTracking : TrackState::kReinitialised;
             } else {
                 h.state = present ? TrackState::kTracking : TrackState::kMissing;
             }
@@ -304,6 +366,10 @@ struct FusionEngine::Impl {
             h.static_points = track.current_points().size() - track.current_dynamic_count();
             h.dynamic_points = track.current_dynamic_count();
             h.registration_points = track.current_target().size();
+        }
+        // A job handed out this frame: its poses are relative to the root's estimate here.
+        if (pending && pending->frame == frame && out.health[root].pose_valid) {
+            pending->T_root0_root = out.T_root_sensor[root];
         }
         for (const auto& task : tasks) {
             SensorHealth& h = out.health[task.source_sensor];

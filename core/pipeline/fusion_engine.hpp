@@ -2,7 +2,8 @@
 // FusionEngine: synchronised frames in, every sensor's pose T_root_sensor and the fused
 // cloud out (PAPER.md, continuous registration and dynamic objects), frame after frame.
 //
-//   first frame:  initial registration of every sensor against the root (feature based)
+//   first frame:  initial registration of every sensor against the root (feature based),
+//                 as a job; until it is applied only the root is fused
 //   every frame:  per sensor: predict (constant velocity) -> deskew -> crop -> background
 //                 model (dynamic points) -> voxel grid of the static points -> covariances
 //                 G-ICP edges (PAPER.md's table):
@@ -22,6 +23,10 @@
 // (H * 3 / mean Mahalanobis error per correspondence: with the right covariance scale that
 // mean is 3), which is what makes one Huber delta fit every edge.
 //
+// Initial registrations are handed out as jobs (FrameOutput::initial_job) for the caller to
+// run on a thread of its choice, unless FusionParams::initial_registration_inline is set;
+// see initial_registration_job.hpp. core/ starts no thread of its own.
+//
 // Not thread safe: one thread calls process(). Internally it runs `num_threads` OpenMP
 // threads over sensors and edges. Deterministic for a given input and thread count.
 
@@ -30,6 +35,7 @@
 #include <vector>
 
 #include "core/pipeline/fusion_types.hpp"
+#include "core/pipeline/initial_registration_job.hpp"
 
 namespace lidarfuse::core {
 

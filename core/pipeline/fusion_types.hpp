@@ -4,6 +4,7 @@
 // root = the root sensor at its first frame (the fused frame). Units: metres, seconds.
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -16,6 +17,8 @@
 #include "core/preprocess.hpp"
 
 namespace lidarfuse::core {
+
+class InitialRegistrationJob;  // core/pipeline/initial_registration_job.hpp
 
 // One sensor's scan in one synchronised frame.
 struct SensorScanInput {
@@ -51,6 +54,15 @@ struct FusionParams {
     bool remove_dynamic = true;
     BackgroundModelParams background{};
     InitialRegistrationParams initial = default_initial_registration_params();
+    // Where the initial registration (~1 s) runs. false (real time): process() hands it out
+    // as FrameOutput::initial_job and keeps fusing the sensors it already tracks; the caller
+    // must run the job (any thread) and keep calling process(), which applies the result once
+    // the job is done. The root starts tracking on its first frame at once. The job uses
+    // `initial_threads` OpenMP threads, so that it leaves the fusion thread a core.
+    // true (offline, deterministic): process() runs it inline and applies it in the same
+    // frame; the result does not depend on timing.
+    bool initial_registration_inline = false;
+    int initial_threads = 1;
     // Divergence: a sensor whose edge to its reference frame keeps an inlier share below
     // min_fitness, or whose optimised pose jumps by more than max_jump_m / max_jump_deg from
     // the prediction, for divergence_frames frames in a row, is registered again from
@@ -119,6 +131,10 @@ struct FrameOutput {
     FusedCloud cloud;
     FrameTimings timings;
     bool graph_usable = false;
+    // Non-null when this frame started an initial registration that the caller must run
+    // (see FusionParams::initial_registration_inline). The engine keeps its own reference.
+    std::shared_ptr<InitialRegistrationJob> initial_job;
+    bool initial_registration_pending = false;  // a job is out and not applied yet
 };
 
 }  // namespace lidarfuse::core

@@ -84,6 +84,15 @@ void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
     reference_target_ = GicpTarget(current_target_.cloud());
 }
 
+void SensorTrack::reset() {
+    initialised_ = false;
+    history_.clear();
+    reference_target_ = GicpTarget();
+    previous_target_ = GicpTarget();
+    current_target_ = GicpTarget();
+    T_root_reference_ = Eigen::Isometry3d::Identity();
+}
+
 void SensorTrack::rebuild_reference_target() {
     static_points_.clear();
     const auto& flags = background_update_.reference_dynamic;

@@ -34,6 +34,9 @@ public:
     void start(std::int64_t frame, const SensorScanInput& scan,
                const Eigen::Isometry3d& T_root_sensor);
 
+    // Stops tracking (diverged; waiting for a new initial registration): no pose, no targets.
+    void reset();
+
     // Constant-velocity prediction of the pose at t_ns from the last two poses.
     Eigen::Isometry3d predict(std::int64_t t_ns) const;
     const std::deque<PoseSample>& history() const { return history_; }

@@ -6,7 +6,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <thread>
 
+#include "core/pipeline/initial_registration_job.hpp"
 #include "core/se3.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
@@ -65,6 +67,7 @@ FusionParams test_params() {
     p.voxel_size_m = 0.5;
     p.window_frames = 5;
     p.num_threads = 2;
+    p.initial_registration_inline = true;
     return p;
 }
 
@@ -128,8 +131,14 @@ TEST(FusionEngine, MissingSensorFallsBackAndRejoins) {
     }
 }
 
-TEST(FusionEngine, KnockedSensorIsDetectedAndRegisteredAgain) {
-    FusionEngine engine(kSensors, test_params());
+class KnockedSensor : public ::testing::TestWithParam<bool> {};
+
+// Inline, or handed out: then each job runs on another thread right after the frame that
+// made it, and is applied on the next frame.
+TEST_P(KnockedSensor, IsDetectedAndRegisteredAgain) {
+    FusionParams params = test_params();
+    params.initial_registration_inline = GetParam();
+    FusionEngine engine(kSensors, params);
     Eigen::Isometry3d knock = Eigen::Isometry3d::Identity();
     knock.linear() = Eigen::AngleAxisd(10.0 * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     knock.translation() = Eigen::Vector3d(1.0, 0.0, 0.0);
@@ -139,9 +148,15 @@ TEST(FusionEngine, KnockedSensorIsDetectedAndRegisteredAgain) {
         for (int s = 0; s < kSensors; ++s) poses.push_back(true_pose(s, f));
         if (f >= 6) poses[1] = knock * poses[1];
         const auto out = engine.process(make_frame(f, poses, {true, true, true}));
+        if (out.initial_job) std::thread([job = out.initial_job] { job->run(); }).join();
         reinitialised = reinitialised || out.health[1].state == TrackState::kReinitialised;
-        // The others never notice.
+        // The others never notice (handed out, the first registration lands on frame 1).
         for (int s : {0, 2}) {
+            if (!GetParam() && f == 0 && s != 0) {
+                EXPECT_FALSE(out.health[static_cast<std::size_t>(s)].pose_valid);
+                continue;
+            }
+            ASSERT_TRUE(out.health[static_cast<std::size_t>(s)].pose_valid) << "sensor " << s << " frame " << f;
             const auto e = error_of(out.T_root_sensor[static_cast<std::size_t>(s)], s, f);
             EXPECT_LT(e.trans_m, 0.03) << "sensor " << s << " frame " << f;
         }
@@ -152,6 +167,84 @@ TEST(FusionEngine, KnockedSensorIsDetectedAndRegisteredAgain) {
         }
     }
     EXPECT_TRUE(reinitialised);
+}
+
+INSTANTIATE_TEST_SUITE_P(InlineOrHandedOut, KnockedSensor, ::testing::Bool());
+
+// The initial registration handed out: frames keep being fused with the root alone while
+// the job waits, nothing is invented for the others, and the finished job is applied.
+TEST(FusionEngine, HandedOutInitialRegistrationDoesNotHoldFramesUp) {
+    FusionParams params = test_params();
+    params.initial_registration_inline = false;
+    FusionEngine engine(kSensors, params);
+    std::shared_ptr<InitialRegistrationJob> job;
+    int applied_at = -1;
+    for (int f = 0; f < 14; ++f) {
+        std::vector<Eigen::Isometry3d> poses;
+        for (int s = 0; s < kSensors; ++s) poses.push_back(true_pose(s, f));
+        const auto out = engine.process(make_frame(f, poses, {true, true, true}));
+        if (f == 0) {
+            ASSERT_TRUE(out.initial_job) << "frame 0 hands out the registration";
+            job = out.initial_job;
+            EXPECT_EQ(job->num_clouds(), static_cast<std::size_t>(kSensors));
+            EXPECT_FALSE(job->done());
+        } else {
+            EXPECT_FALSE(out.initial_job) << "one job at a time, frame " << f;
+        }
+        // The job waits until frame 4, then runs on another thread.
+        if (f == 4) std::thread([job] { job->run(); }).join();
+        if (f <= 4) {
+            EXPECT_TRUE(out.initial_registration_pending) << "frame " << f;
+            ASSERT_TRUE(out.health[0].pose_valid) << "the root is fused from frame 0, frame " << f;
+            EXPECT_LT(error_of(out.T_root_sensor[0], 0, f).trans_m, 0.01) << "frame " << f;
+            EXPECT_GT(out.cloud.points.size(), 1000u);
+            for (int s = 1; s < kSensors; ++s) {
+                const auto& h = out.health[static_cast<std::size_t>(s)];
+                EXPECT_FALSE(h.pose_valid) << "sensor " << s << " frame " << f;
+                EXPECT_EQ(h.state, TrackState::kUninitialised);
+            }
+            for (auto sensor : out.cloud.sensor) ASSERT_EQ(sensor, 0u) << "frame " << f;
+            continue;
+        }
+        EXPECT_FALSE(out.initial_registration_pending) << "frame " << f;
+        if (applied_at < 0) {
+            applied_at = f;
+            for (int s = 1; s < kSensors; ++s) {
+                EXPECT_EQ(out.health[static_cast<std::size_t>(s)].event, "initialised");
+            }
+        }
+        for (int s = 0; s < kSensors; ++s) {
+            const auto& h = out.health[static_cast<std::size_t>(s)];
+            ASSERT_TRUE(h.pose_valid) << "sensor " << s << " frame " << f << ": " << h.event;
+            EXPECT_EQ(h.state, TrackState::kTracking);
+            // The registration is of frame 0's scans; the sway since then is tracked.
+            const auto e = error_of(out.T_root_sensor[static_cast<std::size_t>(s)], s, f);
+            EXPECT_LT(e.trans_m, 0.01) << "sensor " << s << " frame " << f;
+            EXPECT_LT(e.rot_deg, 0.05) << "sensor " << s << " frame " << f;
+        }
+    }
+    EXPECT_EQ(applied_at, 5) << "applied on the first frame after the job finished";
+}
+
+TEST(FusionEngine, JobCancelledBeforeItRunsIsSkipped) {
+    std::shared_ptr<InitialRegistrationJob> job;
+    {
+        FusionParams params = test_params();
+        params.initial_registration_inline = false;
+        FusionEngine engine(kSensors, params);
+        std::vector<Eigen::Isometry3d> poses;
+        for (int s = 0; s < kSensors; ++s) poses.push_back(true_pose(s, 0));
+        job = engine.process(make_frame(0, poses, {true, true, true})).initial_job;
+        ASSERT_TRUE(job);
+        EXPECT_FALSE(job->cancelled());
+    }  // the engine goes away with the job pending: it cancels it
+    EXPECT_TRUE(job->cancelled());
+    job->run();
+    EXPECT_TRUE(job->done());
+    EXPECT_TRUE(job->result().sensors.empty());
+    EXPECT_FALSE(job->error().empty());
+    job->run();  // a second run is a no-op
+    EXPECT_TRUE(job->done());
 }
 
 TEST(FusionEngine, NoRootNoPoseAndWrongShapeIsRefused) {

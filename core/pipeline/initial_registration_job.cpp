@@ -1,0 +1,33 @@
+#include "core/pipeline/initial_registration_job.hpp"
+
+#include <chrono>
+#include <exception>
+
+namespace lidarfuse::core {
+
+InitialRegistrationJob::InitialRegistrationJob(std::vector<PointCloud> clouds,
+                                               const InitialRegistrationParams& params)
+    : clouds_(std::move(clouds)), params_(params), num_clouds_(clouds_.size()) {}
+
+void InitialRegistrationJob::run() {
+    if (claimed_.exchange(true, std::memory_order_acq_rel)) return;  // already run or running
+    if (cancelled()) {
+        error_ = "cancelled before it started";
+    } else {
+        const auto t0 = std::chrono::steady_clock::now();
+        try {
+            result_ = register_initial(clouds_, params_);
+        } catch (const std::exception& e) {
+            // Allocation failure or a bug: the engine sees no registered sensor and retries
+            // later, which beats taking the caller's thread down.
+            result_ = InitialRegistrationResult{};
+            error_ = e.what();
+        }
+        run_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    }
+    clouds_.clear();
+    clouds_.shrink_to_fit();
+    done_.store(true, std::memory_order_release);
+}
+
+}  // namespace lidarfuse::core
