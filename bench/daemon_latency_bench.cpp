@@ -1,0 +1,371 @@
+// lidarfused end to end on loopback: a simulated station of N OS1-64 (1024x20) is replayed at
+// recorded speed through the daemon's sockets while this process subscribes over DDS.
+// Prints `name value unit` lines per N:
+//   latency from the last packet of a frame (the send of the last datagram of the frame's
+//     last-completed scan) to its fused cloud arriving at the DDS reader: median and p99
+//   CPU per stage over the replay (% of one core, from /proc/<pid>/task: lf-recv-*, lf-sync,
+//     lf-fusion (with the threads it starts: initial registration, OpenMP), lf-output,
+//     Cyclone's threads, the rest)
+//   packets sent, received (diagnostics), lost; frames in the capture, fused, published
+// and at the end the largest N with zero packet loss and the largest N that also fused at
+// least 95 % of the capture's frames (real time).
+//
+// Usage: daemon_latency_bench [--sensors 2,4,6,8] [--seconds 5] [--scenario curve]
+// Needs the built `lidarfuse` (sim) and `lidarfused` beside it (build/tools, build/daemon).
+// The replay runs in this process (one thread); the machine's other load shares the cores.
+#include <dds/dds.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "daemon/dds_messages.hpp"
+#include "drivers/ouster/metadata.hpp"
+#include "drivers/ouster/packet_format.hpp"
+#include "drivers/pcap/pcap_reader.hpp"
+
+namespace {
+
+using namespace lidarfuse;
+namespace fs = std::filesystem;
+
+std::int64_t monotonic_ns() {
+    timespec ts{};
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+std::string tool_dir() { return fs::path(LIDARFUSE_TOOL_PATH).parent_path().string(); }
+std::string daemon_path() { return (fs::path(tool_dir()).parent_path() / "daemon" / "lidarfused").string(); }
+
+// One scan of one sensor as the replay sent it.
+struct ScanSent {
+    std::uint16_t min_measurement_id = 0xFFFF;
+    std::uint64_t reference_ns = 0;  // timestamp of its first column (the daemon's scan time)
+    std::int64_t last_send_ns = 0;   // monotonic time its last datagram left
+};
+
+struct SensorReplay {
+    std::uint16_t capture_port = 0;  // destination port in the capture
+    std::uint16_t send_port = 0;     // the daemon's port for this sensor
+    int socket = -1;
+    ouster::PacketFormat format;
+    std::map<std::uint32_t, ScanSent> scans;  // by frame_id
+    std::uint64_t datagrams = 0;
+};
+
+struct Received {
+    std::mutex mutex;
+    std::map<std::int64_t, std::int64_t> cloud_arrival_ns;  // by header stamp
+    std::map<std::int64_t, std::vector<std::int64_t>> members;  // by stamp: included sensors' t_ns (0: absent)
+    std::map<std::string, std::map<std::string, std::string>> last_diagnostics;  // status name -> values
+};
+
+// Reads clouds, poses and diagnostics until `stop`; arrival times taken on wake-up.
+void subscribe(int domain, std::atomic<bool>* stop, std::atomic<bool>* matched, Received* out) {
+    const dds_entity_t participant = dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr);
+    dds_qos_t* qos = dds_create_qos();
+    dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
+    dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 20);
+    const auto reader = [&](const dds_topic_descriptor_t* type, const char* name) {
+        const dds_entity_t topic = dds_create_topic(participant, type, name, nullptr, nullptr);
+        return dds_create_reader(participant, topic, qos, nullptr);
+    };
+    const dds_entity_t points = reader(&sensor_msgs_msg_dds__PointCloud2__desc, "rt/lidarfuse/points");
+    const dds_entity_t poses = reader(&lidarfuse_msgs_msg_dds__FramePoses__desc, "rt/lidarfuse/poses");
+    const dds_entity_t diagnostics = reader(&diagnostic_msgs_msg_dds__DiagnosticArray__desc, "rt/diagnostics");
+    dds_delete_qos(qos);
+    const dds_entity_t waitset = dds_create_waitset(participant);
+    for (dds_entity_t r : {points, poses, diagnostics}) {
+        dds_waitset_attach(waitset, dds_create_readcondition(r, DDS_ANY_STATE), r);
+    }
+    while (!stop->load()) {
+        dds_waitset_wait(waitset, nullptr, 0, DDS_MSECS(50));
+        const std::int64_t now = monotonic_ns();
+        dds_subscription_matched_status_t st{};
+        dds_get_subscription_matched_status(points, &st);
+        if (st.current_count > 0) matched->store(true);
+        void* samples[8] = {};
+        dds_sample_info_t infos[8];
+        std::lock_guard<std::mutex> lock(out->mutex);
+        dds_return_t n = dds_take(points, samples, infos, 8, 8);
+        for (int i = 0; i < n; ++i) {
+            if (!infos[i].valid_data) continue;
+            const auto* m = static_cast<const sensor_msgs_msg_dds__PointCloud2_*>(samples[i]);
+            out->cloud_arrival_ns.emplace(daemon::from_ros_time(m->header.stamp), now);
+        }
+        if (n > 0) dds_return_loan(points, samples, n);
+        n = dds_take(poses, samples, infos, 8, 8);
+        for (int i = 0; i < n; ++i) {
+            if (!infos[i].valid_data) continue;
+            const auto* m = static_cast<const lidarfuse_msgs_msg_dds__FramePoses_*>(samples[i]);
+            auto& v = out->members[daemon::from_ros_time(m->header.stamp)];
+            for (std::uint32_t s = 0; s < m->sensors._length; ++s) {
+                const auto& p = m->sensors._buffer[s];
+                v.push_back(p.included ? daemon::from_ros_time(p.stamp) : 0);
+            }
+        }
+        if (n > 0) dds_return_loan(poses, samples, n);
+        n = dds_take(diagnostics, samples, infos, 8, 8);
+        for (int i = 0; i < n; ++i) {
+            if (!infos[i].valid_data) continue;
+            const auto* m = static_cast<const diagnostic_msgs_msg_dds__DiagnosticArray_*>(samples[i]);
+            for (std::uint32_t s = 0; s < m->status._length; ++s) {
+                auto& values = out->last_diagnostics[m->status._buffer[s].name];
+                for (std::uint32_t k = 0; k < m->status._buffer[s].values._length; ++k) {
+                    values[m->status._buffer[s].values._buffer[k].key] = m->status._buffer[s].values._buffer[k].value;
+                }
+            }
+        }
+        if (n > 0) dds_return_loan(diagnostics, samples, n);
+    }
+    dds_delete(participant);
+}
+
+// Sends the capture's datagrams for the chosen sensors at recorded speed (absolute
+// deadlines), noting per scan when its last datagram left.
+void replay(const fs::path& capture, std::vector<SensorReplay>* sensors) {
+    pcap::PcapReader reader(capture);
+    pcap::UdpDatagram d;
+    std::int64_t start_ns = 0, first_capture_ns = 0;
+    bool first = true;
+    while (reader.next(&d)) {
+        SensorReplay* s = nullptr;
+        for (auto& candidate : *sensors) {
+            if (candidate.capture_port == d.dst_port) s = &candidate;
+        }
+        if (!s) continue;
+        if (first) {
+            start_ns = monotonic_ns() + 20'000'000;
+            first_capture_ns = d.timestamp_ns;
+            first = false;
+        }
+        const std::int64_t deadline = start_ns + (d.timestamp_ns - first_capture_ns);
+        timespec ts{static_cast<time_t>(deadline / 1'000'000'000), static_cast<long>(deadline % 1'000'000'000)};
+        clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+        sockaddr_in to{};
+        to.sin_family = AF_INET;
+        to.sin_port = htons(s->send_port);
+        to.sin_addr.s_addr = htonl(0x7F000001u);
+        ::sendto(s->socket, d.data, d.size, 0, reinterpret_cast<sockaddr*>(&to), sizeof(to));
+        const std::int64_t sent = monotonic_ns();
+        ++s->datagrams;
+        if (d.size != s->format.lidar_packet_size()) continue;
+        auto& scan = s->scans[s->format.frame_id(d.data)];
+        scan.last_send_ns = sent;
+        for (int c = 0; c < s->format.columns_per_packet(); ++c) {
+            const std::uint8_t* col = s->format.column(d.data, c);
+            if (!s->format.column_valid(col)) continue;
+            const std::uint16_t mid = s->format.column_measurement_id(col);
+            if (mid < scan.min_measurement_id) {
+                scan.min_measurement_id = mid;
+                scan.reference_ns = s->format.column_timestamp_ns(col);
+            }
+        }
+    }
+}
+
+// Thread CPU (s) of a process, grouped by the pipeline's thread names.
+std::map<std::string, double> cpu_by_stage(pid_t pid) {
+    std::map<std::string, double> out;
+    const double tick = static_cast<double>(::sysconf(_SC_CLK_TCK));
+    std::error_code ec;
+    for (const auto& task : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task", ec)) {
+        std::ifstream in(task.path() / "stat");
+        std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        const auto open = text.find('('), close = text.rfind(')');
+        if (open == std::string::npos || close == std::string::npos) continue;
+        const std::string comm = text.substr(open + 1, close - open - 1);
+        std::istringstream rest(text.substr(close + 2));
+        std::string field;
+        double utime = 0, stime = 0;
+        for (int i = 3; i <= 15 && rest >> field; ++i) {
+            if (i == 14) utime = std::stod(field);
+            if (i == 15) stime = std::stod(field);
+        }
+        std::string stage = "other";
+        if (comm.rfind("lf-recv", 0) == 0) stage = "receive";
+        else if (comm == "lf-sync") stage = "sync";
+        else if (comm == "lf-fusion") stage = "fusion";
+        else if (comm == "lf-output") stage = "output";
+        else if (comm == "lidarfused") stage = "main";
+        else stage = "dds";  // Cyclone's recv, tev, dq.*, gc, ... threads
+        out[stage] += (utime + stime) / tick;
+    }
+    return out;
+}
+
+double percentile(std::vector<double> v, double p) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    const std::size_t i = std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
+    return v[i];
+}
+
+struct RunResult {
+    bool ok = false;
+    std::uint64_t lost = 0;
+    double fused_share = 0.0;
+};
+
+RunResult run(const fs::path& sim, int n, int domain) {
+    RunResult result;
+    const fs::path out_dir = sim / ("out" + std::to_string(n));
+    std::ofstream config(sim / ("daemon" + std::to_string(n) + ".yaml"));
+    config << "station: bench\nroot: lidar0\nsensors:\n";
+    std::vector<SensorReplay> sensors;
+    for (int s = 0; s < n; ++s) {
+        const auto info = ouster::load_metadata(sim / ("lidar" + std::to_string(s) + ".json"));
+        const auto bound = static_cast<std::uint16_t>(46000 + (::getpid() % 500) * 16 + 2 * s);
+        config << "  - {name: lidar" << s << ", udp_port: " << bound << ", metadata: lidar" << s << ".json}\n";
+        sensors.push_back(SensorReplay{static_cast<std::uint16_t>(info.udp_port_lidar), bound,
+                                       ::socket(AF_INET, SOCK_DGRAM, 0), ouster::PacketFormat(info), {}, 0});
+    }
+    config << "network: {bind_address: 127.0.0.1}\noutput:\n  directory: " << out_dir.string()
+           << "\n  dds: {domain_id: " << domain << ", frame_id: station, diagnostics_period_ms: 500}\n";
+    config.close();
+
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        const std::string cfg = (sim / ("daemon" + std::to_string(n) + ".yaml")).string();
+        const std::string log = (sim / ("daemon" + std::to_string(n) + ".log")).string();
+        std::freopen(log.c_str(), "w", stderr);
+        std::freopen(log.c_str(), "a", stdout);
+        ::execl(daemon_path().c_str(), "lidarfused", "--config", cfg.c_str(), nullptr);
+        ::_exit(127);
+    }
+    Received received;
+    std::atomic<bool> stop{false}, matched{false};
+    std::thread reader([&] { subscribe(domain, &stop, &matched, &received); });
+    for (int i = 0; i < 1000 && !matched.load(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    const auto cpu0 = cpu_by_stage(pid);
+    const std::int64_t t0 = monotonic_ns();
+    replay(sim / "capture.pcap", &sensors);
+    const double wall_s = static_cast<double>(monotonic_ns() - t0) * 1e-9;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // fusion catches up
+    const auto cpu1 = cpu_by_stage(pid);
+    ::kill(pid, SIGTERM);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    stop = true;
+    reader.join();
+    for (auto& s : sensors) ::close(s.socket);
+
+    // Latency: cloud arrival - the last datagram of the frame's latest scan.
+    std::vector<double> latency_ms;
+    for (const auto& [stamp, arrival] : received.cloud_arrival_ns) {
+        const auto members = received.members.find(stamp);
+        if (members == received.members.end()) continue;
+        std::int64_t last_packet = 0;
+        for (std::size_t s = 0; s < members->second.size() && s < sensors.size(); ++s) {
+            const std::int64_t t = members->second[s];
+            if (t == 0) continue;
+            for (const auto& [frame_id, scan] : sensors[s].scans) {
+                if (static_cast<std::int64_t>(scan.reference_ns) == t) last_packet = std::max(last_packet, scan.last_send_ns);
+            }
+        }
+        if (last_packet > 0) latency_ms.push_back(static_cast<double>(arrival - last_packet) * 1e-6);
+    }
+    std::uint64_t sent = 0, received_packets = 0;
+    std::size_t capture_frames = 0;
+    for (std::size_t s = 0; s < sensors.size(); ++s) {
+        sent += sensors[s].datagrams;
+        capture_frames = std::max(capture_frames, sensors[s].scans.size());
+        const auto it = received.last_diagnostics.find("lidarfuse/bench/lidar" + std::to_string(s));
+        if (it != received.last_diagnostics.end()) received_packets += std::stoull(it->second.at("packets"));
+    }
+    const auto& pipeline = received.last_diagnostics["lidarfuse/bench/pipeline"];
+    const auto value = [&](const char* key) {
+        const auto it = pipeline.find(key);
+        return it == pipeline.end() ? std::string("0") : it->second;
+    };
+    const std::string tag = std::to_string(n) + "sensors";
+    std::printf("daemon_latency_median_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.5));
+    std::printf("daemon_latency_p99_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.99));
+    std::printf("daemon_latency_samples_%s %zu frames\n", tag.c_str(), latency_ms.size());
+    for (const char* stage : {"receive", "sync", "fusion", "output", "dds", "main"}) {
+        const double cpu = cpu1.count(stage) ? cpu1.at(stage) - (cpu0.count(stage) ? cpu0.at(stage) : 0.0) : 0.0;
+        std::printf("daemon_cpu_%s_%s %.1f %%\n", stage, tag.c_str(), 100.0 * cpu / (wall_s + 1.5));
+    }
+    const std::uint64_t lost = sent > received_packets ? sent - received_packets : 0;
+    std::printf("daemon_packets_sent_%s %llu packets\n", tag.c_str(), static_cast<unsigned long long>(sent));
+    std::printf("daemon_packets_lost_%s %llu packets\n", tag.c_str(), static_cast<unsigned long long>(lost));
+    std::printf("daemon_kernel_drops_%s %s packets\n", tag.c_str(), value("kernel_drops").c_str());
+    const std::size_t fused = std::stoull(value("frames_fused"));
+    std::printf("daemon_frames_in_capture_%s %zu frames\n", tag.c_str(), capture_frames);
+    std::printf("daemon_frames_fused_%s %zu frames\n", tag.c_str(), fused);
+    std::printf("daemon_frames_dropped_before_fusion_%s %s frames\n", tag.c_str(), value("frame_queue_drops").c_str());
+    std::printf("daemon_clouds_received_%s %zu frames\n", tag.c_str(), received.cloud_arrival_ns.size());
+    std::printf("daemon_mean_fusion_%s %s ms\n", tag.c_str(), value("mean_fusion_ms").c_str());
+    std::printf("daemon_dds_write_failures_%s %s writes\n", tag.c_str(), value("dds_write_failures").c_str());
+    std::fflush(stdout);
+    result.ok = WIFEXITED(status) && WEXITSTATUS(status) == 0 && received_packets > 0;
+    result.lost = lost + std::stoull(value("kernel_drops"));
+    result.fused_share = capture_frames ? static_cast<double>(fused) / static_cast<double>(capture_frames) : 0.0;
+    return result;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    std::vector<int> counts = {2, 4, 6, 8};
+    double seconds = 5.0;
+    std::string scenario = "curve";
+    for (int i = 1; i + 1 < argc; i += 2) {
+        const std::string arg = argv[i];
+        if (arg == "--sensors") {
+            counts.clear();
+            std::stringstream list(argv[i + 1]);
+            std::string item;
+            while (std::getline(list, item, ',')) counts.push_back(std::stoi(item));
+        } else if (arg == "--seconds") {
+            seconds = std::stod(argv[i + 1]);
+        } else if (arg == "--scenario") {
+            scenario = argv[i + 1];
+        }
+    }
+    const int max_n = *std::max_element(counts.begin(), counts.end());
+    const fs::path sim = fs::temp_directory_path() / ("daemon_latency_bench_" + std::to_string(::getpid()));
+    const std::string cmd = tool_dir() + "/lidarfuse sim --scenario " + scenario + " --sensors " +
+                            std::to_string(max_n) + " --seconds " + std::to_string(seconds) + " --out " +
+                            sim.string() + " > /dev/null 2>&1";
+    if (std::system(cmd.c_str()) != 0) {
+        std::fprintf(stderr, "daemon_latency_bench: %s failed\n", cmd.c_str());
+        return 1;
+    }
+    ::setenv("CYCLONEDDS_URI",
+             "<General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
+             "<MaxMessageSize>65500B</MaxMessageSize><FragmentSize>64000B</FragmentSize></General>"
+             "<Internal><Watermarks><WhcHigh>16MiB</WhcHigh></Watermarks></Internal>"
+             "<Tracing><Verbosity>severe</Verbosity></Tracing>",
+             1);
+    const int domain = 1 + static_cast<int>(::getpid() % 230);
+    int max_zero_loss = 0, max_realtime = 0;
+    for (int n : counts) {
+        const auto r = run(sim, n, domain);
+        if (r.ok && r.lost == 0) max_zero_loss = std::max(max_zero_loss, n);
+        if (r.ok && r.lost == 0 && r.fused_share >= 0.95) max_realtime = std::max(max_realtime, n);
+    }
+    std::printf("daemon_max_sensors_zero_packet_loss %d sensors\n", max_zero_loss);
+    std::printf("daemon_max_sensors_realtime_95pct_fused %d sensors\n", max_realtime);
+    std::error_code ec;
+    fs::remove_all(sim, ec);
+    return 0;
+}
