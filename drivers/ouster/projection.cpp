@@ -52,10 +52,13 @@ std::uint64_t scan_reference_time_ns(const LidarScan& scan) {
 void point_times_s(const ScanCloud& cloud, std::uint64_t reference_ns, std::vector<float>* out) {
     out->assign(cloud.cloud.size(), 0.0f);
     if (cloud.pixel_index.size() != cloud.cloud.size() || cloud.columns == 0) return;
-    const auto reference = static_cast<std::int64_t>(reference_ns);
+    // Differences of unsigned sensor timestamps, taken without a signed overflow: a
+    // corrupted or jumping column timestamp may lie anywhere in 0..2^64 - 1.
     for (std::size_t i = 0; i < out->size(); ++i) {
-        const auto t = static_cast<std::int64_t>(cloud.timestamp_ns_of(i));
-        (*out)[i] = static_cast<float>(static_cast<double>(t - reference) * 1e-9);
+        const std::uint64_t t = cloud.timestamp_ns_of(i);
+        const double dt_ns = t >= reference_ns ? static_cast<double>(t - reference_ns)
+                                               : -static_cast<double>(reference_ns - t);
+        (*out)[i] = static_cast<float>(dt_ns * 1e-9);
     }
 }
 
