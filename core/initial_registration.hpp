@@ -21,6 +21,7 @@
 
 #include <Eigen/Geometry>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "core/pair_registration.hpp"
@@ -39,6 +40,10 @@ struct InitialRegistrationParams {
     // than this is dropped (m, deg).
     double max_edge_translation_m = 0.25;
     double max_edge_rotation_deg = 1.0;
+    // Consensus over spanning trees before the pose graph (keep_consistent_edges in the
+    // .cpp): sampled trees (the max-support tree first) and the sampling seed.
+    int consensus_samples = 256;
+    std::uint32_t consensus_seed = 1;
     int num_threads = 1;
 };
 

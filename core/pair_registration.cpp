@@ -5,6 +5,8 @@
 #include <chrono>
 #include <limits>
 
+#include "core/se3.hpp"
+
 namespace lidarfuse::core {
 
 namespace {
@@ -34,11 +36,42 @@ const char* to_string(PairStatus status) {
         case PairStatus::kNoConsensus: return "no consistent correspondences";
         case PairStatus::kRefinementFailed: return "G-ICP refinement failed";
         case PairStatus::kLowOverlap: return "overlap too small";
+        case PairStatus::kSameSensorPosition: return "source placed onto the target sensor";
         case PairStatus::kDegenerate: return "degenerate (weak or singular G-ICP Hessian)";
         case PairStatus::kFreeSpaceViolated: return "points in the other sensor's free space";
         case PairStatus::kRejectedByPoseGraph: return "inconsistent with the other pairs";
     }
     return "unknown";
+}
+
+PairAlternative PairResult::chosen() const {
+    PairAlternative a;
+    a.T_target_source = T_target_source;
+    a.information = information;
+    a.ransac_inliers = ransac_inliers;
+    a.candidate = chosen_candidate;
+    a.p2p_error_m = p2p_error_m;
+    a.p2p_inliers = p2p_inliers;
+    a.overlap_share = overlap_share;
+    a.gicp_inliers = gicp_inliers;
+    a.min_hessian_eigenvalue = min_hessian_eigenvalue;
+    a.min_translation_hessian_eigenvalue = min_translation_hessian_eigenvalue;
+    a.free_space_violation_share = free_space_violation_share;
+    return a;
+}
+
+void PairResult::choose(const PairAlternative& a) {
+    T_target_source = a.T_target_source;
+    information = a.information;
+    ransac_inliers = a.ransac_inliers;
+    chosen_candidate = a.candidate;
+    p2p_error_m = a.p2p_error_m;
+    p2p_inliers = a.p2p_inliers;
+    overlap_share = a.overlap_share;
+    gicp_inliers = a.gicp_inliers;
+    min_hessian_eigenvalue = a.min_hessian_eigenvalue;
+    min_translation_hessian_eigenvalue = a.min_translation_hessian_eigenvalue;
+    free_space_violation_share = a.free_space_violation_share;
 }
 
 PairResult register_pair(const SensorFeatures& source, const SensorFeatures& target,
@@ -68,39 +101,39 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
     p2p_params.cutoff_radius_m = params.p2p_cutoff_m;
     p2p_params.num_threads = threads;
 
-    // Steps 5-8: RANSAC + Kabsch + up-vector check, G-ICP, then again without the
-    // correspondences that supported the earlier candidates.
+    // One candidate transform through refinement and the checks: coarse free-space check,
+    // coarse-to-fine G-ICP, up-vector check (step 6 again: G-ICP must not turn the ground
+    // over), p2p error, free-space check. Survivors join `candidates`.
     std::vector<Candidate> candidates;
-    bool any_consensus = false;
     int weak_candidates = 0;
     int free_space_rejected = 0;
-    for (int round = 0; round < std::max(1, params.max_candidates) && remaining.size() >= 3; ++round) {
-        start = Clock::now();
-        RansacParams ransac_params = params.ransac;
-        ransac_params.seed = params.ransac.seed + static_cast<std::uint32_t>(round);
-        const RansacResult ransac = ransac_registration(source.keypoint_points, target.keypoint_points,
-                                                        remaining, ransac_params);
-        result.timings.ransac_s += seconds_since(start);
-        if (!ransac.success) break;
-        any_consensus = true;
-
+    int same_place_rejected = 0;
+    int low_overlap_rejected = 0;
+    int order = 0;
+    auto consider = [&](const Eigen::Isometry3d& T_initial, std::size_t support, double max_coarse_share) {
+        const int index = order++;
+        // Two sensors cannot stand in the same place: on a symmetric site (the simulated
+        // intersection) the strongest look-alike puts the source onto the target's own
+        // position, where it would see exactly what the target sees.
+        if (T_initial.translation().norm() < params.min_sensor_separation_m) {
+            ++same_place_rejected;
+            return;
+        }
         const FreeSpaceResult coarse_free_space = free_space_violations_both(
-            source.gicp.cloud().points, target.gicp.cloud().points, ransac.T_target_source, params.free_space);
-        const bool hopeless = coarse_free_space.violation_share > params.max_coarse_free_space_violation_share;
-        if (hopeless) {
+            source.gicp.cloud().points, target.gicp.cloud().points, T_initial, params.free_space);
+        if (coarse_free_space.violation_share > max_coarse_share) {
             ++free_space_rejected;
             result.worst_rejected_violation_share =
                 std::max(result.worst_rejected_violation_share, coarse_free_space.violation_share);
+            return;
         }
-
-        start = Clock::now();
+        auto start_gicp = Clock::now();
         Candidate candidate;
-        candidate.round = round;
-        candidate.ransac_inliers = ransac.inliers.size();
-        candidate.T_target_source = ransac.T_target_source;
-        bool refined = !hopeless;
+        candidate.round = index;
+        candidate.ransac_inliers = support;
+        candidate.T_target_source = T_initial;
+        bool refined = true;
         for (double max_distance_m : params.gicp_max_correspondence_m) {
-            if (!refined) break;
             gicp_params.max_correspondence_distance_m = max_distance_m;
             gicp.set_params(gicp_params);
             candidate.gicp = gicp.align(target.gicp, source.gicp.cloud(), candidate.T_target_source);
@@ -110,33 +143,71 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
             }
             candidate.T_target_source = candidate.gicp.T_target_source;
         }
-        result.timings.gicp_s += seconds_since(start);
-        // Step 6 again after refinement: G-ICP must not have turned the ground over.
-        if (refined && keeps_up_vector(candidate.T_target_source)) {
-            start = Clock::now();
-            candidate.p2p = p2p_error(source.gicp.cloud().points, target.gicp.tree(),
-                                      candidate.T_target_source, p2p_params);
-            result.timings.p2p_s += seconds_since(start);
-            const double information_per_inlier =
-                candidate.gicp.H_eigenvalues(0) /
-                static_cast<double>(std::max<std::size_t>(candidate.gicp.num_inliers, 1));
-            if (!candidate.p2p.valid) {
-                // no overlap at all within r_c: not a candidate
-            } else if (information_per_inlier < params.min_information_per_inlier) {
-                ++weak_candidates;
-            } else {
-                candidate.free_space = free_space_violations_both(
-                    source.gicp.cloud().points, target.gicp.cloud().points, candidate.T_target_source,
-                    params.free_space);
-                if (candidate.free_space.violation_share > params.max_free_space_violation_share) {
-                    ++free_space_rejected;
-                    result.worst_rejected_violation_share =
-                        std::max(result.worst_rejected_violation_share, candidate.free_space.violation_share);
-                } else {
-                    candidates.push_back(candidate);
-                }
-            }
+        result.timings.gicp_s += seconds_since(start_gicp);
+        if (!refined || !keeps_up_vector(candidate.T_target_source)) return;
+        if (candidate.T_target_source.translation().norm() < params.min_sensor_separation_m) {
+            ++same_place_rejected;
+            return;
         }
+        if (candidate.gicp.inlier_ratio < params.min_overlap_share) {
+            ++low_overlap_rejected;
+            return;
+        }
+        auto start_p2p = Clock::now();
+        candidate.p2p = p2p_error(source.gicp.cloud().points, target.gicp.tree(), candidate.T_target_source,
+                                  p2p_params);
+        result.timings.p2p_s += seconds_since(start_p2p);
+        if (!candidate.p2p.valid) return;  // no overlap at all within r_c: not a candidate
+        const double information_per_inlier =
+            candidate.gicp.H_eigenvalues(0) /
+            static_cast<double>(std::max<std::size_t>(candidate.gicp.num_inliers, 1));
+        if (information_per_inlier < params.min_information_per_inlier) {
+            ++weak_candidates;
+            return;
+        }
+        candidate.free_space = free_space_violations_both(source.gicp.cloud().points, target.gicp.cloud().points,
+                                                          candidate.T_target_source, params.free_space);
+        if (candidate.free_space.violation_share > params.max_free_space_violation_share) {
+            ++free_space_rejected;
+            result.worst_rejected_violation_share =
+                std::max(result.worst_rejected_violation_share, candidate.free_space.violation_share);
+            return;
+        }
+        candidates.push_back(candidate);
+    };
+
+    // Our addition: candidates from the vote over yaw and translation in the levelled
+    // ground frames (ground_aligned_search.hpp), when both sensors see the road.
+    bool any_consensus = false;
+    if (params.use_ground_aligned_search && source.ground.found && target.ground.found) {
+        start = Clock::now();
+        const GroundAlignedKeypoints s{&source.keypoint_points, &source.keypoint_normals, &source.descriptors,
+                                       source.ground.T_ground_sensor};
+        const GroundAlignedKeypoints t{&target.keypoint_points, &target.keypoint_normals, &target.descriptors,
+                                       target.ground.T_ground_sensor};
+        const std::vector<GroundAlignedCandidate> peaks = ground_aligned_search(s, t, params.ground_search);
+        result.timings.ground_search_s = seconds_since(start);
+        result.ground_candidates = static_cast<int>(peaks.size());
+        any_consensus = !peaks.empty();
+        for (const GroundAlignedCandidate& peak : peaks) {
+            consider(peak.T_target_source, peak.inliers.size(), params.max_ground_coarse_free_space_violation_share);
+        }
+    }
+
+    // Steps 5-8: RANSAC + Kabsch + up-vector check, G-ICP, then again without the
+    // correspondences that supported the earlier candidates. With the ground-aligned
+    // search on, only when it left no candidate (e.g. a sensor that sees no road).
+    const bool run_ransac = candidates.empty();
+    for (int round = 0; run_ransac && round < std::max(1, params.max_candidates) && remaining.size() >= 3; ++round) {
+        start = Clock::now();
+        RansacParams ransac_params = params.ransac;
+        ransac_params.seed = params.ransac.seed + static_cast<std::uint32_t>(round);
+        const RansacResult ransac = ransac_registration(source.keypoint_points, target.keypoint_points,
+                                                        remaining, ransac_params);
+        result.timings.ransac_s += seconds_since(start);
+        if (!ransac.success) break;
+        any_consensus = true;
+        consider(ransac.T_target_source, ransac.inliers.size(), params.max_coarse_free_space_violation_share);
 
         // Drop this round's supporters before the next round.
         std::vector<bool> used(remaining.size(), false);
@@ -149,7 +220,9 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
     }
     result.candidates = static_cast<int>(candidates.size());
     if (candidates.empty()) {
-        result.status = free_space_rejected > 0 ? PairStatus::kFreeSpaceViolated
+        result.status = free_space_rejected > 0  ? PairStatus::kFreeSpaceViolated
+                        : low_overlap_rejected > 0 ? PairStatus::kLowOverlap
+                        : same_place_rejected > 0  ? PairStatus::kSameSensorPosition
                         : weak_candidates > 0   ? PairStatus::kDegenerate
                         : any_consensus     ? PairStatus::kRefinementFailed
                                             : PairStatus::kNoConsensus;
@@ -168,17 +241,36 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         if (best == nullptr || c.p2p.error_m < best->p2p.error_m) best = &c;
     }
 
-    result.T_target_source = best->T_target_source;
-    result.information = best->gicp.H;
-    result.ransac_inliers = best->ransac_inliers;
-    result.chosen_candidate = best->round;
-    result.p2p_error_m = best->p2p.error_m;
-    result.p2p_inliers = best->p2p.num_within_cutoff;
-    result.overlap_share = best->p2p.overlap_share;
-    result.gicp_inliers = best->gicp.num_inliers;
-    result.min_hessian_eigenvalue = best->gicp.H_eigenvalues(0);
-    result.min_translation_hessian_eigenvalue = best->gicp.H_translation_eigenvalues(0);
-    result.free_space_violation_share = best->free_space.violation_share;
+    auto as_alternative = [](const Candidate& c) {
+        PairAlternative a;
+        a.T_target_source = c.T_target_source;
+        a.information = c.gicp.H;
+        a.ransac_inliers = c.ransac_inliers;
+        a.candidate = c.round;
+        a.p2p_error_m = c.p2p.error_m;
+        a.p2p_inliers = c.p2p.num_within_cutoff;
+        a.overlap_share = c.p2p.overlap_share;
+        a.gicp_inliers = c.gicp.num_inliers;
+        a.min_hessian_eigenvalue = c.gicp.H_eigenvalues(0);
+        a.min_translation_hessian_eigenvalue = c.gicp.H_translation_eigenvalues(0);
+        a.free_space_violation_share = c.free_space.violation_share;
+        return a;
+    };
+    result.choose(as_alternative(*best));
+    for (const Candidate& c : candidates) {
+        const Eigen::LLT<Matrix6d> llt_c(c.gicp.H);
+        if (&c == best || llt_c.info() != Eigen::Success || !c.gicp.H.allFinite()) continue;
+        // The same transform reached from another start is not an alternative.
+        if (translation_error_m(c.T_target_source, best->T_target_source) < params.alternative_separation_m) continue;
+        bool duplicate = false;
+        for (const PairAlternative& a : result.alternatives) {
+            duplicate = duplicate ||
+                        translation_error_m(c.T_target_source, a.T_target_source) < params.alternative_separation_m;
+        }
+        if (!duplicate) result.alternatives.push_back(as_alternative(c));
+    }
+    std::stable_sort(result.alternatives.begin(), result.alternatives.end(),
+                     [](const PairAlternative& a, const PairAlternative& b) { return a.p2p_error_m < b.p2p_error_m; });
     if (best->gicp.inlier_ratio < params.min_overlap_share) {
         result.status = PairStatus::kLowOverlap;
         return result;

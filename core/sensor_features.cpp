@@ -112,8 +112,14 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     FpfhParams fpfh = params.fpfh;
     fpfh.num_threads = threads;
     out.descriptors = compute_fpfh(out.octree.cloud, out.keypoints, fpfh);
-    for (std::uint32_t k : out.keypoints) out.keypoint_points.push_back(out.octree.cloud.points[k]);
+    for (std::uint32_t k : out.keypoints) {
+        out.keypoint_points.push_back(out.octree.cloud.points[k]);
+        out.keypoint_normals.push_back(out.octree.cloud.normals[k]);
+    }
     out.timings.fpfh_s = seconds_since(start);
+    start = Clock::now();
+    out.ground = estimate_ground_plane(out.octree.cloud.points, out.octree.cloud.normals, params.ground);
+    out.timings.ground_s = seconds_since(start);
     out.status = SensorFeatureStatus::kOk;
     return out;
 }

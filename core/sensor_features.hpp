@@ -16,6 +16,7 @@
 
 #include "core/fpfh.hpp"
 #include "core/gicp.hpp"
+#include "core/ground_plane.hpp"
 #include "core/normals.hpp"
 #include "core/octree_downsample.hpp"
 #include "core/point_cloud.hpp"
@@ -32,6 +33,9 @@ struct SensorFeatureParams {
     OctreeDownsampleParams octree{};
     SiftKeypointParams sift{};
     FpfhParams fpfh{};
+    // The road plane (on the octree cloud) that levels the sensor for the ground-aligned
+    // candidate search (our addition, ground_aligned_search.hpp).
+    GroundPlaneParams ground{};
     // G-ICP / p2p cloud: voxel size (m) and the k of its covariances.
     double gicp_voxel_size_m = 0.5;
     int gicp_k_neighbors = 20;
@@ -56,6 +60,7 @@ struct SensorFeatureTimings {
     double octree_s = 0.0;
     double keypoints_s = 0.0;
     double fpfh_s = 0.0;
+    double ground_s = 0.0;
     double gicp_cloud_s = 0.0;
 };
 
@@ -66,8 +71,10 @@ struct SensorFeatures {
     OctreeDownsampleResult octree;                // downsampled cloud with normals
     std::vector<std::uint32_t> keypoints;         // indices into octree.cloud
     std::vector<Eigen::Vector3d> keypoint_points; // their positions (m, sensor frame)
+    std::vector<Eigen::Vector3d> keypoint_normals;// their unit normals (sensor frame)
     std::vector<FpfhDescriptor> descriptors;      // one per keypoint
     GicpTarget gicp;                              // voxel cloud with covariances + k-d tree
+    GroundPlane ground;                           // found = false when no road plane
     double normal_spread = 0.0;                   // see min_normal_spread
     SensorFeatureTimings timings;
 };
