@@ -5,15 +5,29 @@
 
 namespace lidarfuse::core {
 
+namespace {
+constexpr std::uint64_t kNoKey = ~std::uint64_t{0};  // a point that is not finite
+constexpr std::size_t kPowers = 256;                  // attenuation^k tabulated below this k
+}  // namespace
+
 BackgroundModel::BackgroundModel(const BackgroundModelParams& params)
     : params_(params), detector_(params.change) {
     if (!(params_.voxel_size_m > 0)) params_.voxel_size_m = 0.5;
     voxels_.reserve(1 << 14);
+    // The same values std::pow gives, looked up instead of recomputed per point.
+    for (std::size_t k = 0; k < kPowers; ++k) {
+        attenuation_powers_.push_back(std::pow(params_.attenuation, static_cast<double>(k)));
+    }
 }
 
 void BackgroundModel::set_reference(const std::vector<Eigen::Vector3d>& reference_points) {
-    reference_points_ = reference_points;
-    detector_.set_reference(reference_points_);
+    num_reference_ = reference_points.size();
+    reference_keys_.resize(num_reference_);
+    for (std::size_t j = 0; j < num_reference_; ++j) {
+        const auto& p = reference_points[j];
+        reference_keys_[j] = std::isfinite(p.squaredNorm()) ? key_of(p) : kNoKey;
+    }
+    detector_.set_reference(reference_points);
     voxels_.clear();
 }
 
@@ -26,10 +40,16 @@ std::uint64_t BackgroundModel::key_of(const Eigen::Vector3d& p) const {
     return (q(p.x()) << 42) | (q(p.y()) << 21) | q(p.z());
 }
 
+double BackgroundModel::attenuation_after(std::uint64_t frames) const {
+    return frames < kPowers ? attenuation_powers_[frames]
+                            : std::pow(params_.attenuation, static_cast<double>(frames));
+}
+
 double BackgroundModel::score_of(std::uint64_t key) const {
+    if (key == kNoKey) return 0.0;
     const auto it = voxels_.find(key);
     if (it == voxels_.end()) return 0.0;
-    return it->second.score * std::pow(params_.attenuation, static_cast<double>(frame_ - it->second.frame));
+    return it->second.score * attenuation_after(frame_ - it->second.frame);
 }
 
 double BackgroundModel::score_at(const Eigen::Vector3d& p) const {
@@ -37,11 +57,11 @@ double BackgroundModel::score_at(const Eigen::Vector3d& p) const {
 }
 
 // Raises a voxel once per frame, however many of its points changed.
-void BackgroundModel::raise(const Eigen::Vector3d& p) {
-    if (!std::isfinite(p.squaredNorm())) return;
-    Voxel& v = voxels_[key_of(p)];
+void BackgroundModel::raise(std::uint64_t key) {
+    if (key == kNoKey) return;
+    Voxel& v = voxels_[key];
     if (v.frame == frame_ && v.score > 0) return;
-    const double current = v.score * std::pow(params_.attenuation, static_cast<double>(frame_ - v.frame));
+    const double current = v.score * attenuation_after(frame_ - v.frame);
     v.score = std::min(params_.max_score, current + params_.increment);
     v.frame = frame_;
 }
@@ -49,25 +69,28 @@ void BackgroundModel::raise(const Eigen::Vector3d& p) {
 void BackgroundModel::update(const std::vector<Eigen::Vector3d>& current, BackgroundUpdate* out) {
     ++frame_;
     detector_.detect(current, &changes_);
+    current_keys_.resize(current.size());
     for (std::size_t i = 0; i < current.size(); ++i) {
-        if (changes_.added[i]) raise(current[i]);
+        const auto& p = current[i];
+        current_keys_[i] = std::isfinite(p.squaredNorm()) ? key_of(p) : kNoKey;
     }
-    for (std::size_t j = 0; j < reference_points_.size(); ++j) {
-        if (changes_.removed[j]) raise(reference_points_[j]);
+    for (std::size_t i = 0; i < current.size(); ++i) {
+        if (changes_.added[i]) raise(current_keys_[i]);
     }
-
+    for (std::size_t j = 0; j < num_reference_; ++j) {
+        if (changes_.removed[j]) raise(reference_keys_[j]);
+    }
     out->dynamic.assign(current.size(), 0);
     out->num_dynamic = 0;
     for (std::size_t i = 0; i < current.size(); ++i) {
-        const bool dyn = changes_.added[i] || score_at(current[i]) > params_.dynamic_threshold;
+        const bool dyn = changes_.added[i] || score_of(current_keys_[i]) > params_.dynamic_threshold;
         out->dynamic[i] = dyn;
         out->num_dynamic += dyn;
     }
-    out->reference_dynamic.assign(reference_points_.size(), 0);
+    out->reference_dynamic.assign(num_reference_, 0);
     out->num_reference_dynamic = 0;
-    for (std::size_t j = 0; j < reference_points_.size(); ++j) {
-        const bool dyn =
-            changes_.removed[j] || score_at(reference_points_[j]) > params_.dynamic_threshold;
+    for (std::size_t j = 0; j < num_reference_; ++j) {
+        const bool dyn = changes_.removed[j] || score_of(reference_keys_[j]) > params_.dynamic_threshold;
         out->reference_dynamic[j] = dyn;
         out->num_reference_dynamic += dyn;
     }

@@ -57,13 +57,18 @@ private:
     };
     std::uint64_t key_of(const Eigen::Vector3d& p) const;
     double score_of(std::uint64_t key) const;  // attenuated to the current frame
-    void raise(const Eigen::Vector3d& p);
+    double attenuation_after(std::uint64_t frames) const;  // params_.attenuation ^ frames
+    void raise(std::uint64_t key);
 
     BackgroundModelParams params_;
     ChangeDetector detector_;
     std::unordered_map<std::uint64_t, Voxel> voxels_;
     std::uint64_t frame_ = 0;
-    std::vector<Eigen::Vector3d> reference_points_;
+    std::size_t num_reference_ = 0;
+    // Voxel keys (kNoKey: not finite) of the reference points, computed once, and of the
+    // current points, per frame.
+    std::vector<std::uint64_t> reference_keys_, current_keys_;
+    std::vector<double> attenuation_powers_;  // attenuation^k, k < size (std::pow values)
     ChangeDetectionResult changes_;
 };
 

@@ -62,23 +62,54 @@ void SphericalRangeImage::build(const std::vector<Eigen::Vector3d>& points) {
     }
 }
 
+void SphericalRangeImage::build(const std::vector<Eigen::Vector3d>& points,
+                                std::vector<std::int32_t>* cells, std::vector<double>* ranges_m) {
+    std::fill(nearest_.begin(), nearest_.end(), kInf);
+    cells->resize(points.size());
+    ranges_m->resize(points.size());
+    int az = 0, el = 0;
+    double r = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        if (!cell_of(points[i], &az, &el, &r)) {
+            (*cells)[i] = -1;
+            continue;
+        }
+        const int index = grid_.index(az, el);
+        (*cells)[i] = index;
+        (*ranges_m)[i] = r;
+        double& cell = nearest_[static_cast<std::size_t>(index)];
+        cell = std::min(cell, r);
+    }
+}
+
 void SphericalRangeImage::compute_window_min(int cone_bins) {
     const int W = grid_.params().azimuth_bins, H = grid_.params().elevation_bins;
-    const auto index = [this](int a, int e) { return grid_.index(a, e); };
+    const int c = std::clamp(cone_bins, 0, W / 2);
     // Separable min filter: azimuth (wrapping) into scratch_, then elevation (clamped).
+    // A row padded with c wrapped cells on each side keeps the inner loop free of modulos.
+    std::vector<double>& row = row_;
+    row.resize(static_cast<std::size_t>(W + 2 * c));
     for (int e = 0; e < H; ++e) {
+        const double* in = &nearest_[static_cast<std::size_t>(grid_.index(0, e))];
+        for (int k = 0; k < c; ++k) {
+            row[static_cast<std::size_t>(k)] = in[W - c + k];
+            row[static_cast<std::size_t>(W + c + k)] = in[k];
+        }
+        std::copy(in, in + W, row.begin() + c);
+        double* out = &scratch_[static_cast<std::size_t>(grid_.index(0, e))];
         for (int a = 0; a < W; ++a) {
             double m = kInf;
-            for (int d = -cone_bins; d <= cone_bins; ++d) m = std::min(m, nearest_[index((a + d + W) % W, e)]);
-            scratch_[index(a, e)] = m;
+            for (int d = 0; d <= 2 * c; ++d) m = std::min(m, row[static_cast<std::size_t>(a + d)]);
+            out[a] = m;
         }
     }
+    std::fill(window_min_.begin(), window_min_.end(), kInf);
     for (int e = 0; e < H; ++e) {
         const int lo = std::max(0, e - cone_bins), hi = std::min(H - 1, e + cone_bins);
-        for (int a = 0; a < W; ++a) {
-            double m = kInf;
-            for (int k = lo; k <= hi; ++k) m = std::min(m, scratch_[index(a, k)]);
-            window_min_[index(a, e)] = m;
+        double* out = &window_min_[static_cast<std::size_t>(grid_.index(0, e))];
+        for (int k = lo; k <= hi; ++k) {
+            const double* in = &scratch_[static_cast<std::size_t>(grid_.index(0, k))];
+            for (int a = 0; a < W; ++a) out[a] = std::min(out[a], in[a]);
         }
     }
 }
@@ -87,36 +118,34 @@ ChangeDetector::ChangeDetector(const ChangeDetectionParams& params)
     : params_(params), reference_image_(params.grid), current_image_(params.grid) {}
 
 void ChangeDetector::set_reference(const std::vector<Eigen::Vector3d>& reference_points) {
-    reference_points_ = reference_points;
-    reference_image_.build(reference_points_);
+    num_reference_ = reference_points.size();
+    reference_image_.build(reference_points, &reference_cells_, &reference_ranges_);
     reference_image_.compute_window_min(params_.cone_bins);
     has_reference_ = true;
 }
 
 void ChangeDetector::detect(const std::vector<Eigen::Vector3d>& current, ChangeDetectionResult* result) {
     result->added.assign(current.size(), 0);
-    result->removed.assign(reference_points_.size(), 0);
+    result->removed.assign(num_reference_, 0);
     result->num_added = result->num_removed = 0;
     if (!has_reference_) return;
-    current_image_.build(current);
+    current_image_.build(current, &current_cells_, &current_ranges_);
     current_image_.compute_window_min(params_.cone_bins);
     const double threshold = params_.range_threshold_m;
-    int az = 0, el = 0;
-    double r = 0;
     // The other scan saw through the point when even its nearest measurement in the cone
     // lies beyond the point (+inf: no measurement, no evidence).
     for (std::size_t i = 0; i < current.size(); ++i) {
-        if (!current_image_.cell_of(current[i], &az, &el, &r)) continue;
-        const double other = reference_image_.window_min(az, el);
-        if (std::isfinite(other) && other > r + threshold) {
+        if (current_cells_[i] < 0) continue;
+        const double other = reference_image_.window_min_at(current_cells_[i]);
+        if (std::isfinite(other) && other > current_ranges_[i] + threshold) {
             result->added[i] = 1;
             ++result->num_added;
         }
     }
-    for (std::size_t j = 0; j < reference_points_.size(); ++j) {
-        if (!reference_image_.cell_of(reference_points_[j], &az, &el, &r)) continue;
-        const double other = current_image_.window_min(az, el);
-        if (std::isfinite(other) && other > r + threshold) {
+    for (std::size_t j = 0; j < num_reference_; ++j) {
+        if (reference_cells_[j] < 0) continue;
+        const double other = current_image_.window_min_at(reference_cells_[j]);
+        if (std::isfinite(other) && other > reference_ranges_[j] + threshold) {
             result->removed[j] = 1;
             ++result->num_removed;
         }

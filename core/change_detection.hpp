@@ -50,6 +50,10 @@ class SphericalRangeImage {
 public:
     explicit SphericalRangeImage(const SphericalGridParams& params = {});
     void build(const std::vector<Eigen::Vector3d>& points_in_sensor_frame);
+    // The same, also keeping each point's cell index (-1: outside the grid) and range, so
+    // that callers classify the points without a second asin/atan2 per point.
+    void build(const std::vector<Eigen::Vector3d>& points_in_sensor_frame,
+               std::vector<std::int32_t>* cells, std::vector<double>* ranges_m);
     bool cell_of(const Eigen::Vector3d& p, int* az, int* el, double* range_m) const {
         return grid_.cell_of(p, az, el, range_m);
     }
@@ -57,6 +61,7 @@ public:
     // azimuth; call after build(), before window_min().
     void compute_window_min(int cone_bins);
     double window_min(int az, int el) const { return window_min_[grid_.index(az, el)]; }
+    double window_min_at(std::int32_t cell) const { return window_min_[static_cast<std::size_t>(cell)]; }
     double nearest(int az, int el) const { return nearest_[grid_.index(az, el)]; }
     const SphericalGrid& grid() const { return grid_; }
 
@@ -65,6 +70,7 @@ private:
     std::vector<double> nearest_;
     std::vector<double> scratch_;
     std::vector<double> window_min_;
+    std::vector<double> row_;  // one padded azimuth row (compute_window_min)
 };
 
 struct ChangeDetectionParams {
@@ -98,7 +104,10 @@ private:
     ChangeDetectionParams params_;
     SphericalRangeImage reference_image_;
     SphericalRangeImage current_image_;
-    std::vector<Eigen::Vector3d> reference_points_;
+    std::size_t num_reference_ = 0;
+    // Per point: cell in its image (-1: outside) and range; the reference's computed once.
+    std::vector<std::int32_t> reference_cells_, current_cells_;
+    std::vector<double> reference_ranges_, current_ranges_;
     bool has_reference_ = false;
 };
 
