@@ -11,6 +11,7 @@
 // least 95 % of the capture's frames (real time).
 //
 // Usage: daemon_latency_bench [--sensors 2,4,6,8] [--seconds 5] [--scenario curve]
+//                             [--queue-depth 4]   (sync.queue_depth of the daemon)
 // Needs the built `lidarfuse` (sim) and `lidarfused` beside it (build/tools, build/daemon).
 // The replay runs in this process (one thread); the machine's other load shares the cores.
 #include <dds/dds.h>
@@ -223,7 +224,7 @@ struct RunResult {
     double fused_share = 0.0;
 };
 
-RunResult run(const fs::path& sim, int n, int domain) {
+RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
     RunResult result;
     const fs::path out_dir = sim / ("out" + std::to_string(n));
     std::ofstream config(sim / ("daemon" + std::to_string(n) + ".yaml"));
@@ -236,7 +237,7 @@ RunResult run(const fs::path& sim, int n, int domain) {
         sensors.push_back(SensorReplay{static_cast<std::uint16_t>(info.udp_port_lidar), bound,
                                        ::socket(AF_INET, SOCK_DGRAM, 0), ouster::PacketFormat(info), {}, 0});
     }
-    config << "network: {bind_address: 127.0.0.1}\noutput:\n  directory: " << out_dir.string()
+    config << "network: {bind_address: 127.0.0.1}\nsync: {queue_depth: " << queue_depth << "}\noutput:\n  directory: " << out_dir.string()
            << "\n  dds: {domain_id: " << domain << ", frame_id: station, diagnostics_period_ms: 500}\n";
     config.close();
 
@@ -328,6 +329,7 @@ int main(int argc, char** argv) {
     std::vector<int> counts = {2, 4, 6, 8};
     double seconds = 5.0;
     std::string scenario = "curve";
+    int queue_depth = 4;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string arg = argv[i];
         if (arg == "--sensors") {
@@ -337,6 +339,8 @@ int main(int argc, char** argv) {
             while (std::getline(list, item, ',')) counts.push_back(std::stoi(item));
         } else if (arg == "--seconds") {
             seconds = std::stod(argv[i + 1]);
+        } else if (arg == "--queue-depth") {
+            queue_depth = std::stoi(argv[i + 1]);
         } else if (arg == "--scenario") {
             scenario = argv[i + 1];
         }
@@ -359,7 +363,7 @@ int main(int argc, char** argv) {
     const int domain = 1 + static_cast<int>(::getpid() % 230);
     int max_zero_loss = 0, max_realtime = 0;
     for (int n : counts) {
-        const auto r = run(sim, n, domain);
+        const auto r = run(sim, n, domain, queue_depth);
         if (r.ok && r.lost == 0) max_zero_loss = std::max(max_zero_loss, n);
         if (r.ok && r.lost == 0 && r.fused_share >= 0.95) max_realtime = std::max(max_realtime, n);
     }

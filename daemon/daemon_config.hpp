@@ -23,6 +23,10 @@ struct SyncConfig {
     double max_offset_ms = 0.0;  // 0: one frame period of the root sensor (1/SR)
     double deadline_ms = 75.0;   // how long a frame waits for late members
     double reset_jump_ms = 2000.0;
+    // Synchronised frames waiting for the fusion thread (and fused ones for the output
+    // thread); when full the oldest is dropped and counted. While fusion is slower than the
+    // frame rate, a frame waits up to this many fusion times: 1 gives the freshest output.
+    int queue_depth = 4;
 };
 
 // DDS output (daemon/dds_publisher.hpp): topics and types follow ROS 2's DDS mapping.
@@ -62,7 +66,6 @@ struct DaemonConfig {
     core::FusionParams fusion;  // registration + dynamics sections
     OutputConfig output;
     HealthConfig health;
-    std::size_t queue_depth = 4;  // frames between stages (drop-oldest)
     std::string log_level = "info";
 };
 

@@ -122,7 +122,9 @@ struct Pipeline::Impl {
     std::vector<double> offset_to_root_ms;
 
     explicit Impl(const DaemonConfig& c)
-        : config(c), frames(c.queue_depth), results(c.queue_depth) {
+        : config(c),
+          frames(static_cast<std::size_t>(c.sync.queue_depth)),
+          results(static_cast<std::size_t>(c.sync.queue_depth)) {
         ingest_log = logger("ingest");
         sync_log = logger("sync");
         fusion_log = logger("fusion");

@@ -49,7 +49,7 @@ struct PipelineStats {
     std::uint64_t frames_fused = 0;
     double last_fusion_ms = 0.0, mean_fusion_ms = 0.0;
     // Steady clock from the frame's last scan completing (its last packet) to its cloud
-    // having been written to DDS (or to the files when DDS is off).
+    // having been written to DDS (when DDS is off: to the output thread taking it).
     double last_latency_ms = 0.0;
     std::uint64_t dds_samples_written = 0, dds_write_failures = 0, dds_write_timeouts = 0;
     std::vector<int> granted_receive_buffers;

@@ -40,7 +40,7 @@ registration:
   initial_max_voxel_size_m: 1.5
   threads: 1
 dynamics: {attenuation: 0.8, range_threshold_m: 0.4, enabled: false}
-sync: {deadline_ms: 40}
+sync: {deadline_ms: 40, queue_depth: 1}
 output: {directory: out, extrinsics_interval_frames: 5}
 health: {stale_after_ms: 100, lost_after_ms: 1000}
 logging: {level: debug}
@@ -55,6 +55,7 @@ logging: {level: debug}
     EXPECT_DOUBLE_EQ(c.fusion.background.attenuation, 0.8);
     EXPECT_FALSE(c.fusion.remove_dynamic);
     EXPECT_DOUBLE_EQ(c.sync.deadline_ms, 40.0);
+    EXPECT_EQ(c.sync.queue_depth, 1);
     EXPECT_EQ(c.output.directory, dir_.path() / "out");
     EXPECT_EQ(c.log_level, "debug");
 }
