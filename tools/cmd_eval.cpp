@@ -1,5 +1,6 @@
 // `lidarfuse eval --gt ground_truth.csv --poses poses.csv [--root NAME] [--plot DIR]`
 // Prints the paper's accuracy figures (and the strict ones) as `name value unit` lines.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -8,6 +9,7 @@
 #include "drivers/io/pose_csv.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
+#include "tools/fused_cloud_reader.hpp"
 #include "tools/svg_plot.hpp"
 
 namespace lidarfuse::tools {
@@ -38,16 +40,18 @@ void write_plot(const std::filesystem::path& file, const core::EvaluationResult&
 }
 
 int run_eval(int argc, char** argv) {
-    const Args args(argc, argv, {"--gt", "--poses", "--root", "--plot", "--tolerance-ms"}, {});
+    const Args args(argc, argv, {"--gt", "--poses", "--root", "--plot", "--tolerance-ms", "--cloud"}, {});
     if (args.help()) {
         std::printf(
             "usage: lidarfuse eval --gt ground_truth.csv --poses poses.csv [--root NAME]\n"
-            "                      [--tolerance-ms 25] [--plot DIR]\n"
+            "                      [--tolerance-ms 25] [--plot DIR [--cloud FUSED.ply]]\n"
             "Per sensor and on average: translation and rotation RMSE over frames, after\n"
             "fitting T_coord by SVD from the sensor positions (the paper's metric), and without\n"
-            "any fitted alignment (strict). --plot writes error-over-time SVGs into DIR.\n");
+            "any fitted alignment (strict). --plot writes error-over-time SVGs into DIR, and with\n"
+            "--cloud (a fused frame from fuse --save-cloud) DIR/top_view.svg coloured by sensor.\n");
         return 0;
     }
+    if (args.value("--cloud") && !args.value("--plot")) throw UsageError("--cloud needs --plot DIR");
     const auto truth = to_trajectories(io::read_pose_csv(args.required("--gt")));
     const auto estimate = to_trajectories(io::read_pose_csv(args.required("--poses")));
     core::EvaluationParams params;
@@ -89,6 +93,22 @@ int run_eval(int argc, char** argv) {
                    &core::SensorErrors::strict_trans_err_m);
         write_plot(d / "strict_rotation_error.svg", result, "Rotation error (strict)", "deg",
                    &core::SensorErrors::strict_rot_err_deg);
+        if (const auto cloud_file = args.value("--cloud")) {
+            const auto cloud = read_fused_cloud_ply(*cloud_file);
+            TopViewSpec view;
+            view.title = "Fused frame, top view (" + std::filesystem::path(*cloud_file).filename().string() + ")";
+            std::uint8_t max_sensor = 0;
+            for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+                view.x.push_back(cloud.points[i].x());
+                view.y.push_back(cloud.points[i].y());
+                max_sensor = std::max(max_sensor, cloud.sensor[i]);
+            }
+            view.sensor = cloud.sensor;
+            view.dynamic = cloud.dynamic;
+            for (int s = 0; s <= max_sensor; ++s) view.sensor_labels.push_back("sensor " + std::to_string(s));
+            std::ofstream(d / "top_view.svg") << render_svg_top_view(view);
+            std::printf("eval_top_view_points %zu points\n", cloud.points.size());
+        }
         std::fprintf(stderr, "plots written to %s\n", dir->c_str());
     }
     return 0;

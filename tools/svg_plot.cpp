@@ -87,4 +87,94 @@ std::string render_svg_line_plot(const PlotSpec& spec) {
     return svg.str();
 }
 
+std::string render_svg_top_view(const TopViewSpec& spec) {
+    const std::size_t n = std::min({spec.x.size(), spec.y.size(), spec.sensor.size()});
+    const bool have_dynamic = spec.dynamic.size() >= n;
+    const auto percentile = [&](std::vector<float> v, double q) {
+        if (v.empty()) return 0.0f;
+        const auto k = static_cast<std::size_t>(q * static_cast<double>(v.size() - 1));
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+        return v[k];
+    };
+    std::vector<float> xs(spec.x.begin(), spec.x.begin() + static_cast<std::ptrdiff_t>(n));
+    std::vector<float> ys(spec.y.begin(), spec.y.begin() + static_cast<std::ptrdiff_t>(n));
+    double x0 = percentile(xs, 0.01), x1 = percentile(xs, 0.99);
+    double y0 = percentile(ys, 0.01), y1 = percentile(ys, 0.99);
+    if (!(x1 > x0)) x1 = x0 + 1;
+    if (!(y1 > y0)) y1 = y0 + 1;
+    const int max_cells = std::max(10, spec.max_cells);
+    const double cell = std::max({spec.cell_size_m, (x1 - x0) / max_cells, (y1 - y0) / max_cells});
+    const int w = std::max(1, static_cast<int>(std::ceil((x1 - x0) / cell)));
+    const int h = std::max(1, static_cast<int>(std::ceil((y1 - y0) / cell)));
+    // Per cell: point count per sensor (up to 8 shown apart; more share colours) + dynamic.
+    constexpr int kSlots = 9;  // 8 sensor colours + dynamic
+    std::vector<std::uint32_t> counts(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * kSlots, 0);
+    const std::size_t num_colours = sizeof(kColours) / sizeof(kColours[0]);
+    for (std::size_t i = 0; i < n; ++i) {
+        const int cx = static_cast<int>(std::floor((spec.x[i] - x0) / cell));
+        const int cy = static_cast<int>(std::floor((spec.y[i] - y0) / cell));
+        if (cx < 0 || cy < 0 || cx >= w || cy >= h) continue;
+        const std::size_t base = (static_cast<std::size_t>(cy) * static_cast<std::size_t>(w) +
+                                  static_cast<std::size_t>(cx)) * kSlots;
+        ++counts[base + (have_dynamic && spec.dynamic[i] ? 8 : spec.sensor[i] % num_colours)];
+    }
+    const double scale = 800.0 / std::max(w, h);  // pixels per cell: the longer side 800 px
+    const double left = 20, top = 40, legend = 160;
+    const double pw = w * scale, ph = h * scale;
+    std::ostringstream svg;
+    svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << number(left + pw + legend)
+        << "\" height=\"" << number(top + ph + 40) << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
+        << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
+        << "<text x=\"" << number((left + pw) / 2) << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">"
+        << escape(spec.title) << "</text>\n"
+        << "<g shape-rendering=\"crispEdges\">\n";
+    const auto colour_of = [&](std::size_t base) -> int {
+        int best = -1;
+        std::uint32_t best_count = 0;
+        for (int k = 0; k < kSlots; ++k) {
+            if (counts[base + static_cast<std::size_t>(k)] > best_count) {
+                best_count = counts[base + static_cast<std::size_t>(k)];
+                best = k;
+            }
+        }
+        return best;
+    };
+    for (int cy = 0; cy < h; ++cy) {
+        int run_colour = -1, run_start = 0;
+        for (int cx = 0; cx <= w; ++cx) {
+            const int c = cx < w ? colour_of((static_cast<std::size_t>(cy) * static_cast<std::size_t>(w) +
+                                              static_cast<std::size_t>(cx)) * kSlots)
+                                 : -2;
+            if (c == run_colour) continue;
+            if (run_colour >= 0) {
+                svg << "<rect x=\"" << number(left + run_start * scale) << "\" y=\""
+                    << number(top + ph - (cy + 1) * scale) << "\" width=\"" << number((cx - run_start) * scale)
+                    << "\" height=\"" << number(scale) << "\" fill=\""
+                    << (run_colour == 8 ? "#444444" : kColours[run_colour]) << "\"/>\n";
+            }
+            run_colour = c;
+            run_start = cx;
+        }
+    }
+    svg << "</g>\n<rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << number(pw)
+        << "\" height=\"" << number(ph) << "\" fill=\"none\" stroke=\"black\"/>\n"
+        << "<text x=\"" << left << "\" y=\"" << number(top + ph + 18) << "\">x " << number(x0) << " .. "
+        << number(x0 + w * cell) << " m, y " << number(y0) << " .. " << number(y0 + h * cell)
+        << " m, cell " << number(cell) << " m</text>\n";
+    std::vector<std::pair<std::string, std::string>> entries;
+    for (std::size_t s = 0; s < spec.sensor_labels.size() && s < num_colours; ++s) {
+        entries.emplace_back(kColours[s], spec.sensor_labels[s]);
+    }
+    if (have_dynamic) entries.emplace_back("#444444", "dynamic");
+    for (std::size_t k = 0; k < entries.size(); ++k) {
+        const double ly = top + 10 + 18.0 * static_cast<double>(k);
+        svg << "<rect x=\"" << number(left + pw + 12) << "\" y=\"" << number(ly - 6)
+            << "\" width=\"12\" height=\"12\" fill=\"" << entries[k].first << "\"/>\n"
+            << "<text x=\"" << number(left + pw + 30) << "\" y=\"" << number(ly + 4) << "\">"
+            << escape(entries[k].second) << "</text>\n";
+    }
+    svg << "</svg>\n";
+    return svg.str();
+}
+
 }  // namespace lidarfuse::tools

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 
+#include "drivers/io/cloud_ply.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "tests/support/test_data.hpp"
 
@@ -61,6 +62,52 @@ TEST_F(EvalCommand, PrintsPerSensorAndMeanFigures) {
         EXPECT_THAT(text, HasSubstr("<polyline")) << plot;
         EXPECT_THAT(text, HasSubstr("lidar2")) << plot;
     }
+}
+
+// A fused frame: sensor 0's points on the left half, sensor 1's on the right, a dynamic
+// blob in the middle; the top view colours each cell by its majority.
+TEST_F(EvalCommand, DrawsATopViewOfAFusedCloudColouredBySensor) {
+    core::FusedCloud cloud;
+    for (int i = 0; i < 2000; ++i) {
+        const float x = -20.0f + 40.0f * static_cast<float>(i % 100) / 100.0f;
+        const float y = -10.0f + 20.0f * static_cast<float>(i / 100) / 20.0f;
+        const bool blob = std::abs(x) < 2 && std::abs(y) < 2;
+        cloud.points.emplace_back(x, y, 0.0f);
+        cloud.intensity.push_back(1.0f);
+        cloud.sensor.push_back(x < 0 ? 0 : 1);
+        cloud.dynamic.push_back(blob ? 1 : 0);
+    }
+    const auto d = dir_.path().string();
+    io::write_fused_cloud_ply(dir_.path() / "fused_7.ply", cloud);
+    std::string out;
+    ASSERT_EQ(test::run_command(test::tool_path() + " eval --gt " + d + "/ground_truth.csv --poses " +
+                                    d + "/poses.csv --plot " + d + "/plots --cloud " + d + "/fused_7.ply",
+                                &out),
+              0)
+        << out;
+    EXPECT_THAT(out, HasSubstr("eval_top_view_points 2000 points"));
+    std::ifstream svg(dir_.path() / "plots" / "top_view.svg");
+    const std::string text((std::istreambuf_iterator<char>(svg)), std::istreambuf_iterator<char>());
+    EXPECT_THAT(text, HasSubstr("fill=\"#1f77b4\"/>"));  // sensor 0
+    EXPECT_THAT(text, HasSubstr("fill=\"#d62728\"/>"));  // sensor 1
+    EXPECT_THAT(text, HasSubstr("fill=\"#444444\"/>"));  // dynamic
+    EXPECT_THAT(text, HasSubstr("sensor 1</text>"));
+    EXPECT_THAT(text, HasSubstr("fused_7.ply"));
+
+    // --cloud alone, and a file that is not a fused cloud, fail with the reason.
+    out.clear();
+    EXPECT_NE(test::run_command(test::tool_path() + " eval --gt " + d + "/ground_truth.csv --poses " +
+                                    d + "/poses.csv --cloud " + d + "/fused_7.ply",
+                                &out),
+              0);
+    EXPECT_THAT(out, HasSubstr("--cloud needs --plot"));
+    std::ofstream(dir_.path() / "bad.ply") << "ply\nformat ascii 1.0\nend_header\n";
+    out.clear();
+    EXPECT_EQ(test::run_command(test::tool_path() + " eval --gt " + d + "/ground_truth.csv --poses " +
+                                    d + "/poses.csv --plot " + d + "/plots --cloud " + d + "/bad.ply",
+                                &out),
+              1);
+    EXPECT_THAT(out, HasSubstr("bad.ply: unsupported \"format ascii 1.0\""));
 }
 
 TEST_F(EvalCommand, MissingFileAndBadArgumentsFailClearly) {
