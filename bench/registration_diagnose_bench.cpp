@@ -126,6 +126,7 @@ int main(int argc, char** argv) {
     p.ransac.max_iterations = static_cast<int>(option(opts, "ransac_iterations", p.ransac.max_iterations));
     p.ransac.inlier_threshold_m = option(opts, "ransac_threshold", p.ransac.inlier_threshold_m);
     params.num_threads = static_cast<int>(option(opts, "threads", 2));
+    p.max_free_space_violation_share = option(opts, "max_free_space", p.max_free_space_violation_share);
     const bool quiet = option(opts, "quiet", 0) != 0;
     const bool match_only = option(opts, "match_only", 0) != 0;
     const double threshold_m = p.ransac.inlier_threshold_m;
@@ -296,15 +297,41 @@ int main(int argc, char** argv) {
         }
         for (const auto& pair : result.pairs) {
             const Eigen::Isometry3d T = truth(pair.target, pair.source);
-            std::fprintf(stderr, "  result %d->%d: %s ransac_inliers %zu cand %d chosen %d err %.3f m %.3f deg\n",
+            std::fprintf(stderr, "  result %d->%d: %s ransac_inliers %zu cand %d alt %zu chosen %d err %.3f m %.3f deg\n",
                          pair.source, pair.target, core::to_string(pair.status), pair.ransac_inliers,
-                         pair.candidates, pair.chosen_candidate,
+                         pair.candidates, pair.alternatives.size(), pair.chosen_candidate,
                          core::translation_error_m(pair.T_target_source, T),
                          core::rotation_error_deg(pair.T_target_source, T));
         }
         std::fprintf(stderr, "%s: registered %d/%zu wrong %d time %.2f s (features %.2f pairs %.2f)%s\n",
                      dir.c_str(), registered, n, wrong, result.timings.total_s, result.timings.features_s,
                      result.timings.pairs_s, line.c_str());
+        {
+            core::SensorFeatureTimings ft;
+            for (const auto& sr : result.sensors) {
+                ft.preprocess_s += sr.timings.preprocess_s;
+                ft.normals_s += sr.timings.normals_s;
+                ft.octree_s += sr.timings.octree_s;
+                ft.keypoints_s += sr.timings.keypoints_s;
+                ft.fpfh_s += sr.timings.fpfh_s;
+                ft.ground_s += sr.timings.ground_s;
+                ft.gicp_cloud_s += sr.timings.gicp_cloud_s;
+            }
+            core::PairTimings pt;
+            for (const auto& pr : result.pairs) {
+                pt.matching_s += pr.timings.matching_s;
+                pt.ransac_s += pr.timings.ransac_s;
+                pt.ground_search_s += pr.timings.ground_search_s;
+                pt.gicp_s += pr.timings.gicp_s;
+                pt.p2p_s += pr.timings.p2p_s;
+            }
+            std::fprintf(stderr,
+                         "  stage sums ms: preprocess %.0f normals %.0f octree %.0f sift %.0f fpfh %.0f ground %.0f "
+                         "gicp_cloud %.0f | matching %.0f ground_search %.0f ransac %.0f gicp %.0f p2p %.0f\n",
+                         1e3 * ft.preprocess_s, 1e3 * ft.normals_s, 1e3 * ft.octree_s, 1e3 * ft.keypoints_s, 1e3 * ft.fpfh_s,
+                         1e3 * ft.ground_s, 1e3 * ft.gicp_cloud_s, 1e3 * pt.matching_s, 1e3 * pt.ground_search_s,
+                         1e3 * pt.ransac_s, 1e3 * pt.gicp_s, 1e3 * pt.p2p_s);
+        }
         total_sensors += static_cast<int>(n);
         total_registered += registered;
         total_wrong += wrong;

@@ -57,59 +57,78 @@ std::vector<GroundAlignedCandidate> ground_aligned_search(const GroundAlignedKey
         std::ceil(std::clamp(params.descriptor_rank_share, 0.0, 1.0) * static_cast<double>(nt)));
     Correspondences gated;
     std::vector<std::pair<float, std::uint32_t>> by_distance(nt);
+    const bool rank_gate = rank_limit < nt;
     for (std::size_t a = 0; a < ns; ++a) {
         if (qs[a].z() < params.min_height_m) continue;
+        auto geometric_gate = [&](std::size_t b) {
+            return qt[b].z() >= params.min_height_m &&
+                   std::abs(qs[a].z() - qt[b].z()) <= params.max_height_difference_m &&
+                   std::abs(tilt_s[a] - tilt_t[b]) <= params.max_normal_tilt_difference_deg;
+        };
+        if (!rank_gate) {
+            for (std::size_t b = 0; b < nt; ++b) {
+                if (geometric_gate(b)) gated.push_back({static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b), 0.0f});
+            }
+            continue;
+        }
         for (std::size_t b = 0; b < nt; ++b) {
             by_distance[b] = {((*source.descriptors)[a] - (*target.descriptors)[b]).squaredNorm(),
                               static_cast<std::uint32_t>(b)};
         }
-        if (rank_limit < nt) {
-            std::nth_element(by_distance.begin(), by_distance.begin() + rank_limit, by_distance.end());
-        }
-        for (std::size_t r = 0; r < std::min(rank_limit, nt); ++r) {
+        std::nth_element(by_distance.begin(), by_distance.begin() + rank_limit, by_distance.end());
+        for (std::size_t r = 0; r < rank_limit; ++r) {
             const std::uint32_t b = by_distance[r].second;
-            if (qt[b].z() < params.min_height_m) continue;
-            if (std::abs(qs[a].z() - qt[b].z()) > params.max_height_difference_m) continue;
-            if (std::abs(tilt_s[a] - tilt_t[b]) > params.max_normal_tilt_difference_deg) continue;
-            gated.push_back({static_cast<std::uint32_t>(a), b, std::sqrt(by_distance[r].first)});
+            if (geometric_gate(b)) gated.push_back({static_cast<std::uint32_t>(a), b, std::sqrt(by_distance[r].first)});
         }
     }
     if (gated.size() < 3) return out;
 
-    // Vote per yaw on a square grid centred on t = 0; only touched cells are cleared.
+    // Vote per yaw on a square grid centred on t = 0; only touched cells are cleared. The
+    // gated pairs' horizontal coordinates are copied into flat arrays (in cells, with the
+    // grid offset folded into the target's) so the inner loop is a few multiply-adds.
     const int half = static_cast<int>(std::ceil(params.max_translation_m / params.cell_m));
     const int side = 2 * half + 1;
+    const std::size_t n_gated = gated.size();
+    std::vector<float> sx(n_gated), sy(n_gated), tx(n_gated), ty(n_gated);
+    const double inv_cell = 1.0 / params.cell_m;
+    for (std::size_t g = 0; g < n_gated; ++g) {
+        sx[g] = static_cast<float>(qs[gated[g].source].x() * inv_cell);
+        sy[g] = static_cast<float>(qs[gated[g].source].y() * inv_cell);
+        tx[g] = static_cast<float>(qt[gated[g].target].x() * inv_cell + half);
+        ty[g] = static_cast<float>(qt[gated[g].target].y() * inv_cell + half);
+    }
     std::vector<std::uint16_t> grid(static_cast<std::size_t>(side) * side, 0);
     std::vector<std::uint32_t> touched;
     std::vector<Peak> peaks;
     const int yaw_steps = std::max(1, static_cast<int>(std::lround(360.0 / params.yaw_step_deg)));
+    const float max_index = static_cast<float>(side - 1);
     for (int step = 0; step < yaw_steps; ++step) {
         const double yaw_deg = step * 360.0 / yaw_steps;
-        const double c = std::cos(yaw_deg * kDegToRad);
-        const double s = std::sin(yaw_deg * kDegToRad);
+        const auto c = static_cast<float>(std::cos(yaw_deg * kDegToRad));
+        const auto s = static_cast<float>(std::sin(yaw_deg * kDegToRad));
         touched.clear();
-        for (const Correspondence& g : gated) {
-            const Eigen::Vector3d& p = qs[g.source];
-            const Eigen::Vector3d& r = qt[g.target];
-            const double tx = r.x() - (c * p.x() - s * p.y());
-            const double ty = r.y() - (s * p.x() + c * p.y());
-            const int ix = static_cast<int>(std::floor(tx / params.cell_m)) + half;
-            const int iy = static_cast<int>(std::floor(ty / params.cell_m)) + half;
-            if (ix < 0 || iy < 0 || ix + 1 >= side || iy + 1 >= side) continue;
-            const std::uint32_t cell = static_cast<std::uint32_t>(iy) * side + ix;
+        for (std::size_t g = 0; g < n_gated; ++g) {
+            const float x = tx[g] - (c * sx[g] - s * sy[g]);
+            const float y = ty[g] - (s * sx[g] + c * sy[g]);
+            // Inside [0, side - 1): truncation is floor there.
+            if (!(x >= 0.0f && y >= 0.0f && x < max_index && y < max_index)) continue;
+            const std::uint32_t cell = static_cast<std::uint32_t>(y) * side + static_cast<std::uint32_t>(x);
             if (grid[cell] == 0) touched.push_back(cell);
             if (grid[cell] < 65535) ++grid[cell];
         }
-        // Best 2x2 sum whose lower-left cell is touched or left/below a touched one.
+        // Best 2x2 sum. A block whose sum beats `best` has a cell holding more than a
+        // quarter of it, so only such cells need their four blocks examined.
         Peak best;
+        best.votes = params.min_votes - 1;
         for (std::uint32_t cell : touched) {
+            if (4 * static_cast<int>(grid[cell]) <= best.votes) continue;
             const int ix = static_cast<int>(cell % side);
             const int iy = static_cast<int>(cell / side);
             for (int oy = -1; oy <= 0; ++oy) {
                 for (int ox = -1; ox <= 0; ++ox) {
                     const int x0 = ix + ox;
                     const int y0 = iy + oy;
-                    if (x0 < 0 || y0 < 0) continue;
+                    if (x0 < 0 || y0 < 0 || x0 + 1 >= side || y0 + 1 >= side) continue;
                     const std::size_t base = static_cast<std::size_t>(y0) * side + x0;
                     const int v00 = grid[base], v10 = grid[base + 1], v01 = grid[base + side],
                               v11 = grid[base + side + 1];

@@ -50,7 +50,7 @@ struct GroundAlignedSearchParams {
     int max_peaks = 10;
     int min_votes = 6;
     double nms_yaw_deg = 5.0;
-    double nms_translation_m = 3.0;
+    double nms_translation_m = 5.0;
     // A voting pair within this 3-D distance under a peak's transform is its inlier (m).
     double inlier_distance_m = 1.0;
 };

@@ -133,8 +133,11 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         candidate.ransac_inliers = support;
         candidate.T_target_source = T_initial;
         bool refined = true;
-        for (double max_distance_m : params.gicp_max_correspondence_m) {
-            gicp_params.max_correspondence_distance_m = max_distance_m;
+        for (std::size_t stage = 0; stage < params.gicp_max_correspondence_m.size(); ++stage) {
+            const bool last = stage + 1 == params.gicp_max_correspondence_m.size();
+            gicp_params.max_correspondence_distance_m = params.gicp_max_correspondence_m[stage];
+            gicp_params.max_iterations = last ? params.gicp.max_iterations
+                                              : std::min(params.gicp.max_iterations, params.gicp_coarse_max_iterations);
             gicp.set_params(gicp_params);
             candidate.gicp = gicp.align(target.gicp, source.gicp.cloud(), candidate.T_target_source);
             if (!candidate.gicp.converged && candidate.gicp.status != GicpStatus::kMaxIterations) {
@@ -190,6 +193,13 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         result.ground_candidates = static_cast<int>(peaks.size());
         any_consensus = !peaks.empty();
         for (const GroundAlignedCandidate& peak : peaks) {
+            // A peak next to an already refined candidate would converge to it again.
+            bool duplicate = false;
+            for (const Candidate& c : candidates) {
+                duplicate = duplicate || translation_error_m(peak.T_target_source, c.T_target_source) <
+                                             params.alternative_separation_m;
+            }
+            if (duplicate) continue;
             consider(peak.T_target_source, peak.inliers.size(), params.max_ground_coarse_free_space_violation_share);
         }
     }

@@ -46,6 +46,9 @@ struct PairRegistrationParams {
     // Coarse-to-fine G-ICP: one run per correspondence distance bound (m), each starting
     // at the previous result.
     std::vector<double> gicp_max_correspondence_m{1.5, 0.5};
+    // Iteration limit of every run but the last: the coarse runs only bring a candidate
+    // into the last run's basin, and wrong candidates otherwise use every iteration.
+    int gicp_coarse_max_iterations = 10;
     GicpParams gicp{};
     // r_c of the p2p error (m); the paper: about the largest octree voxel size.
     double p2p_cutoff_m = 1.0;

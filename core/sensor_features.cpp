@@ -49,6 +49,12 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     positions.points = cloud.points;
     PointCloud cropped;
     filter_range(positions, params.range, &cropped);
+    if (params.pre_voxel_size_m > 0.0) {
+        // Near the pole the scan is far denser than any later stage uses.
+        VoxelGridParams pre;
+        pre.voxel_size_m = params.pre_voxel_size_m;
+        cropped = voxel_downsample(cropped.points, pre);
+    }
     PointCloud clean;
     if (params.remove_outliers && cropped.size() > static_cast<std::size_t>(params.outliers.k_neighbors)) {
         StatisticalOutlierParams outliers = params.outliers;

@@ -27,6 +27,11 @@ namespace lidarfuse::core {
 
 struct SensorFeatureParams {
     RangeFilterParams range{1.0, 120.0, Eigen::Vector3d::Zero()};
+    // Voxel grid (centroids) right after the range crop (m; 0 = off). 0.15 m cuts the
+    // outlier and normal k-NN work by ~40 % (45k -> ~25k points), but on the simulated
+    // matrix it moved two intersection sensors from 2.5-2.8 cm to 3.1-3.7 cm: off until the
+    // accuracy margin is understood.
+    double pre_voxel_size_m = 0.0;
     bool remove_outliers = true;
     StatisticalOutlierParams outliers{};
     NormalParams normals{};  // normals + curvature on the pre-processed cloud
