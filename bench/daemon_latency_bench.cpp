@@ -52,7 +52,9 @@ std::int64_t monotonic_ns() {
 }
 
 std::string tool_dir() { return fs::path(LIDARFUSE_TOOL_PATH).parent_path().string(); }
-std::string daemon_path() { return (fs::path(tool_dir()).parent_path() / "daemon" / "lidarfused").string(); }
+std::string daemon_path() {
+    return (fs::path(tool_dir()).parent_path() / "daemon" / "lidarfused").string();
+}
 
 // One scan of one sensor as the replay sent it.
 struct ScanSent {
@@ -73,13 +75,16 @@ struct SensorReplay {
 struct Received {
     std::mutex mutex;
     std::map<std::int64_t, std::int64_t> cloud_arrival_ns;  // by header stamp
-    std::map<std::int64_t, std::vector<std::int64_t>> members;  // by stamp: included sensors' t_ns (0: absent)
-    std::map<std::string, std::map<std::string, std::string>> last_diagnostics;  // status name -> values
+    std::map<std::int64_t, std::vector<std::int64_t>>
+        members;  // by stamp: included sensors' t_ns (0: absent)
+    std::map<std::string, std::map<std::string, std::string>>
+        last_diagnostics;  // status name -> values
 };
 
 // Reads clouds, poses and diagnostics until `stop`; arrival times taken on wake-up.
 void subscribe(int domain, std::atomic<bool>* stop, std::atomic<bool>* matched, Received* out) {
-    const dds_entity_t participant = dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr);
+    const dds_entity_t participant =
+        dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr);
     dds_qos_t* qos = dds_create_qos();
     dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
     dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 20);
@@ -87,9 +92,12 @@ void subscribe(int domain, std::atomic<bool>* stop, std::atomic<bool>* matched, 
         const dds_entity_t topic = dds_create_topic(participant, type, name, nullptr, nullptr);
         return dds_create_reader(participant, topic, qos, nullptr);
     };
-    const dds_entity_t points = reader(&sensor_msgs_msg_dds__PointCloud2__desc, "rt/lidarfuse/points");
-    const dds_entity_t poses = reader(&lidarfuse_msgs_msg_dds__FramePoses__desc, "rt/lidarfuse/poses");
-    const dds_entity_t diagnostics = reader(&diagnostic_msgs_msg_dds__DiagnosticArray__desc, "rt/diagnostics");
+    const dds_entity_t points =
+        reader(&sensor_msgs_msg_dds__PointCloud2__desc, "rt/lidarfuse/points");
+    const dds_entity_t poses =
+        reader(&lidarfuse_msgs_msg_dds__FramePoses__desc, "rt/lidarfuse/poses");
+    const dds_entity_t diagnostics =
+        reader(&diagnostic_msgs_msg_dds__DiagnosticArray__desc, "rt/diagnostics");
     dds_delete_qos(qos);
     const dds_entity_t waitset = dds_create_waitset(participant);
     for (dds_entity_t r : {points, poses, diagnostics}) {
@@ -125,11 +133,13 @@ void subscribe(int domain, std::atomic<bool>* stop, std::atomic<bool>* matched, 
         n = dds_take(diagnostics, samples, infos, 8, 8);
         for (int i = 0; i < n; ++i) {
             if (!infos[i].valid_data) continue;
-            const auto* m = static_cast<const diagnostic_msgs_msg_dds__DiagnosticArray_*>(samples[i]);
+            const auto* m =
+                static_cast<const diagnostic_msgs_msg_dds__DiagnosticArray_*>(samples[i]);
             for (std::uint32_t s = 0; s < m->status._length; ++s) {
                 auto& values = out->last_diagnostics[m->status._buffer[s].name];
                 for (std::uint32_t k = 0; k < m->status._buffer[s].values._length; ++k) {
-                    values[m->status._buffer[s].values._buffer[k].key] = m->status._buffer[s].values._buffer[k].value;
+                    values[m->status._buffer[s].values._buffer[k].key] =
+                        m->status._buffer[s].values._buffer[k].value;
                 }
             }
         }
@@ -157,7 +167,8 @@ void replay(const fs::path& capture, std::vector<SensorReplay>* sensors) {
             first = false;
         }
         const std::int64_t deadline = start_ns + (d.timestamp_ns - first_capture_ns);
-        timespec ts{static_cast<time_t>(deadline / 1'000'000'000), static_cast<long>(deadline % 1'000'000'000)};
+        timespec ts{static_cast<time_t>(deadline / 1'000'000'000),
+                    static_cast<long>(deadline % 1'000'000'000)};
         clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
         sockaddr_in to{};
         to.sin_family = AF_INET;
@@ -200,12 +211,18 @@ std::map<std::string, double> cpu_by_stage(pid_t pid) {
             if (i == 15) stime = std::stod(field);
         }
         std::string stage = "other";
-        if (comm.rfind("lf-recv", 0) == 0) stage = "receive";
-        else if (comm == "lf-sync") stage = "sync";
-        else if (comm == "lf-fusion") stage = "fusion";
-        else if (comm == "lf-output") stage = "output";
-        else if (comm == "lidarfused") stage = "main";
-        else stage = "dds";  // Cyclone's recv, tev, dq.*, gc, ... threads
+        if (comm.rfind("lf-recv", 0) == 0)
+            stage = "receive";
+        else if (comm == "lf-sync")
+            stage = "sync";
+        else if (comm == "lf-fusion")
+            stage = "fusion";
+        else if (comm == "lf-output")
+            stage = "output";
+        else if (comm == "lidarfused")
+            stage = "main";
+        else
+            stage = "dds";  // Cyclone's recv, tev, dq.*, gc, ... threads
         out[stage] += (utime + stime) / tick;
     }
     return out;
@@ -214,7 +231,8 @@ std::map<std::string, double> cpu_by_stage(pid_t pid) {
 double percentile(std::vector<double> v, double p) {
     if (v.empty()) return 0.0;
     std::sort(v.begin(), v.end());
-    const std::size_t i = std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
+    const std::size_t i = std::min(
+        v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
     return v[i];
 }
 
@@ -233,12 +251,18 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
     for (int s = 0; s < n; ++s) {
         const auto info = ouster::load_metadata(sim / ("lidar" + std::to_string(s) + ".json"));
         const auto bound = static_cast<std::uint16_t>(46000 + (::getpid() % 500) * 16 + 2 * s);
-        config << "  - {name: lidar" << s << ", udp_port: " << bound << ", metadata: lidar" << s << ".json}\n";
-        sensors.push_back(SensorReplay{static_cast<std::uint16_t>(info.udp_port_lidar), bound,
-                                       ::socket(AF_INET, SOCK_DGRAM, 0), ouster::PacketFormat(info), {}, 0});
+        config << "  - {name: lidar" << s << ", udp_port: " << bound << ", metadata: lidar" << s
+               << ".json}\n";
+        sensors.push_back(SensorReplay{static_cast<std::uint16_t>(info.udp_port_lidar),
+                                       bound,
+                                       ::socket(AF_INET, SOCK_DGRAM, 0),
+                                       ouster::PacketFormat(info),
+                                       {},
+                                       0});
     }
-    config << "network: {bind_address: 127.0.0.1}\nsync: {queue_depth: " << queue_depth << "}\noutput:\n  directory: " << out_dir.string()
-           << "\n  dds: {domain_id: " << domain << ", frame_id: station, diagnostics_period_ms: 500}\n";
+    config << "network: {bind_address: 127.0.0.1}\nsync: {queue_depth: " << queue_depth
+           << "}\noutput:\n  directory: " << out_dir.string() << "\n  dds: {domain_id: " << domain
+           << ", frame_id: station, diagnostics_period_ms: 500}\n";
     config.close();
 
     const pid_t pid = ::fork();
@@ -253,7 +277,8 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
     Received received;
     std::atomic<bool> stop{false}, matched{false};
     std::thread reader([&] { subscribe(domain, &stop, &matched, &received); });
-    for (int i = 0; i < 1000 && !matched.load(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    for (int i = 0; i < 1000 && !matched.load(); ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     const auto cpu0 = cpu_by_stage(pid);
     const std::int64_t t0 = monotonic_ns();
@@ -279,10 +304,12 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
             const std::int64_t t = members->second[s];
             if (t == 0) continue;
             for (const auto& [frame_id, scan] : sensors[s].scans) {
-                if (static_cast<std::int64_t>(scan.reference_ns) == t) last_packet = std::max(last_packet, scan.last_send_ns);
+                if (static_cast<std::int64_t>(scan.reference_ns) == t)
+                    last_packet = std::max(last_packet, scan.last_send_ns);
             }
         }
-        if (last_packet > 0) latency_ms.push_back(static_cast<double>(arrival - last_packet) * 1e-6);
+        if (last_packet > 0)
+            latency_ms.push_back(static_cast<double>(arrival - last_packet) * 1e-6);
     }
     std::uint64_t sent = 0, received_packets = 0;
     std::size_t capture_frames = 0;
@@ -290,7 +317,8 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
         sent += sensors[s].datagrams;
         capture_frames = std::max(capture_frames, sensors[s].scans.size());
         const auto it = received.last_diagnostics.find("lidarfuse/bench/lidar" + std::to_string(s));
-        if (it != received.last_diagnostics.end()) received_packets += std::stoull(it->second.at("packets"));
+        if (it != received.last_diagnostics.end())
+            received_packets += std::stoull(it->second.at("packets"));
     }
     const auto& pipeline = received.last_diagnostics["lidarfuse/bench/pipeline"];
     const auto value = [&](const char* key) {
@@ -302,24 +330,31 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
     std::printf("daemon_latency_p99_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.99));
     std::printf("daemon_latency_samples_%s %zu frames\n", tag.c_str(), latency_ms.size());
     for (const char* stage : {"receive", "sync", "fusion", "output", "dds", "main"}) {
-        const double cpu = cpu1.count(stage) ? cpu1.at(stage) - (cpu0.count(stage) ? cpu0.at(stage) : 0.0) : 0.0;
+        const double cpu =
+            cpu1.count(stage) ? cpu1.at(stage) - (cpu0.count(stage) ? cpu0.at(stage) : 0.0) : 0.0;
         std::printf("daemon_cpu_%s_%s %.1f %%\n", stage, tag.c_str(), 100.0 * cpu / (wall_s + 1.5));
     }
     const std::uint64_t lost = sent > received_packets ? sent - received_packets : 0;
-    std::printf("daemon_packets_sent_%s %llu packets\n", tag.c_str(), static_cast<unsigned long long>(sent));
-    std::printf("daemon_packets_lost_%s %llu packets\n", tag.c_str(), static_cast<unsigned long long>(lost));
+    std::printf("daemon_packets_sent_%s %llu packets\n", tag.c_str(),
+                static_cast<unsigned long long>(sent));
+    std::printf("daemon_packets_lost_%s %llu packets\n", tag.c_str(),
+                static_cast<unsigned long long>(lost));
     std::printf("daemon_kernel_drops_%s %s packets\n", tag.c_str(), value("kernel_drops").c_str());
     const std::size_t fused = std::stoull(value("frames_fused"));
     std::printf("daemon_frames_in_capture_%s %zu frames\n", tag.c_str(), capture_frames);
     std::printf("daemon_frames_fused_%s %zu frames\n", tag.c_str(), fused);
-    std::printf("daemon_frames_dropped_before_fusion_%s %s frames\n", tag.c_str(), value("frame_queue_drops").c_str());
-    std::printf("daemon_clouds_received_%s %zu frames\n", tag.c_str(), received.cloud_arrival_ns.size());
+    std::printf("daemon_frames_dropped_before_fusion_%s %s frames\n", tag.c_str(),
+                value("frame_queue_drops").c_str());
+    std::printf("daemon_clouds_received_%s %zu frames\n", tag.c_str(),
+                received.cloud_arrival_ns.size());
     std::printf("daemon_mean_fusion_%s %s ms\n", tag.c_str(), value("mean_fusion_ms").c_str());
-    std::printf("daemon_dds_write_failures_%s %s writes\n", tag.c_str(), value("dds_write_failures").c_str());
+    std::printf("daemon_dds_write_failures_%s %s writes\n", tag.c_str(),
+                value("dds_write_failures").c_str());
     std::fflush(stdout);
     result.ok = WIFEXITED(status) && WEXITSTATUS(status) == 0 && received_packets > 0;
     result.lost = lost + std::stoull(value("kernel_drops"));
-    result.fused_share = capture_frames ? static_cast<double>(fused) / static_cast<double>(capture_frames) : 0.0;
+    result.fused_share =
+        capture_frames ? static_cast<double>(fused) / static_cast<double>(capture_frames) : 0.0;
     return result;
 }
 
@@ -346,10 +381,11 @@ int main(int argc, char** argv) {
         }
     }
     const int max_n = *std::max_element(counts.begin(), counts.end());
-    const fs::path sim = fs::temp_directory_path() / ("daemon_latency_bench_" + std::to_string(::getpid()));
+    const fs::path sim =
+        fs::temp_directory_path() / ("daemon_latency_bench_" + std::to_string(::getpid()));
     const std::string cmd = tool_dir() + "/lidarfuse sim --scenario " + scenario + " --sensors " +
-                            std::to_string(max_n) + " --seconds " + std::to_string(seconds) + " --out " +
-                            sim.string() + " > /dev/null 2>&1";
+                            std::to_string(max_n) + " --seconds " + std::to_string(seconds) +
+                            " --out " + sim.string() + " > /dev/null 2>&1";
     if (std::system(cmd.c_str()) != 0) {
         std::fprintf(stderr, "daemon_latency_bench: %s failed\n", cmd.c_str());
         return 1;

@@ -5,7 +5,8 @@
 
 namespace lidarfuse::daemon {
 
-static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "PointCloud2 data is written in host order");
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
+              "PointCloud2 data is written in host order");
 
 namespace {
 
@@ -54,13 +55,16 @@ Eigen::Isometry3d from_ros_transform(const geometry_msgs_msg_dds__Transform_& t)
 
 FrameMessageBuilder::FrameMessageBuilder(StationFrames frames) : frames_(std::move(frames)) {
     static const char* const kNames[6] = {"x", "y", "z", "intensity", "sensor_id", "dynamic"};
-    const std::uint32_t offsets[6] = {kOffsetX, kOffsetY, kOffsetZ, kOffsetIntensity, kOffsetSensorId,
-                                      kOffsetDynamic};
-    const std::uint8_t types[6] = {
-        sensor_msgs_msg_dds__PointField_Constants_FLOAT32, sensor_msgs_msg_dds__PointField_Constants_FLOAT32,
-        sensor_msgs_msg_dds__PointField_Constants_FLOAT32, sensor_msgs_msg_dds__PointField_Constants_FLOAT32,
-        sensor_msgs_msg_dds__PointField_Constants_UINT8,   sensor_msgs_msg_dds__PointField_Constants_UINT8};
-    for (int i = 0; i < 6; ++i) fields_[i] = {const_cast<char*>(kNames[i]), offsets[i], types[i], 1};
+    const std::uint32_t offsets[6] = {kOffsetX,         kOffsetY,        kOffsetZ,
+                                      kOffsetIntensity, kOffsetSensorId, kOffsetDynamic};
+    const std::uint8_t types[6] = {sensor_msgs_msg_dds__PointField_Constants_FLOAT32,
+                                   sensor_msgs_msg_dds__PointField_Constants_FLOAT32,
+                                   sensor_msgs_msg_dds__PointField_Constants_FLOAT32,
+                                   sensor_msgs_msg_dds__PointField_Constants_FLOAT32,
+                                   sensor_msgs_msg_dds__PointField_Constants_UINT8,
+                                   sensor_msgs_msg_dds__PointField_Constants_UINT8};
+    for (int i = 0; i < 6; ++i)
+        fields_[i] = {const_cast<char*>(kNames[i]), offsets[i], types[i], 1};
     cloud_.fields._buffer = fields_;
     cloud_.fields._length = cloud_.fields._maximum = 6;
     cloud_.fields._release = false;
@@ -82,12 +86,14 @@ std::int64_t FrameMessageBuilder::frame_stamp_ns(const core::FrameOutput& frame)
     std::int64_t earliest = 0;
     bool any = false;
     for (std::size_t s = 0; s < frame.health.size(); ++s) {
-        if (frame.health[s].included && (!any || frame.t_ns[s] < earliest)) earliest = frame.t_ns[s], any = true;
+        if (frame.health[s].included && (!any || frame.t_ns[s] < earliest))
+            earliest = frame.t_ns[s], any = true;
     }
     return any ? earliest : (root < frame.t_ns.size() ? frame.t_ns[root] : 0);
 }
 
-const sensor_msgs_msg_dds__PointCloud2_& FrameMessageBuilder::cloud(const core::FrameOutput& frame) {
+const sensor_msgs_msg_dds__PointCloud2_& FrameMessageBuilder::cloud(
+    const core::FrameOutput& frame) {
     const auto& c = frame.cloud;
     const std::size_t n = c.points.size();
     cloud_data_.resize(n * kPointStep);  // grows to the largest cloud, then stays
@@ -114,9 +120,9 @@ const tf2_msgs_msg_dds__TFMessage_& FrameMessageBuilder::tf(const core::FrameOut
     return tf(frame.T_root_sensor, frame.t_ns, valid);
 }
 
-const tf2_msgs_msg_dds__TFMessage_& FrameMessageBuilder::tf(const std::vector<Eigen::Isometry3d>& T_root_sensor,
-                                                             const std::vector<std::int64_t>& t_ns,
-                                                             const std::vector<bool>& valid) {
+const tf2_msgs_msg_dds__TFMessage_& FrameMessageBuilder::tf(
+    const std::vector<Eigen::Isometry3d>& T_root_sensor, const std::vector<std::int64_t>& t_ns,
+    const std::vector<bool>& valid) {
     transforms_.clear();
     for (std::size_t s = 0; s < frames_.sensor_names.size() && s < T_root_sensor.size(); ++s) {
         if (!valid[s] || frames_.sensor_names[s] == frames_.fused_frame) continue;
@@ -131,7 +137,8 @@ const tf2_msgs_msg_dds__TFMessage_& FrameMessageBuilder::tf(const std::vector<Ei
     return tf_;
 }
 
-const lidarfuse_msgs_msg_dds__FramePoses_& FrameMessageBuilder::poses(const core::FrameOutput& frame) {
+const lidarfuse_msgs_msg_dds__FramePoses_& FrameMessageBuilder::poses(
+    const core::FrameOutput& frame) {
     poses_.header.stamp = to_ros_time(frame_stamp_ns(frame));
     poses_.frame_index = frame.frame_index;
     const std::size_t n = std::min(sensor_poses_.size(), frame.health.size());
@@ -156,8 +163,8 @@ DiagnosticsBuilder::DiagnosticsBuilder(StationFrames frames) : frames_(std::move
     array_.header.frame_id = c_str(frames_.fused_frame);
 }
 
-void DiagnosticsBuilder::add(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values, const char* key,
-                             std::string value) {
+void DiagnosticsBuilder::add(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values,
+                             const char* key, std::string value) {
     strings_.push_back(std::move(value));
     values->push_back({const_cast<char*>(key), c_str(strings_.back())});
 }
@@ -172,8 +179,8 @@ std::string number(double v, const char* format = "%.3f") {
 
 }  // namespace
 
-const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(const PipelineStats& stats,
-                                                                           std::int64_t stamp_ns) {
+const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
+    const PipelineStats& stats, std::int64_t stamp_ns) {
     strings_.clear();
     values_.assign(stats.sensors.size() + 1, {});
     status_.assign(stats.sensors.size() + 1, diagnostic_msgs_msg_dds__DiagnosticStatus_{});
@@ -190,7 +197,8 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(const
             level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN;
         }
         if (s.state != SensorState::kDisabled && stats.frames_fused > 0 && !s.pose_valid) {
-            level = std::max<std::uint8_t>(level, diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN);
+            level = std::max<std::uint8_t>(
+                level, diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN);
             message += "; not registered";
         }
         st.level = level;
@@ -247,7 +255,8 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(const
     add(v, "dds_write_failures", std::to_string(stats.dds_write_failures));
     for (std::size_t i = 0; i < status_.size(); ++i) {
         status_[i].values._buffer = values_[i].data();
-        status_[i].values._length = status_[i].values._maximum = static_cast<std::uint32_t>(values_[i].size());
+        status_[i].values._length = status_[i].values._maximum =
+            static_cast<std::uint32_t>(values_[i].size());
         status_[i].values._release = false;
     }
     array_.header.stamp = to_ros_time(stamp_ns);

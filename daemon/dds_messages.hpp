@@ -76,10 +76,12 @@ private:
 class DiagnosticsBuilder {
 public:
     explicit DiagnosticsBuilder(StationFrames frames);
-    const diagnostic_msgs_msg_dds__DiagnosticArray_& build(const PipelineStats& stats, std::int64_t stamp_ns);
+    const diagnostic_msgs_msg_dds__DiagnosticArray_& build(const PipelineStats& stats,
+                                                           std::int64_t stamp_ns);
 
 private:
-    void add(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values, const char* key, std::string value);
+    void add(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values, const char* key,
+             std::string value);
 
     StationFrames frames_;
     // Strings of the current message; the C structs point into them. A deque never moves

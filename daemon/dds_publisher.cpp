@@ -18,7 +18,8 @@ dds_qos_t* writer_qos(int depth, double max_blocking_ms, bool transient_local) {
     dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE,
                          static_cast<dds_duration_t>(max_blocking_ms * 1e6));
     dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, depth);
-    dds_qset_durability(qos, transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+    dds_qset_durability(qos,
+                        transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
     const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
     dds_qset_data_representation(qos, 1, &xcdr1);
     return qos;
@@ -32,8 +33,9 @@ int resolve_domain_id(int configured, const char* ros_domain_id) {
     char* end = nullptr;
     const long id = std::strtol(ros_domain_id, &end, 10);
     if (*end != '\0' || id < 0 || id > 232) {
-        throw std::runtime_error(std::string("ROS_DOMAIN_ID: expected an integer in 0..232, got \"") +
-                                 ros_domain_id + "\" (or set output.dds.domain_id)");
+        throw std::runtime_error(
+            std::string("ROS_DOMAIN_ID: expected an integer in 0..232, got \"") + ros_domain_id +
+            "\" (or set output.dds.domain_id)");
     }
     return static_cast<int>(id);
 }
@@ -49,14 +51,17 @@ DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames)
       frame_builder_(frames_),
       static_builder_(frames_),
       diagnostics_builder_(frames_) {
-    participant_ = dds_create_participant(static_cast<dds_domainid_t>(domain_id_), nullptr, nullptr);
+    participant_ =
+        dds_create_participant(static_cast<dds_domainid_t>(domain_id_), nullptr, nullptr);
     if (participant_ < 0) {
-        throw std::runtime_error("DDS: cannot create a participant on domain " + std::to_string(domain_id_) +
-                                 ": " + dds_error(participant_) + " (check CYCLONEDDS_URI)");
+        throw std::runtime_error("DDS: cannot create a participant on domain " +
+                                 std::to_string(domain_id_) + ": " + dds_error(participant_) +
+                                 " (check CYCLONEDDS_URI)");
     }
-    const auto make_writer = [&](const std::string& name, const dds_topic_descriptor_t* type, int depth,
-                                 bool transient_local) {
-        const dds_entity_t topic = dds_create_topic(participant_, type, name.c_str(), nullptr, nullptr);
+    const auto make_writer = [&](const std::string& name, const dds_topic_descriptor_t* type,
+                                 int depth, bool transient_local) {
+        const dds_entity_t topic =
+            dds_create_topic(participant_, type, name.c_str(), nullptr, nullptr);
         if (topic < 0) {
             dds_delete(participant_);
             throw std::runtime_error("DDS: cannot create topic " + name + ": " + dds_error(topic));
@@ -66,7 +71,8 @@ DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames)
         dds_delete_qos(qos);
         if (writer < 0) {
             dds_delete(participant_);
-            throw std::runtime_error("DDS: cannot create a writer on " + name + ": " + dds_error(writer));
+            throw std::runtime_error("DDS: cannot create a writer on " + name + ": " +
+                                     dds_error(writer));
         }
         return writer;
     };
@@ -81,7 +87,8 @@ DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames)
     // As tf2's static broadcaster: one message with every static transform, depth 1, so a
     // late joiner gets exactly the latest set.
     tf_static_writer_ = make_writer("rt/tf_static", &tf2_msgs_msg_dds__TFMessage__desc, 1, true);
-    diagnostics_writer_ = make_writer("rt/diagnostics", &diagnostic_msgs_msg_dds__DiagnosticArray__desc, depth, false);
+    diagnostics_writer_ = make_writer(
+        "rt/diagnostics", &diagnostic_msgs_msg_dds__DiagnosticArray__desc, depth, false);
     static_T_.assign(frames_.sensor_names.size(), Eigen::Isometry3d::Identity());
     static_valid_.assign(frames_.sensor_names.size(), false);
 }
@@ -110,7 +117,8 @@ bool DdsPublisher::static_transforms_changed(const core::FrameOutput& frame) con
         if (!static_valid_[s]) return true;
         const Eigen::Isometry3d delta = static_T_[s].inverse() * frame.T_root_sensor[s];
         const double angle_deg = Eigen::AngleAxisd(delta.rotation()).angle() * 180.0 / kPi;
-        if (delta.translation().norm() > config_.static_update_m || angle_deg > config_.static_update_deg) {
+        if (delta.translation().norm() > config_.static_update_m ||
+            angle_deg > config_.static_update_deg) {
             return true;
         }
     }
@@ -129,9 +137,11 @@ void DdsPublisher::publish_frame(const core::FrameOutput& frame) {
             static_T_[s] = frame.T_root_sensor[s];
             static_valid_[s] = true;
         }
-        for (std::size_t s = 0; s < t_ns.size() && s < frame.t_ns.size(); ++s) t_ns[s] = frame.t_ns[s];
+        for (std::size_t s = 0; s < t_ns.size() && s < frame.t_ns.size(); ++s)
+            t_ns[s] = frame.t_ns[s];
         // A failed write is retried with the next frame's poses.
-        static_pending_ = !write(tf_static_writer_, &static_builder_.tf(static_T_, t_ns, static_valid_), &tf_static_);
+        static_pending_ = !write(tf_static_writer_,
+                                 &static_builder_.tf(static_T_, t_ns, static_valid_), &tf_static_);
     }
 }
 

@@ -37,7 +37,8 @@ struct DdsCounters {
     std::uint64_t written = 0;   // samples accepted by dds_write
     std::uint64_t failures = 0;  // dds_write errors (timeouts included)
     std::uint64_t timeouts = 0;  // ... of which a reader held the writer past max_blocking_ms
-    std::uint64_t clouds = 0, tf = 0, tf_static = 0, poses = 0, diagnostics = 0;  // written per topic
+    std::uint64_t clouds = 0, tf = 0, tf_static = 0, poses = 0,
+                  diagnostics = 0;  // written per topic
 };
 
 // The domain the publisher joins: the configured one, else $ROS_DOMAIN_ID, else 0. Throws

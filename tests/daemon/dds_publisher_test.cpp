@@ -1,13 +1,14 @@
 // DdsPublisher against plain Cyclone readers in this process: ROS 2 type and topic names,
 // the writers' QoS as discovered, message contents round trip, rt/tf_static for a late
 // joiner, and a reader that stops taking never holding the writer.
+#include "daemon/dds_publisher.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
 #include <map>
 
-#include "daemon/dds_publisher.hpp"
 #include "tests/daemon/dds_test_support.hpp"
 
 namespace lidarfuse::daemon {
@@ -22,7 +23,8 @@ StationFrames frames3() { return {"test", "station", {"north", "east", "south"},
 Eigen::Isometry3d pose(double x, double y, double z, double yaw_deg) {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.translation() = Eigen::Vector3d(x, y, z);
-    T.linear() = Eigen::AngleAxisd(yaw_deg * kPi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    T.linear() =
+        Eigen::AngleAxisd(yaw_deg * kPi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     return T;
 }
 
@@ -57,7 +59,8 @@ protected:
         test::use_loopback_dds();
         config_.domain_id = test::unique_domain_id();
         config_.max_blocking_ms = 20.0;
-        participant_ = dds_create_participant(static_cast<dds_domainid_t>(config_.domain_id), nullptr, nullptr);
+        participant_ = dds_create_participant(static_cast<dds_domainid_t>(config_.domain_id),
+                                              nullptr, nullptr);
         ASSERT_GT(participant_, 0) << dds_strretcode(participant_);
     }
     void TearDown() override {
@@ -71,11 +74,13 @@ TEST(DdsNames, TopicsAndTypesFollowRos2Mapping) {
     EXPECT_EQ(ros_topic_name("lidarfuse", "points"), "rt/lidarfuse/points");
     EXPECT_EQ(ros_topic_name("site/a", "poses"), "rt/site/a/poses");
     EXPECT_EQ(ros_topic_name("", "points"), "rt/points");
-    EXPECT_STREQ(sensor_msgs_msg_dds__PointCloud2__desc.m_typename, "sensor_msgs::msg::dds_::PointCloud2_");
+    EXPECT_STREQ(sensor_msgs_msg_dds__PointCloud2__desc.m_typename,
+                 "sensor_msgs::msg::dds_::PointCloud2_");
     EXPECT_STREQ(tf2_msgs_msg_dds__TFMessage__desc.m_typename, "tf2_msgs::msg::dds_::TFMessage_");
     EXPECT_STREQ(diagnostic_msgs_msg_dds__DiagnosticArray__desc.m_typename,
                  "diagnostic_msgs::msg::dds_::DiagnosticArray_");
-    EXPECT_STREQ(lidarfuse_msgs_msg_dds__FramePoses__desc.m_typename, "lidarfuse_msgs::msg::dds_::FramePoses_");
+    EXPECT_STREQ(lidarfuse_msgs_msg_dds__FramePoses__desc.m_typename,
+                 "lidarfuse_msgs::msg::dds_::FramePoses_");
 }
 
 TEST(DdsNames, DomainFromConfigElseRosDomainIdElseZero) {
@@ -99,11 +104,13 @@ TEST(DdsNames, RosTimeSplitsNanoseconds) {
 
 TEST_F(DdsPublisherTest, MessagesRoundTripWithRosQos) {
     DdsPublisher publisher(config_, frames3());
-    DdsReader<sensor_msgs_msg_dds__PointCloud2_> points(participant_, &sensor_msgs_msg_dds__PointCloud2__desc,
+    DdsReader<sensor_msgs_msg_dds__PointCloud2_> points(participant_,
+                                                        &sensor_msgs_msg_dds__PointCloud2__desc,
                                                         "rt/lidarfuse/points", test::reader_qos(4));
-    DdsReader<tf2_msgs_msg_dds__TFMessage_> tf(participant_, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf",
-                                               test::reader_qos(4));
-    DdsReader<lidarfuse_msgs_msg_dds__FramePoses_> poses(participant_, &lidarfuse_msgs_msg_dds__FramePoses__desc,
+    DdsReader<tf2_msgs_msg_dds__TFMessage_> tf(participant_, &tf2_msgs_msg_dds__TFMessage__desc,
+                                               "rt/tf", test::reader_qos(4));
+    DdsReader<lidarfuse_msgs_msg_dds__FramePoses_> poses(participant_,
+                                                         &lidarfuse_msgs_msg_dds__FramePoses__desc,
                                                          "rt/lidarfuse/poses", test::reader_qos(4));
     ASSERT_TRUE(points.wait_matched() && tf.wait_matched() && poses.wait_matched());
 
@@ -203,7 +210,8 @@ TEST_F(DdsPublisherTest, MessagesRoundTripWithRosQos) {
             EXPECT_FALSE(m.sensors._buffer[2].included);
             EXPECT_STREQ(m.sensors._buffer[2].track_state, "missing");
             EXPECT_DOUBLE_EQ(m.sensors._buffer[1].fitness, 0.75);
-            EXPECT_TRUE(from_ros_transform(m.sensors._buffer[2].transform).isApprox(f.T_root_sensor[2], 1e-12));
+            EXPECT_TRUE(from_ros_transform(m.sensors._buffer[2].transform)
+                            .isApprox(f.T_root_sensor[2], 1e-12));
         });
         return pose_messages >= 1;
     }));
@@ -240,21 +248,22 @@ TEST_F(DdsPublisherTest, LateJoinerGetsTheLatestStaticTransforms) {
     EXPECT_EQ(publisher.counters().tf_static, 2u);
 
     // A subscriber that starts now, transient-local like tf2's static listener.
-    DdsReader<tf2_msgs_msg_dds__TFMessage_> late(participant_, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf_static",
-                                                 test::reader_qos(1, true));
+    DdsReader<tf2_msgs_msg_dds__TFMessage_> late(participant_, &tf2_msgs_msg_dds__TFMessage__desc,
+                                                 "rt/tf_static", test::reader_qos(1, true));
     int received = 0;
     ASSERT_TRUE(test::eventually([&] {
         received += late.take([&](const tf2_msgs_msg_dds__TFMessage_& m) {
             ASSERT_EQ(m.transforms._length, 3u);
             EXPECT_STREQ(m.transforms._buffer[1].child_frame_id, "east");
-            EXPECT_TRUE(from_ros_transform(m.transforms._buffer[1].transform).isApprox(f.T_root_sensor[1], 1e-12));
+            EXPECT_TRUE(from_ros_transform(m.transforms._buffer[1].transform)
+                            .isApprox(f.T_root_sensor[1], 1e-12));
         });
         return received >= 1;
     }));
     EXPECT_EQ(received, 1);  // depth 1: only the latest set, not its history
     // And a late volatile reader of rt/tf gets nothing old.
-    DdsReader<tf2_msgs_msg_dds__TFMessage_> late_tf(participant_, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf",
-                                                    test::reader_qos(10));
+    DdsReader<tf2_msgs_msg_dds__TFMessage_> late_tf(
+        participant_, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", test::reader_qos(10));
     ASSERT_TRUE(late_tf.wait_matched());
     EXPECT_EQ(late_tf.take([](const tf2_msgs_msg_dds__TFMessage_&) {}), 0);
 }
@@ -268,8 +277,8 @@ TEST_F(DdsPublisherTest, StalledReaderCostsCountedTimeoutsNotAStall) {
     dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
     dds_qset_history(qos, DDS_HISTORY_KEEP_ALL, 0);
     dds_qset_resource_limits(qos, 2, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
-    DdsReader<lidarfuse_msgs_msg_dds__FramePoses_> stalled(participant_, &lidarfuse_msgs_msg_dds__FramePoses__desc,
-                                                           "rt/lidarfuse/poses", qos);
+    DdsReader<lidarfuse_msgs_msg_dds__FramePoses_> stalled(
+        participant_, &lidarfuse_msgs_msg_dds__FramePoses__desc, "rt/lidarfuse/poses", qos);
     ASSERT_TRUE(stalled.wait_matched());
     constexpr int kFrames = 12;
     for (int i = 0; i < kFrames; ++i) publisher.publish_frame(frame(i, 100));
@@ -292,7 +301,8 @@ TEST_F(DdsPublisherTest, StalledReaderCostsCountedTimeoutsNotAStall) {
 TEST_F(DdsPublisherTest, DiagnosticsCarryStateLevelsAndCounters) {
     DdsPublisher publisher(config_, frames3());
     DdsReader<diagnostic_msgs_msg_dds__DiagnosticArray_> diag(
-        participant_, &diagnostic_msgs_msg_dds__DiagnosticArray__desc, "rt/diagnostics", test::reader_qos(4));
+        participant_, &diagnostic_msgs_msg_dds__DiagnosticArray__desc, "rt/diagnostics",
+        test::reader_qos(4));
     ASSERT_TRUE(diag.wait_matched());
     PipelineStats stats;
     stats.frames_fused = 10;

@@ -35,7 +35,8 @@ inline dds_qos_t* reader_qos(int depth, bool transient_local = false) {
     dds_qos_t* qos = dds_create_qos();
     dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
     dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, depth);
-    dds_qset_durability(qos, transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+    dds_qset_durability(qos,
+                        transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
     return qos;
 }
 
@@ -43,13 +44,14 @@ template <typename T>
 class DdsReader {
 public:
     // Takes ownership of `qos` (deleted here).
-    DdsReader(dds_entity_t participant, const dds_topic_descriptor_t* type, const std::string& topic,
-              dds_qos_t* qos) {
+    DdsReader(dds_entity_t participant, const dds_topic_descriptor_t* type,
+              const std::string& topic, dds_qos_t* qos) {
         topic_ = dds_create_topic(participant, type, topic.c_str(), nullptr, nullptr);
         if (topic_ < 0) throw std::runtime_error("topic " + topic + ": " + dds_strretcode(topic_));
         reader_ = dds_create_reader(participant, topic_, qos, nullptr);
         dds_delete_qos(qos);
-        if (reader_ < 0) throw std::runtime_error("reader " + topic + ": " + dds_strretcode(reader_));
+        if (reader_ < 0)
+            throw std::runtime_error("reader " + topic + ": " + dds_strretcode(reader_));
     }
     ~DdsReader() { dds_delete(reader_); }
     DdsReader(const DdsReader&) = delete;
@@ -79,7 +81,8 @@ public:
     bool wait_matched(int tries = 500) const {
         for (int i = 0; i < tries; ++i) {
             dds_subscription_matched_status_t st{};
-            if (dds_get_subscription_matched_status(reader_, &st) == DDS_RETCODE_OK && st.current_count > 0) {
+            if (dds_get_subscription_matched_status(reader_, &st) == DDS_RETCODE_OK &&
+                st.current_count > 0) {
                 return true;
             }
             std::this_thread::sleep_for(std::chrono::milliseconds(10));

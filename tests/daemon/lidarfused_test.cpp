@@ -30,15 +30,25 @@ TEST(Lidarfused, CheckAcceptsAValidConfigAndListsEveryProblemOfABadOne) {
     test::use_loopback_dds();
     test::TempDir dir("lfd");
     std::string out;
-    ASSERT_EQ(test::run_command(test::tool_path() + " sim --scenario curve --sensors 2 --seconds 0.1 --out " +
-                                    dir.path().string(), &out), 0) << out;
+    ASSERT_EQ(test::run_command(test::tool_path() +
+                                    " sim --scenario curve --sensors 2 --seconds 0.1 --out " +
+                                    dir.path().string(),
+                                &out),
+              0)
+        << out;
     out.clear();
-    EXPECT_EQ(test::run_command(test::daemon_path() + " --config " + (dir.path() / "station.yaml").string() +
-                                    " --check", &out), 0) << out;
-    std::ofstream(dir.path() / "bad.yaml") << "sensors:\n  - {name: x, udp_port: 99999, metadata: nope.json}\n"
-                                              "registration: {voxel_size_m: 0}\n";
+    EXPECT_EQ(test::run_command(test::daemon_path() + " --config " +
+                                    (dir.path() / "station.yaml").string() + " --check",
+                                &out),
+              0)
+        << out;
+    std::ofstream(dir.path() / "bad.yaml")
+        << "sensors:\n  - {name: x, udp_port: 99999, metadata: nope.json}\n"
+           "registration: {voxel_size_m: 0}\n";
     out.clear();
-    EXPECT_EQ(test::run_command(test::daemon_path() + " --config " + (dir.path() / "bad.yaml").string(), &out), 1);
+    EXPECT_EQ(test::run_command(
+                  test::daemon_path() + " --config " + (dir.path() / "bad.yaml").string(), &out),
+              1);
     EXPECT_THAT(out, HasSubstr("sensors[0].udp_port"));
     EXPECT_THAT(out, HasSubstr("sensors[0].metadata: file not found"));
     EXPECT_THAT(out, HasSubstr("registration.voxel_size_m"));
@@ -62,20 +72,23 @@ struct DdsSeen {
     std::set<std::int64_t> cloud_stamps, pose_frames;
     std::size_t clouds = 0, poses = 0, tf_messages = 0, points = 0;
     std::set<int> cloud_sensor_ids;
-    std::vector<io::PoseRecord> tf;  // rt/tf as poses.csv rows (frame = message number)
-    bool all_ok_seen = false;        // a diagnostics message with every sensor's state OK
+    std::vector<io::PoseRecord> tf;    // rt/tf as poses.csv rows (frame = message number)
+    bool all_ok_seen = false;          // a diagnostics message with every sensor's state OK
     std::set<std::string> registered;  // sensors some diagnostics message called registered
     std::map<std::string, std::string> last_pipeline;  // the last pipeline status values
 };
 
 struct DaemonReaders {
     explicit DaemonReaders(int domain)
-        : participant(dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr)),
-          points(participant, &sensor_msgs_msg_dds__PointCloud2__desc, "rt/lidarfuse/points", test::reader_qos(50)),
-          poses(participant, &lidarfuse_msgs_msg_dds__FramePoses__desc, "rt/lidarfuse/poses", test::reader_qos(50)),
+        : participant(
+              dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr)),
+          points(participant, &sensor_msgs_msg_dds__PointCloud2__desc, "rt/lidarfuse/points",
+                 test::reader_qos(50)),
+          poses(participant, &lidarfuse_msgs_msg_dds__FramePoses__desc, "rt/lidarfuse/poses",
+                test::reader_qos(50)),
           tf(participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", test::reader_qos(50)),
-          diagnostics(participant, &diagnostic_msgs_msg_dds__DiagnosticArray__desc, "rt/diagnostics",
-                      test::reader_qos(50)) {}
+          diagnostics(participant, &diagnostic_msgs_msg_dds__DiagnosticArray__desc,
+                      "rt/diagnostics", test::reader_qos(50)) {}
     ~DaemonReaders() { dds_delete(participant); }
 
     void take(DdsSeen* seen) {
@@ -84,7 +97,8 @@ struct DaemonReaders {
             seen->cloud_stamps.insert(daemon::from_ros_time(m.header.stamp));
             seen->points += m.width;
             for (std::uint32_t i = 0; i < m.width; i += 97) {
-                seen->cloud_sensor_ids.insert(m.data._buffer[i * m.point_step + daemon::kOffsetSensorId]);
+                seen->cloud_sensor_ids.insert(
+                    m.data._buffer[i * m.point_step + daemon::kOffsetSensorId]);
             }
         });
         poses.take([&](const lidarfuse_msgs_msg_dds__FramePoses_& m) {
@@ -111,7 +125,8 @@ struct DaemonReaders {
                 if (i + 1 == m.status._length) {
                     seen->last_pipeline = values;
                 } else {
-                    all_ok = all_ok && values["state"] == "OK" && std::string(st.message).rfind("OK", 0) == 0;
+                    all_ok = all_ok && values["state"] == "OK" &&
+                             std::string(st.message).rfind("OK", 0) == 0;
                     if (values["pose_valid"] == "true") seen->registered.insert(st.hardware_id);
                 }
             }
@@ -130,8 +145,12 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     test::TempDir dir("lfd-run");
     const auto d = dir.path();
     std::string out;
-    ASSERT_EQ(test::run_command(test::tool_path() + " sim --scenario curve --sensors 2 --seconds 1 --out " +
-                                    (d / "sim").string(), &out), 0) << out;
+    ASSERT_EQ(test::run_command(test::tool_path() +
+                                    " sim --scenario curve --sensors 2 --seconds 1 --out " +
+                                    (d / "sim").string(),
+                                &out),
+              0)
+        << out;
     const std::uint16_t p0 = base_port(), p1 = static_cast<std::uint16_t>(p0 + 2);
     test::use_loopback_dds();  // this process and the daemon
     const int domain = test::unique_domain_id();
@@ -139,8 +158,10 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
         << "station: test\nroot: lidar0\nsensors:\n"
         << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"
         << "  - {name: lidar1, udp_port: " << p1 << ", metadata: lidar1.json}\n"
-        << "network: {bind_address: 127.0.0.1}\noutput:\n  directory: " << (d / "out").string() << "\n"
-        << "  dds: {domain_id: " << domain << ", frame_id: station_world, diagnostics_period_ms: 200}\n";
+        << "network: {bind_address: 127.0.0.1}\noutput:\n  directory: " << (d / "out").string()
+        << "\n"
+        << "  dds: {domain_id: " << domain
+        << ", frame_id: station_world, diagnostics_period_ms: 200}\n";
     // Subscribed before the daemon starts, so every frame it publishes can be counted.
     DaemonReaders readers(domain);
     DdsSeen seen;
@@ -169,27 +190,33 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     out.clear();
     int replay_status = -1;
     std::thread replay([&] {
-        replay_status = test::run_command(test::tool_path() + " replay " + (d / "sim" / "capture.pcap").string() +
-                                              " --port-map 7502:" + std::to_string(p0) + " --port-map 7504:" +
-                                              std::to_string(p1), &out);
+        replay_status = test::run_command(
+            test::tool_path() + " replay " + (d / "sim" / "capture.pcap").string() +
+                " --port-map 7502:" + std::to_string(p0) + " --port-map 7504:" + std::to_string(p1),
+            &out);
     });
     // Take while the replay runs and for two seconds after (fusion catching up).
-    test::eventually([&] {
-        readers.take(&seen);
-        return replay_status >= 0;
-    }, 6000);
+    test::eventually(
+        [&] {
+            readers.take(&seen);
+            return replay_status >= 0;
+        },
+        6000);
     replay.join();
     EXPECT_EQ(replay_status, 0) << out;
-    test::eventually([&] {
-        readers.take(&seen);
-        return false;
-    }, 200);
+    test::eventually(
+        [&] {
+            readers.take(&seen);
+            return false;
+        },
+        200);
     // A late joiner of rt/tf_static (transient-local, as tf2's static listener) gets the
     // calibration from the running daemon.
     std::set<std::string> static_transforms;
     {
         test::DdsReader<tf2_msgs_msg_dds__TFMessage_> tf_static(
-            readers.participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf_static", test::reader_qos(1, true));
+            readers.participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf_static",
+            test::reader_qos(1, true));
         test::eventually([&] {
             tf_static.take([&](const tf2_msgs_msg_dds__TFMessage_& m) {
                 for (std::uint32_t i = 0; i < m.transforms._length; ++i) {
@@ -240,8 +267,8 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     EXPECT_EQ(seen.last_pipeline["kernel_drops"], "0");
     std::string registered_names;
     for (const auto& name : seen.registered) registered_names += " " + name;
-    std::printf("lidarfused over DDS: %zu frames fused, %zu clouds, %zu points, registered:%s\n", frames_fused,
-                seen.clouds, seen.points, registered_names.c_str());
+    std::printf("lidarfused over DDS: %zu frames fused, %zu clouds, %zu points, registered:%s\n",
+                frames_fused, seen.clouds, seen.points, registered_names.c_str());
     // Every sensor the daemon registered is on rt/tf_static, on rt/tf, and in the clouds.
     std::set<std::string> on_tf;
     for (const auto& r : seen.tf) on_tf.insert(r.sensor);
@@ -255,8 +282,12 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     // rt/tf against the simulator's ground truth, with the same evaluator as poses.csv.
     io::write_pose_csv(d / "tf.csv", seen.tf);
     std::string tf_eval;
-    ASSERT_EQ(test::run_command(test::tool_path() + " eval --gt " + (d / "sim" / "ground_truth.csv").string() +
-                                    " --poses " + (d / "tf.csv").string() + " --root lidar0", &tf_eval), 0) << tf_eval;
+    ASSERT_EQ(test::run_command(test::tool_path() + " eval --gt " +
+                                    (d / "sim" / "ground_truth.csv").string() + " --poses " +
+                                    (d / "tf.csv").string() + " --root lidar0",
+                                &tf_eval),
+              0)
+        << tf_eval;
     EXPECT_THAT(tf_eval, HasSubstr("eval_mean_strict_rmse_trans 0.0")) << tf_eval;  // below 10 cm
     std::printf("rt/tf against ground truth: strict RMSE %s\n",
                 test::line_after(tf_eval, "eval_mean_strict_rmse_trans ").value_or("?").c_str());
@@ -265,13 +296,123 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     EXPECT_EQ(root, "lidar0");
     ASSERT_EQ(extrinsics.size(), 2u);
     EXPECT_TRUE(extrinsics[0].registered);
-    for (const auto& e : extrinsics) EXPECT_EQ(e.registered, seen.registered.count(e.name) > 0) << e.name;
+    for (const auto& e : extrinsics)
+        EXPECT_EQ(e.registered, seen.registered.count(e.name) > 0) << e.name;
     EXPECT_FALSE(std::filesystem::exists(d / "out" / "extrinsics.yaml.tmp"));
 
     out.clear();
-    ASSERT_EQ(test::run_command(test::tool_path() + " eval --gt " + (d / "sim" / "ground_truth.csv").string() +
-                                    " --poses " + (d / "out" / "poses.csv").string(), &out), 0) << out;
+    ASSERT_EQ(test::run_command(test::tool_path() + " eval --gt " +
+                                    (d / "sim" / "ground_truth.csv").string() + " --poses " +
+                                    (d / "out" / "poses.csv").string(),
+                                &out),
+              0)
+        << out;
     EXPECT_THAT(out, HasSubstr("eval_mean_strict_rmse_trans 0.0"));  // centimetres, not metres
+}
+
+pid_t start_daemon(const std::filesystem::path& config, const std::filesystem::path& log) {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        std::freopen(log.string().c_str(), "w", stderr);
+        std::freopen(log.string().c_str(), "a", stdout);
+        ::execl(test::daemon_path().c_str(), "lidarfused", "--config", config.string().c_str(),
+                nullptr);
+        ::_exit(127);
+    }
+    return pid;
+}
+
+std::string read_text(const std::filesystem::path& file) {
+    std::ifstream in(file);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// `lidarfuse sim --live` sends a station's packets in real time while it simulates them
+// (no capture file): the daemon fuses them and publishes every fused frame on DDS.
+TEST(Lidarfused, FusesALiveSimulatedStationOntoDds) {
+    test::use_loopback_dds();
+    test::TempDir dir("lfd-live");
+    const auto d = dir.path();
+    std::string out;
+    // The metadata of the same virtual sensors, before the live run starts.
+    ASSERT_EQ(test::run_command(test::tool_path() +
+                                    " sim --scenario curve --sensors 2 --seconds 0.05 --out " +
+                                    (d / "meta").string(),
+                                &out),
+              0)
+        << out;
+    const auto p0 = static_cast<std::uint16_t>(30000 + (::getpid() % 4000) * 4);
+    const int domain = test::unique_domain_id();
+    std::ofstream(d / "meta" / "daemon.yaml")
+        << "station: live\nsensors:\n"
+        << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"
+        << "  - {name: lidar1, udp_port: " << p0 + 2 << ", metadata: lidar1.json}\n"
+        << "network: {bind_address: 127.0.0.1}\noutput:\n  directory: " << (d / "out").string()
+        << "\n"
+        << "  dds: {domain_id: " << domain << ", frame_id: station_world}\n";
+    DaemonReaders readers(domain);
+    DdsSeen seen;
+    ChildGuard guard{start_daemon(d / "meta" / "daemon.yaml", d / "daemon.log")};
+    ASSERT_TRUE(test::eventually(
+        [&] { return read_text(d / "daemon.log").find("listening on UDP") != std::string::npos; },
+        1000));
+    ASSERT_TRUE(readers.points.wait_matched());
+    int sim_status = -1;
+    std::string sim_out;
+    std::thread live([&] {
+        sim_status = test::run_command(
+            test::tool_path() +
+                " sim --scenario curve --sensors 2 --seconds 1 --live --to 127.0.0.1:" +
+                std::to_string(p0) + " --out " + (d / "live").string(),
+            &sim_out);
+    });
+    test::eventually(
+        [&] {
+            readers.take(&seen);
+            return sim_status >= 0;
+        },
+        12000);
+    live.join();
+    EXPECT_EQ(sim_status, 0) << sim_out;
+    test::eventually(
+        [&] {
+            readers.take(&seen);
+            return false;
+        },
+        200);
+    ASSERT_EQ(::kill(guard.pid, SIGTERM), 0);
+    int status = 0;
+    ASSERT_EQ(::waitpid(guard.pid, &status, 0), guard.pid);
+    guard.pid = 0;
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    test::eventually(
+        [&] {
+            readers.take(&seen);
+            return false;
+        },
+        30);
+    const std::string text = read_text(d / "daemon.log");
+    const auto fused = test::line_after(text, "stopped: fused ");
+    ASSERT_TRUE(fused.has_value()) << text;
+    const std::size_t frames_fused = std::stoul(*fused);
+    EXPECT_GE(frames_fused, 1u) << text;
+    EXPECT_EQ(seen.clouds, frames_fused) << text;
+    EXPECT_EQ(seen.poses, frames_fused);
+    EXPECT_EQ(seen.tf_messages, frames_fused);
+    EXPECT_TRUE(seen.all_ok_seen);
+    EXPECT_EQ(seen.last_pipeline["dds_write_failures"], "0");
+    io::write_pose_csv(d / "tf.csv", seen.tf);
+    std::string tf_eval;
+    ASSERT_EQ(test::run_command(test::tool_path() + " eval --gt " +
+                                    (d / "live" / "ground_truth.csv").string() + " --poses " +
+                                    (d / "tf.csv").string() + " --root lidar0",
+                                &tf_eval),
+              0)
+        << tf_eval;
+    EXPECT_THAT(tf_eval, HasSubstr("eval_mean_strict_rmse_trans 0.0")) << tf_eval;
+    std::printf("live: %zu frames fused, registered %zu sensors, rt/tf strict RMSE %s\n",
+                frames_fused, seen.registered.size(),
+                test::line_after(tf_eval, "eval_mean_strict_rmse_trans ").value_or("?").c_str());
 }
 
 // The daemon speaks systemd's notify protocol: READY=1 once bound, WATCHDOG=1 while the
@@ -281,10 +422,15 @@ TEST(Lidarfused, SpeaksTheSystemdNotifyProtocol) {
     test::TempDir dir("lfd-notify");
     const auto d = dir.path();
     std::string out;
-    ASSERT_EQ(test::run_command(test::tool_path() + " sim --scenario curve --sensors 1 --seconds 0.1 --out " +
-                                    (d / "sim").string(), &out), 0) << out;
+    ASSERT_EQ(test::run_command(test::tool_path() +
+                                    " sim --scenario curve --sensors 1 --seconds 0.1 --out " +
+                                    (d / "sim").string(),
+                                &out),
+              0)
+        << out;
     std::ofstream(d / "sim" / "daemon.yaml")
-        << "sensors:\n  - {name: lidar0, udp_port: " << base_port() + 1 << ", metadata: lidar0.json}\n"
+        << "sensors:\n  - {name: lidar0, udp_port: " << base_port() + 1
+        << ", metadata: lidar0.json}\n"
         << "network: {bind_address: 127.0.0.1}\noutput: {directory: " << (d / "out").string()
         << ", dds: {domain_id: " << test::unique_domain_id() << "}}\n";
     const std::string socket_path = (d / "notify.sock").string();
