@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <fstream>
@@ -188,7 +189,7 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     ASSERT_TRUE(listening);
     ASSERT_TRUE(readers.points.wait_matched()) << "the daemon's writer was not discovered";
     out.clear();
-    int replay_status = -1;
+    std::atomic<int> replay_status{-1};
     std::thread replay([&] {
         replay_status = test::run_command(
             test::tool_path() + " replay " + (d / "sim" / "capture.pcap").string() +
@@ -203,7 +204,7 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
         },
         6000);
     replay.join();
-    EXPECT_EQ(replay_status, 0) << out;
+    EXPECT_EQ(replay_status.load(), 0) << out;
     test::eventually(
         [&] {
             readers.take(&seen);
@@ -357,7 +358,7 @@ TEST(Lidarfused, FusesALiveSimulatedStationOntoDds) {
         [&] { return read_text(d / "daemon.log").find("listening on UDP") != std::string::npos; },
         1000));
     ASSERT_TRUE(readers.points.wait_matched());
-    int sim_status = -1;
+    std::atomic<int> sim_status{-1};
     std::string sim_out;
     std::thread live([&] {
         sim_status = test::run_command(
@@ -373,7 +374,7 @@ TEST(Lidarfused, FusesALiveSimulatedStationOntoDds) {
         },
         12000);
     live.join();
-    EXPECT_EQ(sim_status, 0) << sim_out;
+    EXPECT_EQ(sim_status.load(), 0) << sim_out;
     test::eventually(
         [&] {
             readers.take(&seen);
