@@ -299,6 +299,10 @@ SensorInfo parse_metadata(const std::string& json_text, const std::string& sourc
         std::ostringstream msg;
         msg << "malformed JSON at byte " << e.byte << ": " << e.what();
         throw MetadataError(source_name, {msg.str()});
+    } catch (const json::exception& e) {
+        // The parser's other errors, e.g. out_of_range for a number beyond a double
+        // ("5.3e84133"), found by fuzz/fuzz_ouster_metadata: still malformed metadata.
+        throw MetadataError(source_name, {std::string("malformed JSON: ") + e.what()});
     }
     return parse_root(root, source_name);
 }

@@ -8,6 +8,7 @@
 
 #include "daemon/daemon_config.hpp"
 #include "daemon/pipeline.hpp"
+#include "drivers/ouster/metadata.hpp"
 #include "drivers/station/station_config.hpp"
 #include "tests/reliability/station_fixture.hpp"
 #include "tests/support/test_data.hpp"
@@ -37,6 +38,20 @@ TEST(MalformedConfig, SensorNamesThatWouldCorruptOutputFilesAreRefused) {
     for (const char* good : {"lidar0", "north-pole_2.top", "L"}) {
         const std::string yaml = std::string("sensors:\n  - {name: ") + good + ", udp_port: 7502, metadata: m.json}\n";
         EXPECT_EQ(station::parse_station_config(yaml, "s.yaml", dir.path()).sensors.at(0).name, good);
+    }
+}
+
+// Found by fuzz/fuzz_ouster_metadata: a number too large for a double made the JSON
+// parser throw out_of_range, which escaped parse_metadata() as something other than
+// MetadataError (a tool would print a bare nlohmann message without the file's name).
+TEST(MalformedConfig, JsonNumberOverflowIsAMetadataErrorNamingTheFile) {
+    const std::string text = R"({"lidar_mode": "1024x10", "beam_altitude_angles": [5.3e84133]})";
+    try {
+        ouster::parse_metadata(text, "overflow.json");
+        FAIL() << "accepted a number beyond a double";
+    } catch (const ouster::MetadataError& error) {
+        EXPECT_THAT(error.what(), HasSubstr("overflow.json"));
+        EXPECT_THAT(error.what(), HasSubstr("malformed JSON"));
     }
 }
 

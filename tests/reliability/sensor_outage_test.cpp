@@ -165,7 +165,11 @@ TEST_F(SensorOutage, FusionSlowerThanInputDropsOldestFramesAndNoPackets) {
     ASSERT_EQ(replay.join(), 0) << replay.output();
     const auto sent = test::figure(replay.output(), "replay_datagrams_sent");
     ASSERT_TRUE(sent);
-    std::this_thread::sleep_for(500ms);
+    // Let the receivers drain their sockets (slow under the sanitizers) before stopping.
+    wait_for([&] {
+        const auto now = pipeline.stats();
+        return now.datagrams + now.kernel_drops >= static_cast<std::uint64_t>(*sent);
+    }, 20s);
     pipeline.stop();
     const auto st = pipeline.stats();
     EXPECT_GT(st.frame_queue_drops, 0u) << "fusion kept up at 80 frames/s: the test did not overload it";
