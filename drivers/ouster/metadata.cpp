@@ -230,11 +230,15 @@ SensorInfo parse_root(const json& root, const std::string& source) {
     if (absent(p.beam + "beam_to_lidar_transform")) {
         info.beam_to_lidar_transform = Eigen::Matrix4d::Identity();
         info.beam_to_lidar_transform(0, 3) = info.lidar_origin_to_beam_origin_mm;
-    } else if (r.matrix4(p.beam + "beam_to_lidar_transform", &info.beam_to_lidar_transform) &&
-               have_n) {
+    } else if (r.matrix4(p.beam + "beam_to_lidar_transform", &info.beam_to_lidar_transform)) {
         const double n_from_matrix =
             std::hypot(info.beam_to_lidar_transform(0, 3), info.beam_to_lidar_transform(2, 3));
-        if (std::fabs(n_from_matrix - info.lidar_origin_to_beam_origin_mm) > 1e-3) {
+        if (!have_n) {
+            // n absent: the matrix says where the beams start. The product line's default
+            // would contradict it (fuzz_ouster_metadata: the nested form written back then
+            // failed to parse), so n follows the matrix.
+            info.lidar_origin_to_beam_origin_mm = n_from_matrix;
+        } else if (std::fabs(n_from_matrix - info.lidar_origin_to_beam_origin_mm) > 1e-3) {
             std::ostringstream msg;
             msg << "translation gives a beam origin offset of " << n_from_matrix
                 << " mm, contradicting " << p.beam << "lidar_origin_to_beam_origin_mm "

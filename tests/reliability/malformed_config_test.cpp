@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "daemon/daemon_config.hpp"
 #include "daemon/pipeline.hpp"
@@ -53,6 +54,30 @@ TEST(MalformedConfig, JsonNumberOverflowIsAMetadataErrorNamingTheFile) {
         EXPECT_THAT(error.what(), HasSubstr("overflow.json"));
         EXPECT_THAT(error.what(), HasSubstr("malformed JSON"));
     }
+}
+
+// Found by fuzz/fuzz_ouster_metadata: without lidar_origin_to_beam_origin_mm, n took the
+// product line's default even where beam_to_lidar_transform says otherwise, so the nested
+// form written back (both keys) contradicted itself and no longer parsed. n now follows
+// the matrix when it is absent.
+TEST(MalformedConfig, BeamOriginFollowsTheMatrixWhenAbsentAndTheRewrittenFormParses) {
+    ouster::SensorInfo info;
+    info.prod_line = "OS-0-64-U02";  // default n would be 27.67 mm
+    info.beam_altitude_angles_deg.assign(64, 0.0);
+    for (int r = 0; r < 64; ++r) info.beam_altitude_angles_deg[static_cast<std::size_t>(r)] = 40.0 - 1.25 * r;
+    info.beam_azimuth_angles_deg.assign(64, 0.0);
+    info.pixel_shift_by_row.assign(64, 0);
+    info.lidar_origin_to_beam_origin_mm = 27.116;
+    info.beam_to_lidar_transform = Eigen::Matrix4d::Identity();
+    info.beam_to_lidar_transform(0, 3) = 27.116;
+    ASSERT_TRUE(ouster::validate_sensor_info(info).empty());
+    auto doc = nlohmann::json::parse(ouster::to_nested_json(info));
+    ASSERT_TRUE(doc["beam_intrinsics"].contains("lidar_origin_to_beam_origin_mm"));
+    doc["beam_intrinsics"].erase("lidar_origin_to_beam_origin_mm");
+    const auto read = ouster::parse_metadata(doc.dump(), "no-n.json");
+    EXPECT_NEAR(read.lidar_origin_to_beam_origin_mm, 27.116, 1e-9);
+    const auto again = ouster::parse_metadata(ouster::to_nested_json(read), "rewritten.json");
+    EXPECT_NEAR(again.lidar_origin_to_beam_origin_mm, 27.116, 1e-9);
 }
 
 class MalformedMetadata : public ::testing::Test {
