@@ -201,10 +201,19 @@ struct FusionEngine::Impl {
         out.t_ns.assign(n, 0);
         out.health.assign(n, SensorHealth{});
         if (in.sensors.size() != n) return out;  // wrong shape: nothing to do, nothing invented
+        // usable: the scan is there and holds enough points; an empty one counts as missing.
+        std::vector<char> usable(n, 0);
         for (std::size_t s = 0; s < n; ++s) {
-            out.t_ns[s] = in.sensors[s].t_ns;
-            out.health[s].included = in.sensors[s].present;
-            out.health[s].points_in = in.sensors[s].points.size();
+            const auto& scan = in.sensors[s];
+            usable[s] = scan.present && scan.points.size() >= params.min_scan_points;
+            out.t_ns[s] = scan.t_ns;
+            out.health[s].included = usable[s] != 0;
+            out.health[s].points_in = scan.points.size();
+            if (scan.present && !usable[s]) {
+                out.health[s].event = "scan with " + std::to_string(scan.points.size()) +
+                                      " points skipped (fewer than " +
+                                      std::to_string(params.min_scan_points) + ")";
+            }
         }
         const std::size_t root = params.root_sensor;
 
@@ -216,17 +225,17 @@ struct FusionEngine::Impl {
         const auto t_init = Clock::now();
         if (pending && pending->job->done()) apply_initialisation(frame, &started, &out);
         if (!pending && !tracks[root]->initialised()) {
-            if (!in.sensors[root].present) return out;
+            if (!usable[root]) return out;
             std::vector<std::size_t> all;
             for (std::size_t s = 0; s < n; ++s) {
-                if (in.sensors[s].present) all.push_back(s);
+                if (usable[s]) all.push_back(s);
             }
             request_initialisation(frame, in, all, true, Eigen::Isometry3d::Identity(), &started, &out);
-        } else if (!pending && in.sensors[root].present) {
+        } else if (!pending && usable[root]) {
             std::vector<std::size_t> wanted;
             const bool retry_due = frame - last_retry_frame >= params.retry_interval_frames;
             for (std::size_t s = 0; s < n; ++s) {
-                if (s == root || !in.sensors[s].present) continue;
+                if (s == root || !usable[s]) continue;
                 if (needs_reinit[s] || (!tracks[s]->initialised() && retry_due)) wanted.push_back(s);
             }
             if (!wanted.empty()) {
@@ -258,7 +267,7 @@ struct FusionEngine::Impl {
             if (!tracks[s]->initialised()) continue;
             predicted[s] = is_started(s) ? tracks[s]->reference_pose()
                                          : tracks[s]->predict(in.sensors[s].t_ns);
-            if (in.sensors[s].present) active.push_back(s);
+            if (usable[s]) active.push_back(s);
         }
         const int threads = std::max(1, params.num_threads);
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
@@ -354,7 +363,7 @@ struct FusionEngine::Impl {
                 continue;
             }
             h.pose_valid = true;
-            const bool present = in.sensors[s].present;
+            const bool present = usable[s];
             const auto node = graph.node_pose(node_id(s, frame));
             out.T_root_sensor[s] = node && summary.usable ? *node : predicted[s];
             if (is_started(s)) {

@@ -73,6 +73,10 @@ struct FusionParams {
     int divergence_frames = 2;
     // Sensors that failed the initial registration are retried every this many frames.
     int retry_interval_frames = 10;
+    // A scan that arrives with fewer valid points than this (lens covered, every return
+    // invalid) is treated as missing for that frame: the sensor keeps its predicted pose
+    // and is not taken for diverged.
+    std::size_t min_scan_points = 100;
     bool build_fused_cloud = true;
     int num_threads = 1;
 };
