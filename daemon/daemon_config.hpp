@@ -56,7 +56,10 @@ struct OutputConfig {
 struct HealthConfig {
     double stale_after_ms = 250.0;  // a sensor with no scan for this long is STALE
     double lost_after_ms = 2000.0;  // ... and LOST after this long
-    double min_completeness = 0.5;  // scans below this share of columns are not fused
+    // Scans below this share of columns are not fused. Above 0.5 on purpose: a sensor
+    // switched from 1024 to 512 columns keeps its packet size and delivers frames exactly
+    // half complete, which the 1024-column metadata would project at wrong azimuths.
+    double min_completeness = 0.75;
 };
 
 struct DaemonConfig {
