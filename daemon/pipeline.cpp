@@ -55,6 +55,7 @@ struct ScanMessage {
     std::int64_t complete_steady_ns = 0;  // when the scan's last packet had been assembled
     std::vector<Eigen::Vector3d> points;
     std::vector<float> point_dt_s;
+    std::vector<float> intensity;
 };
 
 // Everything the receiving thread owns for one sensor; counters read by other threads.
@@ -219,6 +220,7 @@ struct Pipeline::Impl {
                 m.t_ns = static_cast<std::int64_t>(t) + s->time_offset_ns;
                 m.points = s->cloud.cloud.points;
                 ouster::point_times_s(s->cloud, t, &m.point_dt_s);
+                ouster::point_intensity(scan, s->cloud, &m.intensity);
                 m.complete_steady_ns = steady_ns();
                 s->last_scan_steady_ns.store(m.complete_steady_ns, std::memory_order_relaxed);
                 s->clock_offset_ns.store(m.t_ns - realtime_ns(), std::memory_order_relaxed);
@@ -339,6 +341,7 @@ struct Pipeline::Impl {
                 in.t_ns = frame->members[s]->t_ns;
                 in.points = std::move(frame->members[s]->points);
                 in.point_dt_s = std::move(frame->members[s]->point_dt_s);
+                in.intensity = std::move(frame->members[s]->intensity);
             }
             auto out = engine->process(input);
             if (out.initial_job) {

@@ -23,6 +23,7 @@ struct PendingScan {
     std::int64_t t_ns = 0;
     std::vector<Eigen::Vector3d> points;
     std::vector<float> point_dt_s;
+    std::vector<float> intensity;
 };
 
 // CPU time of the whole process (every thread), ms: unlike wall-clock time, it does not grow
@@ -99,6 +100,7 @@ int run_fuse(int argc, char** argv) {
             in.t_ns = frame.members[s]->t_ns;
             in.points = std::move(frame.members[s]->points);
             in.point_dt_s = std::move(frame.members[s]->point_dt_s);
+            in.intensity = std::move(frame.members[s]->intensity);
         }
         const double cpu0_ms = process_cpu_ms();
         const auto out = engine.process(input);
@@ -138,6 +140,7 @@ int run_fuse(int argc, char** argv) {
         pending.t_ns = scan.t_ns;
         pending.points = scan.cloud->cloud.points;
         ouster::point_times_s(*scan.cloud, static_cast<std::uint64_t>(scan.sensor_t_ns), &pending.point_dt_s);
+        ouster::point_intensity(*scan.scan, *scan.cloud, &pending.intensity);
         synchroniser.push(scan.sensor, scan.t_ns, scan.capture_time_ns, std::move(pending));
         while (frames < max_frames) {
             auto frame = synchroniser.poll(scan.capture_time_ns);

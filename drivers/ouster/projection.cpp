@@ -62,4 +62,19 @@ void point_times_s(const ScanCloud& cloud, std::uint64_t reference_ns, std::vect
     }
 }
 
+void point_intensity(const LidarScan& scan, const ScanCloud& cloud, std::vector<float>* out) {
+    out->assign(cloud.cloud.size(), 0.0f);
+    if (cloud.pixel_index.size() != cloud.cloud.size()) return;
+    const std::size_t pixels = cloud.rows * cloud.columns;
+    const auto fill = [&](const auto& field) {
+        if (field.size() != pixels) return false;
+        for (std::size_t i = 0; i < out->size(); ++i) {
+            const std::uint32_t px = cloud.pixel_index[i];
+            if (px < pixels) (*out)[i] = static_cast<float>(field[px]);
+        }
+        return true;
+    };
+    if (!fill(scan.signal)) fill(scan.reflectivity);
+}
+
 }  // namespace lidarfuse::ouster

@@ -52,6 +52,11 @@ std::uint64_t scan_reference_time_ns(const LidarScan& scan);
 // Needs the pixel indices (ProjectionParams::keep_pixel_index); zeros otherwise.
 void point_times_s(const ScanCloud& cloud, std::uint64_t reference_ns, std::vector<float>* out);
 
+// Each point's intensity for consumers of the fused cloud (PointCloud2 `intensity`): the
+// first return's signal (photon counts) where the profile carries it, else its
+// reflectivity, else 0. Needs the pixel indices; zeros otherwise.
+void point_intensity(const LidarScan& scan, const ScanCloud& cloud, std::vector<float>* out);
+
 // Projects `scan` into `out` (previous contents replaced). The LUT must have the scan's
 // H x W; a mismatch, or a second return the scan lacks, yields an empty cloud and false.
 bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionParams& params,

@@ -72,6 +72,7 @@ struct ChildGuard {
 struct DdsSeen {
     std::set<std::int64_t> cloud_stamps, pose_frames;
     std::size_t clouds = 0, poses = 0, tf_messages = 0, points = 0;
+    std::size_t sampled_points = 0, sampled_with_intensity = 0;  // every 97th point
     std::set<int> cloud_sensor_ids;
     std::vector<io::PoseRecord> tf;    // rt/tf as poses.csv rows (frame = message number)
     bool all_ok_seen = false;          // a diagnostics message with every sensor's state OK
@@ -100,6 +101,11 @@ struct DaemonReaders {
             for (std::uint32_t i = 0; i < m.width; i += 97) {
                 seen->cloud_sensor_ids.insert(
                     m.data._buffer[i * m.point_step + daemon::kOffsetSensorId]);
+                float intensity = 0.0f;
+                std::memcpy(&intensity, m.data._buffer + i * m.point_step + daemon::kOffsetIntensity,
+                            sizeof intensity);
+                ++seen->sampled_points;
+                seen->sampled_with_intensity += intensity > 0.0f;
             }
         });
         poses.take([&](const lidarfuse_msgs_msg_dds__FramePoses_& m) {
@@ -262,6 +268,9 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     EXPECT_EQ(seen.tf_messages, frames_fused);
     EXPECT_GT(seen.points, 1000u * frames_fused);
     EXPECT_TRUE(seen.cloud_sensor_ids.count(0));  // the root's points, at least, are in the clouds
+    // Intensity is the sensors' signal: most returns of the simulated street have some.
+    EXPECT_GT(seen.sampled_with_intensity, seen.sampled_points / 2)
+        << seen.sampled_with_intensity << " of " << seen.sampled_points << " sampled points";
     EXPECT_TRUE(seen.all_ok_seen) << "no diagnostics with every sensor OK";
     EXPECT_EQ(seen.last_pipeline["frames_fused"], std::to_string(frames_fused));
     EXPECT_EQ(seen.last_pipeline["dds_write_failures"], "0");

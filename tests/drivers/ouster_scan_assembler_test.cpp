@@ -5,6 +5,8 @@
 // (The frame bookkeeping alone is tested on bare headers in ouster_frame_window_test.)
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <atomic>
 #include <cstdint>
 #include <cstdlib>
@@ -442,6 +444,37 @@ TEST(Projection, OnePointPerReturnAtTheLookupTablePosition) {
     EXPECT_TRUE(out.cloud.empty());
     const XyzLut wrong = make_xyz_lut(make_info(UdpProfileLidar::kRng15Rfl8Nir8, 16, 128));
     EXPECT_FALSE(project_scan(single.last, wrong, {}, &out));
+}
+
+// The fused cloud's intensity: the signal field where the profile has one, else
+// reflectivity, pixel by pixel.
+TEST(Projection, IntensityIsSignalOrElseReflectivityOfEachPointsPixel) {
+    for (const auto profile : {UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, UdpProfileLidar::kRng15Rfl8Nir8}) {
+        const auto info = make_info(profile);
+        Rig rig(info);
+        rig.send_frame(3);
+        const LidarScan& s = rig.last;
+        const bool has_signal = !s.signal.empty();
+        EXPECT_EQ(has_signal, profile == UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual);
+        ScanCloud cloud;
+        ASSERT_TRUE(project_scan(s, make_xyz_lut(info), {}, &cloud));
+        ASSERT_FALSE(cloud.cloud.empty());
+        std::vector<float> intensity;
+        point_intensity(s, cloud, &intensity);
+        ASSERT_EQ(intensity.size(), cloud.cloud.size());
+        std::size_t nonzero = 0;
+        for (std::size_t k = 0; k < intensity.size(); ++k) {
+            const std::uint32_t px = cloud.pixel_index[k];
+            const float expected = has_signal ? static_cast<float>(s.signal[px]) : static_cast<float>(s.reflectivity[px]);
+            ASSERT_EQ(intensity[k], expected) << "point " << k;
+            nonzero += intensity[k] != 0.0f;
+        }
+        EXPECT_GT(nonzero, intensity.size() / 2) << "the test's packets carry intensities";
+        // Without pixel indices the intensities are unknown: zeros, never misattributed.
+        cloud.pixel_index.clear();
+        point_intensity(s, cloud, &intensity);
+        EXPECT_EQ(std::count(intensity.begin(), intensity.end(), 0.0f), static_cast<long>(intensity.size()));
+    }
 }
 
 }  // namespace
