@@ -194,6 +194,7 @@ const char* to_string(SensorRegistrationStatus status) {
         case SensorRegistrationStatus::kTooFewKeypoints: return "too few keypoints";
         case SensorRegistrationStatus::kDegenerate: return "degenerate: plane only";
         case SensorRegistrationStatus::kNoConsistentCorrespondences: return "no consistent correspondences";
+        case SensorRegistrationStatus::kCancelled: return "cancelled";
         case SensorRegistrationStatus::kNotConnectedToRoot: return "not connected to the root sensor";
     }
     return "unknown";
@@ -219,6 +220,20 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
     result.sensors.resize(n);
     if (n == 0) return result;
 
+    const auto cancelled = [&] {
+        return params.cancel != nullptr && params.cancel->load(std::memory_order_acquire);
+    };
+    // A cancelled run registers nothing (never a half-checked pose).
+    const auto give_up = [&] {
+        for (SensorRegistration& sr : result.sensors) {
+            sr.registered = false;
+            sr.status = SensorRegistrationStatus::kCancelled;
+            sr.T_root_sensor = Eigen::Isometry3d::Identity();
+        }
+        result.timings.total_s = seconds_since(start_total);
+        return result;
+    };
+
     // Steps 2-4 per sensor, sensors in parallel.
     auto start = Clock::now();
     std::vector<SensorFeatures> features(n);
@@ -228,10 +243,12 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
         feature_params.num_threads = std::max(1, threads / outer);
 #pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
         for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+            if (cancelled()) continue;
             features[i] = compute_sensor_features(clouds[i], feature_params, params.min_keypoints);
         }
     }
     result.timings.features_s = seconds_since(start);
+    if (cancelled()) return give_up();
 
     // Steps 5-8 for every pair i > j, pairs in parallel.
     start = Clock::now();
@@ -250,12 +267,14 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
         pair_params.num_threads = std::max(1, threads / outer);
 #pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
         for (std::int64_t e = 0; e < n_pairs; ++e) {
+            if (cancelled()) continue;
             const int i = result.pairs[e].source;
             const int j = result.pairs[e].target;
             result.pairs[e] = register_pair(features[i], features[j], i, j, pair_params);
         }
     }
     result.timings.pairs_s = seconds_since(start);
+    if (cancelled()) return give_up();
 
     // Step 9: pose graph over the good pairs, root fixed; drop edges that break cycle
     // consistency, one at a time (the worst first), and solve again.

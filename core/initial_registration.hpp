@@ -20,6 +20,7 @@
 // sensors and pairs.
 
 #include <Eigen/Geometry>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -45,6 +46,10 @@ struct InitialRegistrationParams {
     int consensus_samples = 256;
     std::uint32_t consensus_seed = 1;
     int num_threads = 1;
+    // Optional stop request, read between sensors and between pairs (a worker thread's
+    // job is cancelled when the daemon stops): once set, the remaining work is skipped
+    // and no sensor is registered (status kCancelled). Must outlive the call.
+    const std::atomic<bool>* cancel = nullptr;
 };
 
 // Sets the parameters the paper ties together: r_c = the largest octree voxel size.
@@ -57,6 +62,7 @@ enum class SensorRegistrationStatus {
     kDegenerate,                  // sees a plane only
     kNoConsistentCorrespondences, // no pair with another sensor survived RANSAC / G-ICP
     kNotConnectedToRoot,          // registered against others, but no path to the root
+    kCancelled,                   // InitialRegistrationParams::cancel was set
 };
 
 const char* to_string(SensorRegistrationStatus status);

@@ -7,7 +7,9 @@ namespace lidarfuse::core {
 
 InitialRegistrationJob::InitialRegistrationJob(std::vector<PointCloud> clouds,
                                                const InitialRegistrationParams& params)
-    : clouds_(std::move(clouds)), params_(params), num_clouds_(clouds_.size()) {}
+    : clouds_(std::move(clouds)), params_(params), num_clouds_(clouds_.size()) {
+    params_.cancel = &cancel_;  // cancel() stops a running registration between its steps
+}
 
 void InitialRegistrationJob::run() {
     if (claimed_.exchange(true, std::memory_order_acq_rel)) return;  // already run or running

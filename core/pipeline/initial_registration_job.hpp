@@ -9,8 +9,9 @@
 // any time. The job owns copies of its clouds, so it never touches the engine. result() may
 // be read only after done() returned true (done() is an acquire of run()'s release). run()
 // runs the registration at most once: a second or concurrent call returns at once.
-// Cancellation is checked before the registration starts (register_initial has no cancel
-// point of its own yet), so cancel() spares a worker a job it has not begun.
+// Cancellation is checked before the registration starts and, through
+// InitialRegistrationParams::cancel, between its sensors and pairs: a cancelled job ends
+// within one sensor's features or one pair's registration, with no sensor registered.
 
 #include <atomic>
 #include <cstddef>

@@ -125,5 +125,27 @@ TEST(InitialRegistration, NothingToRegister) {
     EXPECT_EQ(r.sensors[0].status, SensorRegistrationStatus::kEmptyCloud);
 }
 
+// A stop request (the daemon shutting down) ends the run early with nothing registered:
+// set before the call, nothing is computed; the flag is read, not just stored.
+TEST(InitialRegistration, CancelledRunRegistersNothing) {
+    const auto T_world_sensor = testing::street_sensor_poses();
+    const auto clouds = scan_all(testing::street_scene(), {T_world_sensor[0], T_world_sensor[1]});
+    std::atomic<bool> cancel{true};
+    InitialRegistrationParams params = test_params();
+    params.cancel = &cancel;
+    const InitialRegistrationResult r = register_initial(clouds, params);
+    ASSERT_EQ(r.sensors.size(), 2u);
+    for (const SensorRegistration& s : r.sensors) {
+        EXPECT_FALSE(s.registered);
+        EXPECT_EQ(s.status, SensorRegistrationStatus::kCancelled);
+        EXPECT_EQ(s.num_keypoints, 0u);  // the features were never computed
+    }
+    EXPECT_STREQ(to_string(SensorRegistrationStatus::kCancelled), "cancelled");
+    // The same clouds register when nobody asks to stop.
+    cancel = false;
+    const InitialRegistrationResult ok = register_initial(clouds, params);
+    EXPECT_TRUE(ok.sensors[1].registered) << to_string(ok.sensors[1].status);
+}
+
 }  // namespace
 }  // namespace lidarfuse::core
