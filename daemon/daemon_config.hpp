@@ -25,8 +25,10 @@ struct SyncConfig {
     double reset_jump_ms = 2000.0;
     // Synchronised frames waiting for the fusion thread (and fused ones for the output
     // thread); when full the oldest is dropped and counted. While fusion is slower than the
-    // frame rate, a frame waits up to this many fusion times: 1 gives the freshest output.
-    int queue_depth = 4;
+    // frame rate, a frame waits up to this many fusion times: 1 gives the freshest output
+    // (measured, 4 sensors on 2 cores: median latency 42 ms at 1 against 297 ms at 4, with
+    // the same number of frames fused).
+    int queue_depth = 1;
 };
 
 // DDS output (daemon/dds_publisher.hpp): topics and types follow ROS 2's DDS mapping.
