@@ -62,22 +62,9 @@ int main(int argc, char** argv) {
     std::printf("initial_registration_pose_graph_ms %.1f ms\n", 1e3 * median(graph));
     // Wall time inside each stage, summed over sensors / pairs (last run); stages of
     // different sensors / pairs overlap in time, and on a loaded machine include waiting.
-    core::SensorFeatureTimings f;
-    for (const auto& s : result.sensors) {
-        f.preprocess_s += s.timings.preprocess_s;
-        f.normals_s += s.timings.normals_s;
-        f.octree_s += s.timings.octree_s;
-        f.keypoints_s += s.timings.keypoints_s;
-        f.fpfh_s += s.timings.fpfh_s;
-        f.gicp_cloud_s += s.timings.gicp_cloud_s;
-    }
-    core::PairTimings p;
-    for (const auto& pair : result.pairs) {
-        p.matching_s += pair.timings.matching_s;
-        p.ransac_s += pair.timings.ransac_s;
-        p.gicp_s += pair.timings.gicp_s;
-        p.p2p_s += pair.timings.p2p_s;
-    }
+    const core::StageTimeSums sums = core::sum_stage_timings(result);
+    const core::SensorFeatureTimings& f = sums.features;
+    const core::PairTimings& p = sums.pairs;
     std::printf("stage_preprocess_sum_ms %.1f ms\n", 1e3 * f.preprocess_s);
     std::printf("stage_normals_sum_ms %.1f ms\n", 1e3 * f.normals_s);
     std::printf("stage_octree_sum_ms %.1f ms\n", 1e3 * f.octree_s);

@@ -307,24 +307,9 @@ int main(int argc, char** argv) {
                      dir.c_str(), registered, n, wrong, result.timings.total_s, result.timings.features_s,
                      result.timings.pairs_s, line.c_str());
         {
-            core::SensorFeatureTimings ft;
-            for (const auto& sr : result.sensors) {
-                ft.preprocess_s += sr.timings.preprocess_s;
-                ft.normals_s += sr.timings.normals_s;
-                ft.octree_s += sr.timings.octree_s;
-                ft.keypoints_s += sr.timings.keypoints_s;
-                ft.fpfh_s += sr.timings.fpfh_s;
-                ft.ground_s += sr.timings.ground_s;
-                ft.gicp_cloud_s += sr.timings.gicp_cloud_s;
-            }
-            core::PairTimings pt;
-            for (const auto& pr : result.pairs) {
-                pt.matching_s += pr.timings.matching_s;
-                pt.ransac_s += pr.timings.ransac_s;
-                pt.ground_search_s += pr.timings.ground_search_s;
-                pt.gicp_s += pr.timings.gicp_s;
-                pt.p2p_s += pr.timings.p2p_s;
-            }
+            const core::StageTimeSums sums = core::sum_stage_timings(result);
+            const core::SensorFeatureTimings& ft = sums.features;
+            const core::PairTimings& pt = sums.pairs;
             std::fprintf(stderr,
                          "  stage sums ms: preprocess %.0f normals %.0f octree %.0f sift %.0f fpfh %.0f ground %.0f "
                          "gicp_cloud %.0f | matching %.0f ground_search %.0f ransac %.0f gicp %.0f p2p %.0f\n",

@@ -211,6 +211,29 @@ InitialRegistrationParams default_initial_registration_params() {
     return params;
 }
 
+StageTimeSums sum_stage_timings(const InitialRegistrationResult& result) {
+    StageTimeSums sums;
+    SensorFeatureTimings& f = sums.features;
+    for (const SensorRegistration& s : result.sensors) {
+        f.preprocess_s += s.timings.preprocess_s;
+        f.normals_s += s.timings.normals_s;
+        f.octree_s += s.timings.octree_s;
+        f.keypoints_s += s.timings.keypoints_s;
+        f.fpfh_s += s.timings.fpfh_s;
+        f.ground_s += s.timings.ground_s;
+        f.gicp_cloud_s += s.timings.gicp_cloud_s;
+    }
+    PairTimings& p = sums.pairs;
+    for (const PairResult& pair : result.pairs) {
+        p.matching_s += pair.timings.matching_s;
+        p.ransac_s += pair.timings.ransac_s;
+        p.gicp_s += pair.timings.gicp_s;
+        p.p2p_s += pair.timings.p2p_s;
+        p.ground_search_s += pair.timings.ground_search_s;
+    }
+    return sums;
+}
+
 InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds,
                                            const InitialRegistrationParams& params) {
     const auto start_total = Clock::now();

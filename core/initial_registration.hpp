@@ -96,6 +96,14 @@ struct InitialRegistrationResult {
     std::size_t num_registered() const;
 };
 
+// Time inside each stage summed over the sensors and over the pairs. They run in
+// parallel, so the sums exceed the wall-clock stage times in result.timings.
+struct StageTimeSums {
+    SensorFeatureTimings features;
+    PairTimings pairs;
+};
+StageTimeSums sum_stage_timings(const InitialRegistrationResult& result);
+
 InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds,
                                            const InitialRegistrationParams& params =
                                                default_initial_registration_params());

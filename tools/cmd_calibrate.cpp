@@ -228,24 +228,9 @@ int run_calibrate(int argc, char** argv) {
     std::printf("calibrate_pose_graph_time %.1f ms\n", 1e3 * result.timings.pose_graph_s);
     // Time inside each stage summed over sensors / pairs (they run in parallel, so these
     // add up to more than the wall-clock stages above).
-    core::SensorFeatureTimings f;
-    for (const auto& s : result.sensors) {
-        f.preprocess_s += s.timings.preprocess_s;
-        f.normals_s += s.timings.normals_s;
-        f.octree_s += s.timings.octree_s;
-        f.keypoints_s += s.timings.keypoints_s;
-        f.fpfh_s += s.timings.fpfh_s;
-        f.ground_s += s.timings.ground_s;
-        f.gicp_cloud_s += s.timings.gicp_cloud_s;
-    }
-    core::PairTimings pt;
-    for (const auto& p : result.pairs) {
-        pt.matching_s += p.timings.matching_s;
-        pt.ground_search_s += p.timings.ground_search_s;
-        pt.ransac_s += p.timings.ransac_s;
-        pt.gicp_s += p.timings.gicp_s;
-        pt.p2p_s += p.timings.p2p_s;
-    }
+    const core::StageTimeSums sums = core::sum_stage_timings(result);
+    const core::SensorFeatureTimings& f = sums.features;
+    const core::PairTimings& pt = sums.pairs;
     const std::pair<const char*, double> stages[] = {
         {"preprocess", f.preprocess_s}, {"normals", f.normals_s},       {"octree", f.octree_s},
         {"sift", f.keypoints_s},        {"fpfh", f.fpfh_s},             {"ground_plane", f.ground_s},
