@@ -3,7 +3,6 @@
 #include <pthread.h>
 #include <spdlog/spdlog.h>
 
-#include <ctime>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -12,16 +11,10 @@
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/fusion_engine.hpp"
 #include "daemon/dds_publisher.hpp"
-#include "daemon/drop_oldest_queue.hpp"
+#include "daemon/sensor_ingest.hpp"
 #include "drivers/io/cloud_ply.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/pose_csv.hpp"
-#include "drivers/net/ipv4_address.hpp"
-#include "drivers/net/udp_receiver.hpp"
-#include "drivers/ouster/projection.hpp"
-#include "drivers/ouster/scan_assembler.hpp"
-#include "drivers/ouster/sensor_router.hpp"
-#include "drivers/ouster/xyz_lut.hpp"
 
 namespace lidarfuse::daemon {
 
@@ -35,57 +28,7 @@ const char* to_string(SensorState state) {
     return "?";
 }
 
-namespace {
-
 using Clock = std::chrono::steady_clock;
-
-std::int64_t steady_ns() {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count();
-}
-
-std::int64_t realtime_ns() {
-    timespec ts{};
-    ::clock_gettime(CLOCK_REALTIME, &ts);
-    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
-struct ScanMessage {
-    std::size_t sensor = 0;
-    std::int64_t t_ns = 0;
-    std::int64_t complete_steady_ns = 0;  // when the scan's last packet had been assembled
-    std::vector<Eigen::Vector3d> points;
-    std::vector<float> point_dt_s;
-    std::vector<float> intensity;
-};
-
-// Everything the receiving thread owns for one sensor; counters read by other threads.
-struct SensorIngest {
-    std::size_t index = 0;
-    std::string name;
-    std::int64_t time_offset_ns = 0;
-    ouster::SensorInfo info;
-    ouster::XyzLut lut;
-    std::unique_ptr<ouster::ScanAssembler> assembler;
-    ouster::ScanCloud cloud;
-    std::atomic<std::uint64_t> scans{0}, scans_incomplete{0}, scans_rejected{0};
-    std::atomic<std::int64_t> last_scan_steady_ns{0};
-    std::atomic<std::int64_t> clock_offset_ns{0};  // sensor clock - host clock at the last scan
-    std::atomic<double> last_completeness{0.0};
-    mutable std::mutex counters_mutex;  // guards `counters`, a copy of the assembler's
-    ouster::AssemblyCounters counters;
-    std::uint32_t packets_since_publish = 0;  // receiver thread only
-};
-
-struct Receiver {
-    std::unique_ptr<net::UdpReceiver> socket;
-    std::vector<SensorIngest*> sensors;  // on this port
-    std::unique_ptr<ouster::SensorRouter> router;
-    DropOldestQueue<ScanMessage> queue{8};
-    std::atomic<std::uint64_t> unassigned{0};
-    std::thread thread;
-};
-
-}  // namespace
 
 struct Pipeline::Impl {
     DaemonConfig config;
@@ -156,25 +99,8 @@ struct Pipeline::Impl {
             throw std::runtime_error(text);
         }
         for (auto& [port, members] : by_port) {
-            auto r = std::make_unique<Receiver>();
-            net::UdpReceiverParams params;
-            params.bind_address = config.network.bind_address;
-            params.ports = {port};
-            params.requested_rcvbuf_bytes = config.network.receive_buffer_bytes;
-            r->socket = std::make_unique<net::UdpReceiver>(params);
-            r->sensors = members;
-            std::vector<ouster::RoutedSensor> routed;
-            for (auto* s : members) {
-                ouster::RoutedSensor rs{s->info, std::nullopt};
-                const auto& sc = config.station.sensors[s->index];
-                if (sc.source_address) rs.source_ip = net::parse_ipv4(*sc.source_address);
-                routed.push_back(rs);
-            }
-            r->router = std::make_unique<ouster::SensorRouter>(routed);
-            receivers.push_back(std::move(r));
-        }
-        for (auto& r : receivers) {
-            for (auto* s : r->sensors) make_assembler(s, &r->queue);
+            receivers.push_back(make_receiver(port, members, config.network, config.station,
+                                              config.health.min_completeness));
         }
         engine = std::make_unique<core::FusionEngine>(sensors.size(), config.fusion);
         last_health.assign(sensors.size(), core::SensorHealth{});
@@ -196,55 +122,6 @@ struct Pipeline::Impl {
         auto l = spdlog::default_logger()->clone(name);
         spdlog::register_logger(l);
         return l;
-    }
-
-    // Runs on the receiver thread: a finished scan is projected and queued for the sync
-    // thread (the only allocation: one message per scan, never per packet).
-    void make_assembler(SensorIngest* s, DropOldestQueue<ScanMessage>* queue) {
-        ouster::ScanAssemblerParams params;
-        const double min_completeness = config.health.min_completeness;
-        s->assembler = std::make_unique<ouster::ScanAssembler>(
-            s->info, params, [this, s, queue, min_completeness](const ouster::LidarScan& scan) {
-                const double completeness = scan.completeness();
-                s->scans.fetch_add(1, std::memory_order_relaxed);
-                s->last_completeness.store(completeness, std::memory_order_relaxed);
-                if (completeness < 1.0) s->scans_incomplete.fetch_add(1, std::memory_order_relaxed);
-                if (completeness < min_completeness) {
-                    s->scans_rejected.fetch_add(1, std::memory_order_relaxed);
-                    return;
-                }
-                if (!ouster::project_scan(scan, s->lut, ouster::ProjectionParams{}, &s->cloud)) return;
-                const std::uint64_t t = ouster::scan_reference_time_ns(scan);
-                ScanMessage m;
-                m.sensor = s->index;
-                m.t_ns = static_cast<std::int64_t>(t) + s->time_offset_ns;
-                m.points = s->cloud.cloud.points;
-                ouster::point_times_s(s->cloud, t, &m.point_dt_s);
-                ouster::point_intensity(scan, s->cloud, &m.intensity);
-                m.complete_steady_ns = steady_ns();
-                s->last_scan_steady_ns.store(m.complete_steady_ns, std::memory_order_relaxed);
-                s->clock_offset_ns.store(m.t_ns - realtime_ns(), std::memory_order_relaxed);
-                queue->push(std::move(m));
-            });
-    }
-
-    void receive_loop(Receiver* r) {
-        r->socket->run([this, r](const net::ReceivedDatagram& d) {
-            const int routed = r->router->route(d.src_ip, d.local_port, d.data, d.size);
-            if (routed < 0) {
-                r->unassigned.fetch_add(1, std::memory_order_relaxed);
-                return;
-            }
-            SensorIngest* s = r->sensors[static_cast<std::size_t>(routed)];
-            s->assembler->add_packet(d.data, d.size);
-            // Publish the counters every 64 packets: a lock per packet would be wasted.
-            if ((++s->packets_since_publish & 63) == 0) publish_counters(s);
-        });
-    }
-
-    static void publish_counters(SensorIngest* s) {
-        std::lock_guard<std::mutex> lock(s->counters_mutex);
-        s->counters = s->assembler->counters();
     }
 
     void sync_loop() {
@@ -362,8 +239,8 @@ struct Pipeline::Impl {
             }
             results.push(std::move(out));
         }
-        // Shutdown: a job not begun is skipped; one running finishes (register_initial has no
-        // cancel point inside), which is the longest stop() can wait here.
+        // Shutdown: a job not begun is skipped; one running stops at register_initial's next
+        // check (between sensors' features or pairs), the longest stop() can wait here.
         if (last_job) last_job->cancel();
         init_jobs.close();
         init_worker.join();
@@ -475,7 +352,7 @@ void Pipeline::start() {
         const std::string name = "lf-recv-" + std::to_string(r->socket->sockets().front().port);
         r->thread = std::thread([&m, rp = r.get(), name] {
             ::pthread_setname_np(::pthread_self(), name.c_str());
-            m.receive_loop(rp);
+            run_receiver(rp);
         });
     }
     m.sync_thread = std::thread([&m] {
@@ -500,7 +377,7 @@ void Pipeline::stop() {
     for (auto& r : m.receivers) r->socket->stop();
     for (auto& r : m.receivers) {
         if (r->thread.joinable()) r->thread.join();
-        for (auto* s : r->sensors) Impl::publish_counters(s);
+        for (auto* s : r->sensors) publish_counters(s);
     }
     if (m.sync_thread.joinable()) m.sync_thread.join();
     m.frames.close();

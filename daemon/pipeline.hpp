@@ -7,6 +7,7 @@
 //   fusion thread: FusionEngine::process -> result queue; beats the heartbeat
 //   output thread: poses.csv, extrinsics.yaml, clouds, diagnostics log
 //
+// The receiving side is daemon/sensor_ingest; this file wires the stages together.
 // Every queue is a DropOldestQueue: a slow stage costs its oldest input, counted, and a
 // receiver never waits. The constructor binds every socket (errors list every port) and
 // starts nothing; start() starts the threads; stop() wakes every thread and joins them.

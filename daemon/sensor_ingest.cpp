@@ -1,0 +1,99 @@
+#include "daemon/sensor_ingest.hpp"
+
+#include <chrono>
+#include <ctime>
+
+#include "drivers/net/ipv4_address.hpp"
+
+namespace lidarfuse::daemon {
+
+std::int64_t steady_ns() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(
+               std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+}
+
+std::int64_t realtime_ns() {
+    timespec ts{};
+    ::clock_gettime(CLOCK_REALTIME, &ts);
+    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+namespace {
+
+// Runs on the receiver thread: a finished scan is projected and queued for the sync
+// thread (the only allocation: one message per scan, never per packet).
+void attach_assembler(SensorIngest* s, double min_completeness,
+                      DropOldestQueue<ScanMessage>* queue) {
+    s->assembler = std::make_unique<ouster::ScanAssembler>(
+        s->info, ouster::ScanAssemblerParams{},
+        [s, queue, min_completeness](const ouster::LidarScan& scan) {
+            const double completeness = scan.completeness();
+            s->scans.fetch_add(1, std::memory_order_relaxed);
+            s->last_completeness.store(completeness, std::memory_order_relaxed);
+            if (completeness < 1.0) s->scans_incomplete.fetch_add(1, std::memory_order_relaxed);
+            if (completeness < min_completeness) {
+                s->scans_rejected.fetch_add(1, std::memory_order_relaxed);
+                return;
+            }
+            if (!ouster::project_scan(scan, s->lut, ouster::ProjectionParams{}, &s->cloud)) return;
+            const std::uint64_t t = ouster::scan_reference_time_ns(scan);
+            ScanMessage m;
+            m.sensor = s->index;
+            m.t_ns = static_cast<std::int64_t>(t) + s->time_offset_ns;
+            m.points = s->cloud.cloud.points;
+            ouster::point_times_s(s->cloud, t, &m.point_dt_s);
+            ouster::point_intensity(scan, s->cloud, &m.intensity);
+            m.complete_steady_ns = steady_ns();
+            s->last_scan_steady_ns.store(m.complete_steady_ns, std::memory_order_relaxed);
+            s->clock_offset_ns.store(m.t_ns - realtime_ns(), std::memory_order_relaxed);
+            queue->push(std::move(m));
+        });
+}
+
+}  // namespace
+
+std::unique_ptr<Receiver> make_receiver(std::uint16_t port,
+                                        const std::vector<SensorIngest*>& members,
+                                        const NetworkConfig& network,
+                                        const station::StationConfig& station,
+                                        double min_completeness) {
+    auto r = std::make_unique<Receiver>();
+    net::UdpReceiverParams params;
+    params.bind_address = network.bind_address;
+    params.ports = {port};
+    params.requested_rcvbuf_bytes = network.receive_buffer_bytes;
+    r->socket = std::make_unique<net::UdpReceiver>(params);
+    r->sensors = members;
+    std::vector<ouster::RoutedSensor> routed;
+    for (auto* s : members) {
+        ouster::RoutedSensor rs{s->info, std::nullopt};
+        const auto& sc = station.sensors[s->index];
+        if (sc.source_address) rs.source_ip = net::parse_ipv4(*sc.source_address);
+        routed.push_back(rs);
+    }
+    r->router = std::make_unique<ouster::SensorRouter>(routed);
+    for (auto* s : members) attach_assembler(s, min_completeness, &r->queue);
+    return r;
+}
+
+void run_receiver(Receiver* r) {
+    r->socket->run([r](const net::ReceivedDatagram& d) {
+        const int routed = r->router->route(d.src_ip, d.local_port, d.data, d.size);
+        if (routed < 0) {
+            r->unassigned.fetch_add(1, std::memory_order_relaxed);
+            return;
+        }
+        SensorIngest* s = r->sensors[static_cast<std::size_t>(routed)];
+        s->assembler->add_packet(d.data, d.size);
+        // Publish the counters every 64 packets: a lock per packet would be wasted.
+        if ((++s->packets_since_publish & 63) == 0) publish_counters(s);
+    });
+}
+
+void publish_counters(SensorIngest* s) {
+    std::lock_guard<std::mutex> lock(s->counters_mutex);
+    s->counters = s->assembler->counters();
+}
+
+}  // namespace lidarfuse::daemon

@@ -1,0 +1,84 @@
+#pragma once
+// lidarfused's receiving side (DESIGN.md data flow, first stage): one Receiver per UDP
+// port, its sensors routed by port, source address and serial, each sensor's packets
+// assembled into scans and projected on the receiver thread, every finished scan queued
+// as a ScanMessage for the sync thread. Counters are atomics (or, for the assembler's,
+// a copy under a mutex refreshed every 64 packets) so other threads can read them.
+
+#include <Eigen/Core>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "daemon/daemon_config.hpp"
+#include "daemon/drop_oldest_queue.hpp"
+#include "drivers/net/udp_receiver.hpp"
+#include "drivers/ouster/metadata.hpp"
+#include "drivers/ouster/projection.hpp"
+#include "drivers/ouster/scan_assembler.hpp"
+#include "drivers/ouster/sensor_router.hpp"
+#include "drivers/ouster/xyz_lut.hpp"
+
+namespace lidarfuse::daemon {
+
+// Host clocks, ns: steady for time-outs and latency, real time only for the sensors'
+// clock offset (a diagnostic).
+std::int64_t steady_ns();
+std::int64_t realtime_ns();
+
+struct ScanMessage {
+    std::size_t sensor = 0;
+    std::int64_t t_ns = 0;
+    std::int64_t complete_steady_ns = 0;  // when the scan's last packet had been assembled
+    std::vector<Eigen::Vector3d> points;
+    std::vector<float> point_dt_s;
+    std::vector<float> intensity;
+};
+
+// Everything the receiving thread owns for one sensor; counters read by other threads.
+struct SensorIngest {
+    std::size_t index = 0;
+    std::string name;
+    std::int64_t time_offset_ns = 0;
+    ouster::SensorInfo info;
+    ouster::XyzLut lut;
+    std::unique_ptr<ouster::ScanAssembler> assembler;
+    ouster::ScanCloud cloud;
+    std::atomic<std::uint64_t> scans{0}, scans_incomplete{0}, scans_rejected{0};
+    std::atomic<std::int64_t> last_scan_steady_ns{0};
+    std::atomic<std::int64_t> clock_offset_ns{0};  // sensor clock - host clock at the last scan
+    std::atomic<double> last_completeness{0.0};
+    mutable std::mutex counters_mutex;  // guards `counters`, a copy of the assembler's
+    ouster::AssemblyCounters counters;
+    std::uint32_t packets_since_publish = 0;  // receiver thread only
+};
+
+struct Receiver {
+    std::unique_ptr<net::UdpReceiver> socket;
+    std::vector<SensorIngest*> sensors;  // on this port
+    std::unique_ptr<ouster::SensorRouter> router;
+    DropOldestQueue<ScanMessage> queue{8};
+    std::atomic<std::uint64_t> unassigned{0};
+    std::thread thread;
+};
+
+// Binds `port` (throws naming it) for `members`, routed by the station's source addresses,
+// and gives each member its assembler feeding the receiver's queue; scans below
+// `min_completeness` are counted as rejected and not queued.
+std::unique_ptr<Receiver> make_receiver(std::uint16_t port,
+                                        const std::vector<SensorIngest*>& members,
+                                        const NetworkConfig& network,
+                                        const station::StationConfig& station,
+                                        double min_completeness);
+
+// The receiver thread's body: returns when the socket is stopped.
+void run_receiver(Receiver* r);
+
+// Copies the assembler's counters for other threads (the receiver thread, or after it ended).
+void publish_counters(SensorIngest* s);
+
+}  // namespace lidarfuse::daemon
