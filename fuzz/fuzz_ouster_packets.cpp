@@ -23,18 +23,16 @@
 #include "drivers/ouster/scan_assembler.hpp"
 #include "drivers/ouster/xyz_lut.hpp"
 #include "fuzz/fuzz_input.hpp"
+#include "fuzz/packet_shapes.hpp"
 
 namespace {
 
 using namespace lidarfuse;
 
-constexpr ouster::UdpProfileLidar kProfiles[] = {
-    ouster::UdpProfileLidar::kLegacy, ouster::UdpProfileLidar::kRng19Rfl8Sig16Nir16,
-    ouster::UdpProfileLidar::kRng15Rfl8Nir8, ouster::UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual,
-    ouster::UdpProfileLidar::kFusaRng15Rfl8Nir8Dual};
-constexpr int kColumns[] = {512, 1024, 2048};
-constexpr int kRows[] = {16, 32, 64, 128};
-constexpr int kColumnsPerPacket[] = {16, 8, 32, 4};
+constexpr const auto& kProfiles = fuzz::kPacketProfiles;
+constexpr const auto& kColumns = fuzz::kPacketColumns;
+constexpr const auto& kRows = fuzz::kPacketRows;
+constexpr const auto& kColumnsPerPacket = fuzz::kPacketColumnsPerPacket;
 
 ouster::SensorInfo make_info(fuzz::FuzzInput& in, std::size_t* frames_in_flight, bool* check_crc) {
     ouster::SensorInfo info;

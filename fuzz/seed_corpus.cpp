@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "drivers/ouster/metadata.hpp"
+#include "fuzz/packet_shapes.hpp"
 #include "drivers/pcap/frame_decoder.hpp"
 #include "drivers/pcap/pcap_reader.hpp"
 #include "fuzz/fuzz_input.hpp"
@@ -67,17 +68,10 @@ int index_of(const T (&table)[N], T value) {
 // fuzz_ouster_packets' 16-byte sensor description (see that file), or empty when the
 // metadata has a shape the harness cannot express.
 std::string packet_header(const ouster::SensorInfo& info) {
-    constexpr ouster::UdpProfileLidar kProfiles[] = {
-        ouster::UdpProfileLidar::kLegacy, ouster::UdpProfileLidar::kRng19Rfl8Sig16Nir16,
-        ouster::UdpProfileLidar::kRng15Rfl8Nir8, ouster::UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual,
-        ouster::UdpProfileLidar::kFusaRng15Rfl8Nir8Dual};
-    constexpr int kColumns[] = {512, 1024, 2048};
-    constexpr int kRows[] = {16, 32, 64, 128};
-    constexpr int kColumnsPerPacket[] = {16, 8, 32, 4};
-    const int profile = index_of(kProfiles, info.udp_profile_lidar);
-    const int columns = index_of(kColumns, info.columns_per_frame);
-    const int rows = index_of(kRows, info.pixels_per_column);
-    const int cpp = index_of(kColumnsPerPacket, info.columns_per_packet);
+    const int profile = index_of(fuzz::kPacketProfiles, info.udp_profile_lidar);
+    const int columns = index_of(fuzz::kPacketColumns, info.columns_per_frame);
+    const int rows = index_of(fuzz::kPacketRows, info.pixels_per_column);
+    const int cpp = index_of(fuzz::kPacketColumnsPerPacket, info.columns_per_packet);
     if (profile < 0 || columns < 0 || rows < 0 || cpp < 0) return {};
     std::string h;
     h.push_back(static_cast<char>(profile | (1 << 3)));  // two frames in flight, CRC checked
