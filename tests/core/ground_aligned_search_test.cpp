@@ -6,19 +6,13 @@
 #include "core/ground_aligned_search.hpp"
 #include "core/se3.hpp"
 #include "core/sensor_features.hpp"
+#include "tests/core/street_features.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
 namespace lidarfuse::core {
 namespace {
 
-SensorFeatures street_features(std::size_t sensor) {
-    testing::ScanPattern pattern;
-    pattern.columns = 512;
-    pattern.range_noise_sigma_m = 0.03;
-    const PointCloud cloud = testing::scan_scene(testing::street_scene(), testing::street_sensor_poses()[sensor],
-                                                 pattern, 100 + static_cast<std::uint32_t>(sensor));
-    return compute_sensor_features(cloud, {});
-}
+using testing::street_features;
 
 GroundAlignedKeypoints keypoints_of(const SensorFeatures& f) {
     return {&f.keypoint_points, &f.keypoint_normals, &f.descriptors, f.ground.T_ground_sensor};

@@ -3,19 +3,13 @@
 #include <gtest/gtest.h>
 
 #include "core/se3.hpp"
+#include "tests/core/street_features.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
 namespace lidarfuse::core {
 namespace {
 
-SensorFeatures street_features(std::size_t sensor) {
-    testing::ScanPattern pattern;
-    pattern.columns = 512;
-    pattern.range_noise_sigma_m = 0.03;
-    const PointCloud cloud = testing::scan_scene(testing::street_scene(), testing::street_sensor_poses()[sensor],
-                                                 pattern, 100 + static_cast<std::uint32_t>(sensor));
-    return compute_sensor_features(cloud, {});
-}
+using testing::street_features;
 
 // Sensors 0 and 2 of the street: 100 degrees of relative yaw, no initial guess.
 TEST(PairRegistration, RegistersTwoSensorsAndIsDeterministic) {
