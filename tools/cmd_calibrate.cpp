@@ -1,23 +1,22 @@
 // `lidarfuse calibrate CAPTURE.pcap --config station.yaml --out extrinsics.yaml [--frame N]`:
 // the initial registration (issue 4) on one synchronised frame of a capture. Decodes with
 // the production ingest, takes the first complete synchronised frame (or the N-th, 0-based)
-// -- one complete scan per enabled sensor, all within 1/SR of the root's -- runs
+// -- one complete scan per enabled sensor, grouped as `fuse` groups them (members within
+// 1/SR) -- runs
 // core::register_initial and writes every sensor's T_root_sensor plus the per-pair quality
 // figures. Sensors that cannot be registered are written with `registered: false` and the
 // reason, never with a pose.
-#include <yaml-cpp/yaml.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <deque>
-#include <fstream>
-#include <optional>
+#include <limits>
 
 #include "core/initial_registration.hpp"
+#include "core/pipeline/frame_synchroniser.hpp"
 #include "core/se3.hpp"
 #include "drivers/capture/station_capture.hpp"
+#include "drivers/io/extrinsics_yaml.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
 
@@ -32,79 +31,6 @@ const char* kUsage =
     "(the first complete one, or the N-th complete one counting from 0), with no initial\n"
     "guess. Writes extrinsics.yaml (translation [x, y, z] in metres, rotation_wxyz) with the\n"
     "per-pair quality figures, and prints the same as a table.\n";
-
-struct TimedCloud {
-    std::int64_t t_ns = 0;
-    core::PointCloud cloud;
-};
-
-// Picks the `wanted`-th complete frame online: the root's scans in order, each matched
-// with the other sensors' scans nearest in time within max_offset_ns.
-class FramePicker {
-public:
-    FramePicker(std::size_t sensors, std::size_t root, std::int64_t max_offset_ns, long long wanted)
-        : scans_(sensors), root_(root), max_offset_ns_(max_offset_ns), wanted_(wanted) {}
-
-    // Returns true once the frame is found (then frame() holds it).
-    bool push(std::size_t sensor, TimedCloud scan) {
-        scans_[sensor].push_back(std::move(scan));
-        while (!scans_[root_].empty()) {
-            const std::int64_t t = scans_[root_].front().t_ns;
-            bool decided = true;
-            bool complete = true;
-            std::vector<std::size_t> pick(scans_.size(), 0);
-            for (std::size_t s = 0; s < scans_.size(); ++s) {
-                if (s == root_) continue;
-                auto& q = scans_[s];
-                // Scans too old for this and every later root scan are dropped.
-                while (!q.empty() && q.front().t_ns < t - max_offset_ns_) q.pop_front();
-                std::optional<std::size_t> best;
-                for (std::size_t k = 0; k < q.size(); ++k) {
-                    if (std::llabs(q[k].t_ns - t) < max_offset_ns_ &&
-                        (!best || std::llabs(q[k].t_ns - t) < std::llabs(q[*best].t_ns - t))) {
-                        best = k;
-                    }
-                }
-                if (best) {
-                    pick[s] = *best;
-                } else if (!q.empty() && q.back().t_ns >= t + max_offset_ns_) {
-                    complete = false;  // this sensor has moved past t without a match
-                } else {
-                    decided = false;  // still waiting for this sensor
-                }
-            }
-            if (!decided) return false;
-            if (complete && found_++ == wanted_) {
-                frame_.assign(scans_.size(), {});
-                for (std::size_t s = 0; s < scans_.size(); ++s) {
-                    frame_[s] = std::move(scans_[s][s == root_ ? 0 : pick[s]].cloud);
-                }
-                return true;
-            }
-            scans_[root_].pop_front();
-        }
-        return false;
-    }
-    std::vector<core::PointCloud>& frame() { return frame_; }
-
-private:
-    std::vector<std::deque<TimedCloud>> scans_;
-    std::size_t root_;
-    std::int64_t max_offset_ns_;
-    long long wanted_;
-    long long found_ = 0;
-    std::vector<core::PointCloud> frame_;
-};
-
-YAML::Node pose_node(const Eigen::Isometry3d& T) {
-    const Eigen::Quaterniond q = core::quaternion_of(T);
-    YAML::Node node;
-    node["translation"] = std::vector<double>{T.translation().x(), T.translation().y(), T.translation().z()};
-    node["translation"].SetStyle(YAML::EmitterStyle::Flow);
-    node["rotation_wxyz"] = std::vector<double>{q.w(), q.x(), q.y(), q.z()};
-    node["rotation_wxyz"].SetStyle(YAML::EmitterStyle::Flow);
-    return node;
-}
 
 int run_calibrate(int argc, char** argv) {
     const Args args(argc, argv, {"--config", "--out", "--frame", "--threads"}, {});
@@ -136,15 +62,33 @@ int run_calibrate(int argc, char** argv) {
             order.push_back(s);
         }
     }
+    // The frame: the same grouping as `fuse` (core::FrameSynchroniser, members within one
+    // frame period of the root's rate, capture time as the clock), over complete scans only;
+    // the wanted-th frame that holds every enabled sensor.
     const int rate = std::max(1, capture.infos()[root].frames_per_second);
-    FramePicker picker(order.size(), 0, 1'000'000'000LL / rate, wanted);
-    bool found = false;
+    core::SyncParams sync;
+    sync.max_offset_ns = 1'000'000'000LL / rate;
+    sync.deadline_ns = sync.max_offset_ns * 3 / 2;
+    core::FrameSynchroniser<core::PointCloud> synchroniser(order.size(), sync);
+    long long complete_frames = 0;
+    std::vector<core::PointCloud> clouds;
+    const auto take_ready = [&](std::int64_t now_ns) {
+        while (clouds.empty()) {
+            auto frame = synchroniser.poll(now_ns);
+            if (!frame) return;
+            if (frame->included() != order.size() || complete_frames++ != wanted) continue;
+            for (auto& member : frame->members) clouds.push_back(std::move(*member));
+        }
+    };
     capture.run([&](const capture::CaptureScan& scan) {
-        if (found || !scan.scan->complete()) return !found;
-        found = picker.push(position[scan.sensor], TimedCloud{scan.t_ns, scan.cloud->cloud});
-        return !found;
+        if (sensors[scan.sensor].enabled && scan.scan->complete()) {
+            synchroniser.push(position[scan.sensor], scan.t_ns, scan.capture_time_ns, scan.cloud->cloud);
+            take_ready(scan.capture_time_ns);
+        }
+        return clouds.empty();
     });
-    if (!found) {
+    take_ready(std::numeric_limits<std::int64_t>::max());
+    if (clouds.empty()) {
         throw std::runtime_error(args.positionals()[0] + ": no complete synchronised frame #" +
                                  std::to_string(wanted) + " with every sensor of " +
                                  args.required("--config"));
@@ -152,74 +96,65 @@ int run_calibrate(int argc, char** argv) {
     const double decode_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-    std::vector<core::PointCloud> clouds = std::move(picker.frame());
     core::InitialRegistrationParams params = core::default_initial_registration_params();
     params.num_threads = static_cast<int>(args.integer("--threads", 2));
     const core::InitialRegistrationResult result = core::register_initial(clouds, params);
 
-    YAML::Node doc;
-    doc["station"] = station_config.station;
-    doc["root"] = sensors[root].name;
+    io::ExtrinsicsDocument doc;
+    doc.station = station_config.station;
+    doc.root = sensors[root].name;
     std::printf("%-16s %-10s %10s %10s %10s %8s %8s %8s  %s\n", "sensor", "status", "x_m", "y_m", "z_m",
                 "roll_deg", "pitch_deg", "yaw_deg", "reason");
     for (std::size_t k = 0; k < order.size(); ++k) {
         const auto& r = result.sensors[k];
-        YAML::Node node;
-        node["name"] = sensors[order[k]].name;
-        node["registered"] = r.registered;
+        io::ExtrinsicsEntry entry;
+        entry.name = sensors[order[k]].name;
+        entry.registered = r.registered;
+        entry.quality["points"] = static_cast<double>(r.num_input_points);
+        entry.quality["keypoints"] = static_cast<double>(r.num_keypoints);
         if (r.registered) {
-            const YAML::Node pose = pose_node(r.T_root_sensor);
-            node["T_root_sensor"] = pose;
+            entry.T_root_sensor = r.T_root_sensor;
             // Z-Y-X (yaw, pitch, roll) angles for the table, in degrees.
             const Eigen::Matrix3d& R = r.T_root_sensor.linear();
             const Eigen::Vector3d ypr(std::atan2(R(1, 0), R(0, 0)) * 180.0 / M_PI,
                                       std::asin(std::clamp(-R(2, 0), -1.0, 1.0)) * 180.0 / M_PI,
                                       std::atan2(R(2, 1), R(2, 2)) * 180.0 / M_PI);
-            std::printf("%-16s %-10s %10.3f %10.3f %10.3f %8.3f %8.3f %8.3f\n",
-                        sensors[order[k]].name.c_str(), "ok", r.T_root_sensor.translation().x(),
-                        r.T_root_sensor.translation().y(), r.T_root_sensor.translation().z(), ypr.z(),
-                        ypr.y(), ypr.x());  // roll, pitch, yaw
+            std::printf("%-16s %-10s %10.3f %10.3f %10.3f %8.3f %8.3f %8.3f\n", entry.name.c_str(), "ok",
+                        r.T_root_sensor.translation().x(), r.T_root_sensor.translation().y(),
+                        r.T_root_sensor.translation().z(), ypr.z(), ypr.y(), ypr.x());  // roll, pitch, yaw
         } else {
-            node["reason"] = core::to_string(r.status);
-            std::printf("%-16s %-10s %10s %10s %10s %8s %8s %8s  %s\n", sensors[order[k]].name.c_str(),
-                        "FAILED", "-", "-", "-", "-", "-", "-", core::to_string(r.status));
+            entry.reason = core::to_string(r.status);
+            std::printf("%-16s %-10s %10s %10s %10s %8s %8s %8s  %s\n", entry.name.c_str(), "FAILED", "-", "-",
+                        "-", "-", "-", "-", entry.reason.c_str());
         }
-        node["points"] = r.num_input_points;
-        node["keypoints"] = r.num_keypoints;
-        doc["sensors"].push_back(node);
+        doc.sensors.push_back(std::move(entry));
     }
     for (const auto& s : sensors) {
         if (s.enabled) continue;
-        YAML::Node node;
-        node["name"] = s.name;
-        node["registered"] = false;
-        node["reason"] = "disabled in the station config";
-        doc["sensors"].push_back(node);
+        io::ExtrinsicsEntry entry;
+        entry.name = s.name;
+        entry.reason = "disabled in the station config";
+        doc.sensors.push_back(std::move(entry));
     }
     std::printf("\n%-16s %-16s %-28s %10s %8s %8s %12s %10s\n", "source", "target", "status", "p2p_m",
                 "inliers", "overlap", "min_eig_H", "free_viol");
     for (const auto& p : result.pairs) {
-        YAML::Node node;
-        node["source"] = sensors[order[p.source]].name;
-        node["target"] = sensors[order[p.target]].name;
-        node["status"] = core::to_string(p.status);
-        node["p2p_error_m"] = p.p2p_error_m;
-        node["inliers"] = p.gicp_inliers;
-        node["p2p_inliers"] = p.p2p_inliers;
-        node["overlap_share"] = p.overlap_share;
-        node["min_hessian_eigenvalue"] = p.min_hessian_eigenvalue;
-        node["free_space_violation_share"] = p.free_space_violation_share;
-        doc["pairs"].push_back(node);
-        std::printf("%-16s %-16s %-28s %10.3f %8zu %8.2f %12.4g %10.3f\n", sensors[order[p.source]].name.c_str(),
-                    sensors[order[p.target]].name.c_str(), core::to_string(p.status), p.p2p_error_m,
-                    p.gicp_inliers, p.overlap_share, p.min_hessian_eigenvalue,
-                    std::max(p.free_space_violation_share, p.worst_rejected_violation_share));
+        io::ExtrinsicsPair pair;
+        pair.source = sensors[order[p.source]].name;
+        pair.target = sensors[order[p.target]].name;
+        pair.status = core::to_string(p.status);
+        pair.figures["p2p_error_m"] = p.p2p_error_m;
+        pair.figures["inliers"] = static_cast<double>(p.gicp_inliers);
+        pair.figures["p2p_inliers"] = static_cast<double>(p.p2p_inliers);
+        pair.figures["overlap_share"] = p.overlap_share;
+        pair.figures["min_hessian_eigenvalue"] = p.min_hessian_eigenvalue;
+        pair.figures["free_space_violation_share"] = p.free_space_violation_share;
+        std::printf("%-16s %-16s %-28s %10.3f %8zu %8.2f %12.4g %10.3f\n", pair.source.c_str(),
+                    pair.target.c_str(), pair.status.c_str(), p.p2p_error_m, p.gicp_inliers, p.overlap_share,
+                    p.min_hessian_eigenvalue, std::max(p.free_space_violation_share, p.worst_rejected_violation_share));
+        doc.pairs.push_back(std::move(pair));
     }
-    std::ofstream out(out_path);
-    if (!out) throw std::runtime_error(out_path + ": cannot open for writing");
-    out << "# lidarfuse calibrate: T_root_sensor maps sensor coordinates into the root sensor's frame\n"
-        << doc << '\n';
-    if (!out) throw std::runtime_error(out_path + ": write failed");
+    io::write_extrinsics_yaml(out_path, doc);
 
     const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::printf("\ncalibrate_decode_time %.1f ms\n", 1e3 * decode_s);

@@ -8,85 +8,190 @@
 
 namespace lidarfuse::io {
 
-std::string extrinsics_to_yaml(const std::string& root, const std::vector<ExtrinsicsEntry>& sensors) {
-    YAML::Emitter out;
-    out.SetDoublePrecision(9);
-    out << YAML::BeginMap << YAML::Key << "root" << YAML::Value << root;
-    out << YAML::Key << "sensors" << YAML::Value << YAML::BeginSeq;
-    for (const auto& s : sensors) {
-        out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << s.name;
-        out << YAML::Key << "registered" << YAML::Value << s.registered;
-        if (s.registered) {
-            Eigen::Quaterniond q(s.T_root_sensor.rotation());
-            if (q.w() < 0) q.coeffs() = -q.coeffs();
-            const Eigen::Vector3d t = s.T_root_sensor.translation();
-            out << YAML::Key << "T_root_sensor" << YAML::Value << YAML::BeginMap;
-            out << YAML::Key << "translation" << YAML::Value << YAML::Flow << YAML::BeginSeq << t.x()
-                << t.y() << t.z() << YAML::EndSeq;
-            out << YAML::Key << "rotation_wxyz" << YAML::Value << YAML::Flow << YAML::BeginSeq << q.w()
-                << q.x() << q.y() << q.z() << YAML::EndSeq;
-            out << YAML::EndMap;
-        }
-        if (!s.quality.empty()) {
-            out << YAML::Key << "quality" << YAML::Value << YAML::BeginMap;
-            for (const auto& [k, v] : s.quality) out << YAML::Key << k << YAML::Value << v;
-            out << YAML::EndMap;
-        }
-        out << YAML::EndMap;
-    }
-    out << YAML::EndSeq << YAML::EndMap;
-    return std::string(out.c_str()) + "\n";
+namespace {
+
+void emit_figures(YAML::Emitter& out, const char* key, const std::map<std::string, double>& figures) {
+    if (figures.empty()) return;
+    out << YAML::Key << key << YAML::Value << YAML::BeginMap;
+    for (const auto& [name, value] : figures) out << YAML::Key << name << YAML::Value << value;
+    out << YAML::EndMap;
 }
 
-void write_extrinsics_yaml(const std::filesystem::path& file, const std::string& root,
-                           const std::vector<ExtrinsicsEntry>& sensors) {
+void emit_sensor(YAML::Emitter& out, const ExtrinsicsEntry& s) {
+    out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << s.name;
+    out << YAML::Key << "registered" << YAML::Value << s.registered;
+    if (s.registered) {
+        Eigen::Quaterniond q(s.T_root_sensor.rotation());
+        if (q.w() < 0) q.coeffs() = -q.coeffs();
+        const Eigen::Vector3d t = s.T_root_sensor.translation();
+        out << YAML::Key << "T_root_sensor" << YAML::Value << YAML::BeginMap;
+        out << YAML::Key << "translation" << YAML::Value << YAML::Flow << YAML::BeginSeq << t.x() << t.y()
+            << t.z() << YAML::EndSeq;
+        out << YAML::Key << "rotation_wxyz" << YAML::Value << YAML::Flow << YAML::BeginSeq << q.w() << q.x()
+            << q.y() << q.z() << YAML::EndSeq;
+        out << YAML::EndMap;
+    } else if (!s.reason.empty()) {
+        out << YAML::Key << "reason" << YAML::Value << s.reason;
+    }
+    emit_figures(out, "quality", s.quality);
+    out << YAML::EndMap;
+}
+
+// Reads a map of scalar figures at `node` (absent: empty); `where` names it in errors.
+std::map<std::string, double> read_figures(const YAML::Node& node, const std::string& where) {
+    std::map<std::string, double> figures;
+    if (!node) return figures;
+    if (!node.IsMap()) throw std::runtime_error(where + ": expected a map of numbers");
+    for (const auto& kv : node) {
+        const std::string key = kv.first.as<std::string>();
+        try {
+            figures[key] = kv.second.as<double>();
+        } catch (const YAML::Exception&) {
+            throw std::runtime_error(where + "." + key + ": expected a number");
+        }
+    }
+    return figures;
+}
+
+ExtrinsicsEntry read_sensor(const YAML::Node& node, const std::string& path) {
+    ExtrinsicsEntry e;
+    if (!node.IsMap()) throw std::runtime_error(path + ": expected a map");
+    if (!node["name"]) throw std::runtime_error(path + ".name: missing");
+    if (!node["registered"]) throw std::runtime_error(path + ".registered: missing");
+    e.name = node["name"].as<std::string>();
+    e.registered = node["registered"].as<bool>();
+    if (e.registered) {
+        const YAML::Node pose = node["T_root_sensor"];
+        if (!pose || !pose["translation"] || !pose["rotation_wxyz"]) {
+            throw std::runtime_error(path + ".T_root_sensor: expected translation and rotation_wxyz");
+        }
+        const auto t = pose["translation"].as<std::vector<double>>();
+        const auto q = pose["rotation_wxyz"].as<std::vector<double>>();
+        if (t.size() != 3 || q.size() != 4) throw std::runtime_error(path + ".T_root_sensor: expected 3 + 4 numbers");
+        for (const double v : t) {
+            if (!std::isfinite(v)) throw std::runtime_error(path + ".T_root_sensor.translation: not finite");
+        }
+        const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
+        if (!(std::abs(quat.norm() - 1.0) <= 1e-3)) {
+            throw std::runtime_error(path + ".T_root_sensor.rotation_wxyz: not unit length");
+        }
+        e.T_root_sensor.linear() = quat.normalized().toRotationMatrix();
+        e.T_root_sensor.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+    } else if (node["reason"]) {
+        e.reason = node["reason"].as<std::string>();
+    }
+    e.quality = read_figures(node["quality"], path + ".quality");
+    return e;
+}
+
+ExtrinsicsPair read_pair(const YAML::Node& node, const std::string& path) {
+    if (!node.IsMap()) throw std::runtime_error(path + ": expected a map");
+    ExtrinsicsPair p;
+    for (const auto& kv : node) {
+        const std::string key = kv.first.as<std::string>();
+        if (key == "source") {
+            p.source = kv.second.as<std::string>();
+        } else if (key == "target") {
+            p.target = kv.second.as<std::string>();
+        } else if (key == "status") {
+            p.status = kv.second.as<std::string>();
+        } else {
+            try {
+                p.figures[key] = kv.second.as<double>();
+            } catch (const YAML::Exception&) {
+                throw std::runtime_error(path + "." + key + ": expected a number");
+            }
+        }
+    }
+    if (p.source.empty() || p.target.empty()) throw std::runtime_error(path + ": expected source and target");
+    return p;
+}
+
+}  // namespace
+
+std::string extrinsics_to_yaml(const ExtrinsicsDocument& document) {
+    YAML::Emitter out;
+    out.SetDoublePrecision(9);
+    out << YAML::BeginMap;
+    if (!document.station.empty()) out << YAML::Key << "station" << YAML::Value << document.station;
+    out << YAML::Key << "root" << YAML::Value << document.root;
+    out << YAML::Key << "sensors" << YAML::Value << YAML::BeginSeq;
+    for (const auto& s : document.sensors) emit_sensor(out, s);
+    out << YAML::EndSeq;
+    if (!document.pairs.empty()) {
+        out << YAML::Key << "pairs" << YAML::Value << YAML::BeginSeq;
+        for (const auto& p : document.pairs) {
+            out << YAML::BeginMap << YAML::Key << "source" << YAML::Value << p.source;
+            out << YAML::Key << "target" << YAML::Value << p.target;
+            out << YAML::Key << "status" << YAML::Value << p.status;
+            for (const auto& [name, value] : p.figures) out << YAML::Key << name << YAML::Value << value;
+            out << YAML::EndMap;
+        }
+        out << YAML::EndSeq;
+    }
+    out << YAML::EndMap;
+    return "# T_root_sensor maps sensor coordinates into the root sensor's frame (metres)\n" +
+           std::string(out.c_str()) + "\n";
+}
+
+void write_extrinsics_yaml(const std::filesystem::path& file, const ExtrinsicsDocument& document) {
     const auto temporary = file.string() + ".tmp";
     {
         std::ofstream out(temporary, std::ios::trunc);
         if (!out) throw std::runtime_error(temporary + ": cannot open for writing");
-        out << extrinsics_to_yaml(root, sensors);
+        out << extrinsics_to_yaml(document);
         out.flush();
         if (!out) throw std::runtime_error(temporary + ": write failed");
     }
-    std::filesystem::rename(temporary, file);
+    std::error_code error;
+    std::filesystem::rename(temporary, file, error);
+    if (error) throw std::runtime_error(file.string() + ": cannot replace: " + error.message());
 }
 
-std::vector<ExtrinsicsEntry> read_extrinsics_yaml(const std::filesystem::path& file, std::string* root) {
+ExtrinsicsDocument read_extrinsics_document(const std::filesystem::path& file) {
     YAML::Node doc;
     try {
         doc = YAML::LoadFile(file.string());
     } catch (const YAML::Exception& error) {
         throw std::runtime_error(file.string() + ": " + error.what());
     }
-    const auto fail = [&](const std::string& what) { throw std::runtime_error(file.string() + ": " + what); };
-    if (!doc.IsMap() || !doc["sensors"] || !doc["sensors"].IsSequence()) fail("sensors: expected a list");
-    if (root) *root = doc["root"] ? doc["root"].as<std::string>() : "";
-    std::vector<ExtrinsicsEntry> out;
-    for (std::size_t i = 0; i < doc["sensors"].size(); ++i) {
-        const auto node = doc["sensors"][i];
-        const std::string path = "sensors[" + std::to_string(i) + "]";
-        ExtrinsicsEntry e;
-        try {
-            e.name = node["name"].as<std::string>();
-            e.registered = node["registered"].as<bool>();
-            if (e.registered) {
-                const auto t = node["T_root_sensor"]["translation"].as<std::vector<double>>();
-                const auto q = node["T_root_sensor"]["rotation_wxyz"].as<std::vector<double>>();
-                if (t.size() != 3 || q.size() != 4) fail(path + ".T_root_sensor: expected 3 + 4 numbers");
-                Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
-                if (std::abs(quat.norm() - 1.0) > 1e-3) fail(path + ".T_root_sensor.rotation_wxyz: not unit length");
-                e.T_root_sensor.linear() = quat.normalized().toRotationMatrix();
-                e.T_root_sensor.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
-            }
-            if (node["quality"]) {
-                for (const auto& kv : node["quality"]) e.quality[kv.first.as<std::string>()] = kv.second.as<double>();
-            }
-        } catch (const YAML::Exception& error) {
-            fail(path + ": " + error.what());
+    ExtrinsicsDocument out;
+    try {
+        if (!doc.IsMap() || !doc["sensors"] || !doc["sensors"].IsSequence()) {
+            throw std::runtime_error("sensors: expected a list");
         }
-        out.push_back(std::move(e));
+        if (doc["station"]) out.station = doc["station"].as<std::string>();
+        if (doc["root"]) out.root = doc["root"].as<std::string>();
+        for (std::size_t i = 0; i < doc["sensors"].size(); ++i) {
+            out.sensors.push_back(read_sensor(doc["sensors"][i], "sensors[" + std::to_string(i) + "]"));
+        }
+        if (doc["pairs"]) {
+            if (!doc["pairs"].IsSequence()) throw std::runtime_error("pairs: expected a list");
+            for (std::size_t i = 0; i < doc["pairs"].size(); ++i) {
+                out.pairs.push_back(read_pair(doc["pairs"][i], "pairs[" + std::to_string(i) + "]"));
+            }
+        }
+    } catch (const YAML::Exception& error) {
+        throw std::runtime_error(file.string() + ": " + error.what());
+    } catch (const std::runtime_error& error) {
+        throw std::runtime_error(file.string() + ": " + error.what());
     }
     return out;
+}
+
+std::string extrinsics_to_yaml(const std::string& root, const std::vector<ExtrinsicsEntry>& sensors) {
+    return extrinsics_to_yaml(ExtrinsicsDocument{"", root, sensors, {}});
+}
+
+void write_extrinsics_yaml(const std::filesystem::path& file, const std::string& root,
+                           const std::vector<ExtrinsicsEntry>& sensors) {
+    write_extrinsics_yaml(file, ExtrinsicsDocument{"", root, sensors, {}});
+}
+
+std::vector<ExtrinsicsEntry> read_extrinsics_yaml(const std::filesystem::path& file, std::string* root) {
+    ExtrinsicsDocument document = read_extrinsics_document(file);
+    if (root) *root = document.root;
+    return std::move(document.sensors);
 }
 
 }  // namespace lidarfuse::io

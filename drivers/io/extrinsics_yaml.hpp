@@ -1,13 +1,20 @@
 #pragma once
 // extrinsics.yaml: every sensor's pose in the root frame, as `lidarfuse calibrate` and
 // lidarfused write it:
+//   station: roadside-17          (optional)
 //   root: lidar0
 //   sensors:
 //     - name: lidar1
 //       registered: true
 //       T_root_sensor: {translation: [x, y, z], rotation_wxyz: [w, x, y, z]}
-// Metres; unit quaternion. Unregistered sensors are listed with registered: false and no
-// pose. Written atomically (temporary file + rename): a reader never sees half a file.
+//       quality: {points: 61234, ...}          (optional scalar figures)
+//     - name: lidar2
+//       registered: false
+//       reason: no_consistent_candidate        (why there is no pose; never a made-up one)
+//   pairs:                                     (optional: the registration's pair figures)
+//     - {source: lidar1, target: lidar0, status: accepted, p2p_error_m: 0.04, ...}
+// Metres; unit quaternion with w >= 0. Written atomically (temporary file + rename): a
+// reader never sees half a file.
 
 #include <Eigen/Geometry>
 #include <filesystem>
@@ -21,14 +28,35 @@ struct ExtrinsicsEntry {
     std::string name;
     bool registered = false;
     Eigen::Isometry3d T_root_sensor = Eigen::Isometry3d::Identity();
+    std::string reason;  // written only when not registered and non-empty
     // Extra scalar figures written under `quality:` (e.g. p2p_error_m, fitness).
     std::map<std::string, double> quality;
 };
 
+// One registered pair's outcome: `figures` are scalars such as p2p_error_m or inliers.
+struct ExtrinsicsPair {
+    std::string source;
+    std::string target;
+    std::string status;
+    std::map<std::string, double> figures;
+};
+
+struct ExtrinsicsDocument {
+    std::string station;  // omitted when empty
+    std::string root;
+    std::vector<ExtrinsicsEntry> sensors;
+    std::vector<ExtrinsicsPair> pairs;  // omitted when empty
+};
+
+std::string extrinsics_to_yaml(const ExtrinsicsDocument& document);
+void write_extrinsics_yaml(const std::filesystem::path& file, const ExtrinsicsDocument& document);
+// Reads what write_extrinsics_yaml wrote; throws naming the file and key on bad input.
+ExtrinsicsDocument read_extrinsics_document(const std::filesystem::path& file);
+
+// The sensors only (what lidarfused keeps): same file format.
 std::string extrinsics_to_yaml(const std::string& root, const std::vector<ExtrinsicsEntry>& sensors);
 void write_extrinsics_yaml(const std::filesystem::path& file, const std::string& root,
                            const std::vector<ExtrinsicsEntry>& sensors);
-// Reads what write_extrinsics_yaml wrote; throws naming the file and key on bad input.
 std::vector<ExtrinsicsEntry> read_extrinsics_yaml(const std::filesystem::path& file, std::string* root);
 
 }  // namespace lidarfuse::io
