@@ -193,6 +193,9 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
         std::string message = to_string(s.state);
         if (s.state == SensorState::kLost) {
             level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_ERROR;
+        } else if (s.state == SensorState::kModeMismatch) {
+            level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_ERROR;
+            message += ": " + s.mode_seen;
         } else if (s.state == SensorState::kStale) {
             level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN;
         }
@@ -219,6 +222,10 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
         add(v, "scans", std::to_string(s.scans));
         add(v, "scans_incomplete", std::to_string(s.scans_incomplete));
         add(v, "scans_rejected", std::to_string(s.scans_rejected));
+        add(v, "mode_mismatch_frames", std::to_string(s.mode_mismatch_frames));
+        add(v, "mode_mismatches", std::to_string(s.mode_mismatches));
+        add(v, "scans_mode_rejected", std::to_string(s.scans_mode_rejected));
+        add(v, "mode_seen", s.mode_seen);
         add(v, "completeness", number(s.last_completeness, "%.4f"));
         add(v, "ms_since_last_scan", number(s.ms_since_last_scan, "%.1f"));
         add(v, "clock_offset_ms", number(s.clock_offset_ms, "%.3f"));

@@ -24,6 +24,7 @@ const char* to_string(SensorState state) {
         case SensorState::kStale: return "STALE";
         case SensorState::kLost: return "LOST";
         case SensorState::kDisabled: return "DISABLED";
+        case SensorState::kModeMismatch: return "MODE_MISMATCH";
     }
     return "?";
 }
@@ -101,6 +102,7 @@ struct Pipeline::Impl {
         for (auto& [port, members] : by_port) {
             receivers.push_back(make_receiver(port, members, config.network, config.station,
                                               config.health.min_completeness));
+            receivers.back()->log = ingest_log;
         }
         engine = std::make_unique<core::FusionEngine>(sensors.size(), config.fusion);
         last_health.assign(sensors.size(), core::SensorHealth{});
@@ -446,7 +448,11 @@ PipelineStats Pipeline::Impl::collect_stats() const {
             ss.duplicate_packets = c.duplicate_packets;
             ss.crc_errors = c.crc_errors;
             ss.resets = c.resets;
+            ss.mode_mismatch_frames = c.mode_mismatch_frames;
+            ss.mode_mismatches = c.mode_mismatches;
+            ss.mode_seen = s.mode_seen;
         }
+        ss.scans_mode_rejected = s.scans_mode_rejected.load();
         ss.scans = s.scans.load();
         ss.scans_incomplete = s.scans_incomplete.load();
         ss.scans_rejected = s.scans_rejected.load();
@@ -457,6 +463,8 @@ PipelineStats Pipeline::Impl::collect_stats() const {
         ss.offset_to_root_ms = m.offset_to_root_ms[i];
         if (!m.config.station.sensors[i].enabled) {
             ss.state = SensorState::kDisabled;
+        } else if (s.mode_mismatch.load()) {
+            ss.state = SensorState::kModeMismatch;
         } else if (last == 0 || ss.ms_since_last_scan > m.config.health.lost_after_ms) {
             ss.state = SensorState::kLost;
         } else if (ss.ms_since_last_scan > m.config.health.stale_after_ms) {

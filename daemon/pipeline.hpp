@@ -23,7 +23,9 @@
 
 namespace lidarfuse::daemon {
 
-enum class SensorState { kOk, kStale, kLost, kDisabled };
+// kModeMismatch: the sensor sends, but its data disagrees with the metadata's lidar_mode or
+// profile (drivers/ouster/mode_check.hpp); its scans are not fused until it agrees again.
+enum class SensorState { kOk, kStale, kLost, kDisabled, kModeMismatch };
 const char* to_string(SensorState state);
 
 struct SensorStats {
@@ -32,6 +34,10 @@ struct SensorStats {
     std::uint64_t packets = 0, lidar_packets = 0, imu_packets = 0, bad_packets = 0, late_packets = 0,
                   duplicate_packets = 0, crc_errors = 0, resets = 0;
     std::uint64_t scans = 0, scans_incomplete = 0, scans_rejected = 0;  // rejected: below min completeness
+    // Mode check: frames that disagreed with the metadata, times the sensor was flagged,
+    // scans not fused for it, and the last disagreement seen vs what the metadata says.
+    std::uint64_t mode_mismatch_frames = 0, mode_mismatches = 0, scans_mode_rejected = 0;
+    std::string mode_seen;
     double last_completeness = 0.0;
     double ms_since_last_scan = -1.0;
     // Sensor clock minus host clock (CLOCK_REALTIME) when its last scan completed (large

@@ -32,6 +32,10 @@ void attach_assembler(SensorIngest* s, double min_completeness,
             s->scans.fetch_add(1, std::memory_order_relaxed);
             s->last_completeness.store(completeness, std::memory_order_relaxed);
             if (completeness < 1.0) s->scans_incomplete.fetch_add(1, std::memory_order_relaxed);
+            if (s->assembler->mode_check().reject_last_frame()) {
+                s->scans_mode_rejected.fetch_add(1, std::memory_order_relaxed);
+                return;
+            }
             if (completeness < min_completeness) {
                 s->scans_rejected.fetch_add(1, std::memory_order_relaxed);
                 return;
@@ -49,6 +53,32 @@ void attach_assembler(SensorIngest* s, double min_completeness,
             s->clock_offset_ns.store(m.t_ns - realtime_ns(), std::memory_order_relaxed);
             queue->push(std::move(m));
         });
+}
+
+// Receiver thread, when the ModeCheck flags or clears the sensor (rare: formats text).
+void report_mode_change(Receiver* r, SensorIngest* s) {
+    const auto& check = s->assembler->mode_check();
+    const bool mismatch = check.mismatch();
+    const std::string seen = ouster::describe(check.last_disagreement(), check.expected());
+    {
+        std::lock_guard<std::mutex> lock(s->counters_mutex);
+        s->counters = s->assembler->counters();
+        if (mismatch) s->mode_seen = seen;
+    }
+    s->mode_mismatch.store(mismatch, std::memory_order_relaxed);
+    if (!r->log) return;
+    if (mismatch) {
+        r->log->error(
+            "{}: data does not match its metadata, not fused until it does (lidar_mode or "
+            "profile changed on the sensor?): {}",
+            s->name, seen);
+    } else {
+        r->log->warn(
+            "{}: data matches its metadata ({} {}) again after {} disagreeing frames: fusing it "
+            "again",
+            s->name, check.expected().lidar_mode, check.expected().profile,
+            check.frames_disagreeing());
+    }
 }
 
 }  // namespace
@@ -86,6 +116,10 @@ void run_receiver(Receiver* r) {
         }
         SensorIngest* s = r->sensors[static_cast<std::size_t>(routed)];
         s->assembler->add_packet(d.data, d.size);
+        if (s->assembler->mode_check().mismatch() !=
+            s->mode_mismatch.load(std::memory_order_relaxed)) {
+            report_mode_change(r, s);
+        }
         // Publish the counters every 64 packets: a lock per packet would be wasted.
         if ((++s->packets_since_publish & 63) == 0) publish_counters(s);
     });

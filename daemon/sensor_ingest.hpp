@@ -5,6 +5,8 @@
 // as a ScanMessage for the sync thread. Counters are atomics (or, for the assembler's,
 // a copy under a mutex refreshed every 64 packets) so other threads can read them.
 
+#include <spdlog/logger.h>
+
 #include <Eigen/Core>
 #include <atomic>
 #include <cstdint>
@@ -49,11 +51,15 @@ struct SensorIngest {
     std::unique_ptr<ouster::ScanAssembler> assembler;
     ouster::ScanCloud cloud;
     std::atomic<std::uint64_t> scans{0}, scans_incomplete{0}, scans_rejected{0};
+    // Scans not fused because the data disagrees with the metadata's mode (ModeCheck).
+    std::atomic<std::uint64_t> scans_mode_rejected{0};
+    std::atomic<bool> mode_mismatch{false};
     std::atomic<std::int64_t> last_scan_steady_ns{0};
     std::atomic<std::int64_t> clock_offset_ns{0};  // sensor clock - host clock at the last scan
     std::atomic<double> last_completeness{0.0};
-    mutable std::mutex counters_mutex;  // guards `counters`, a copy of the assembler's
-    ouster::AssemblyCounters counters;
+    mutable std::mutex counters_mutex;  // guards `counters` (a copy of the assembler's) and
+    ouster::AssemblyCounters counters;  // `mode_seen`
+    std::string mode_seen;  // what disagreed with the metadata, set when mode_mismatch is
     std::uint32_t packets_since_publish = 0;  // receiver thread only
 };
 
@@ -63,19 +69,22 @@ struct Receiver {
     std::unique_ptr<ouster::SensorRouter> router;
     DropOldestQueue<ScanMessage> queue{8};
     std::atomic<std::uint64_t> unassigned{0};
+    std::shared_ptr<spdlog::logger> log;  // mode mismatch flagged / cleared (rare events)
     std::thread thread;
 };
 
 // Binds `port` (throws naming it) for `members`, routed by the station's source addresses,
 // and gives each member its assembler feeding the receiver's queue; scans below
-// `min_completeness` are counted as rejected and not queued.
+// `min_completeness` are counted as rejected and not queued, and so are scans while the
+// sensor's data disagrees with its metadata's mode (ScanAssembler::mode_check()).
 std::unique_ptr<Receiver> make_receiver(std::uint16_t port,
                                         const std::vector<SensorIngest*>& members,
                                         const NetworkConfig& network,
                                         const station::StationConfig& station,
                                         double min_completeness);
 
-// The receiver thread's body: returns when the socket is stopped.
+// The receiver thread's body: returns when the socket is stopped. Logs (r->log) when a
+// sensor's data starts or stops disagreeing with its metadata's mode.
 void run_receiver(Receiver* r);
 
 // Copies the assembler's counters for other threads (the receiver thread, or after it ended).

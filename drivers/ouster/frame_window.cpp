@@ -85,6 +85,7 @@ LidarScan* FrameWindow::scan_for(std::uint32_t frame_id, std::uint32_t init_id,
 bool FrameWindow::claim_column(LidarScan& scan, std::uint32_t measurement_id) {
     if (measurement_id >= scan.columns()) {
         ++counters_->bad_columns;
+        ++scan.bad_columns;
         return false;
     }
     if (!scan.mark_received(measurement_id)) {

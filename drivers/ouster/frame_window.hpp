@@ -58,6 +58,10 @@ struct AssemblyCounters {
     std::uint64_t frames_incomplete = 0;
     std::uint64_t resets = 0;           // init_id / serial change or restart detected
     std::uint64_t missing_columns = 0;  // expected columns absent from emitted frames
+    // Filled by the ScanAssembler's ModeCheck (mode_check.hpp): frames whose columns
+    // disagree with the metadata's lidar_mode, and times the sensor was flagged for it.
+    std::uint64_t mode_mismatch_frames = 0;
+    std::uint64_t mode_mismatches = 0;
 };
 
 class FrameWindow {

@@ -91,6 +91,7 @@ void LidarScan::reset() {
     serial = 0;
     packets = 0;
     duplicate_columns = 0;
+    bad_columns = 0;
     received_expected_ = 0;
 }
 

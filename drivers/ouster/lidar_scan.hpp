@@ -113,6 +113,7 @@ public:
     std::uint64_t serial = 0;    // prod_sn; 0 for LEGACY
     std::uint32_t packets = 0;   // lidar packets that contributed at least one column
     std::uint32_t duplicate_columns = 0;
+    std::uint32_t bad_columns = 0;  // columns whose measurement_id was >= columns()
 
 private:
     LidarScanLayout layout_;

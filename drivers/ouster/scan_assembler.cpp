@@ -1,5 +1,6 @@
 #include "drivers/ouster/scan_assembler.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -15,6 +16,20 @@ FrameWindowParams window_params(const ScanAssemblerParams& params, const PacketF
     FrameWindowParams p = params.window;
     p.frame_id_bits = format.header_type() == HeaderType::kFusa ? 32 : 16;
     return p;
+}
+
+ModeExpectation mode_expectation(const SensorInfo& info, const PacketFormat& format) {
+    ModeExpectation e;
+    e.columns_per_frame = static_cast<std::uint32_t>(std::max(0, info.columns_per_frame));
+    e.frames_per_second = info.frames_per_second;
+    e.lidar_packet_bytes = format.lidar_packet_size();
+    e.packets_per_frame =
+        format.columns_per_packet() > 0
+            ? e.columns_per_frame / static_cast<std::uint32_t>(format.columns_per_packet())
+            : 0;
+    e.lidar_mode = info.lidar_mode;
+    e.profile = to_string(info.udp_profile_lidar);
+    return e;
 }
 
 }  // namespace
@@ -80,7 +95,18 @@ ScanAssembler::ScanAssembler(const SensorInfo& info, const ScanAssemblerParams& 
     : format_(info),
       layout_(scan_layout(info)),
       params_(params),
-      window_(layout_, window_params(params, format_), std::move(emit), &counters_) {}
+      mode_(mode_expectation(info, format_), format_.header_type() == HeaderType::kFusa ? 32 : 16,
+            params.mode_check),
+      emit_(std::move(emit)),
+      window_(
+          layout_, window_params(params, format_),
+          [this](const LidarScan& scan) {
+              mode_.observe_frame(scan);
+              counters_.mode_mismatch_frames = mode_.frames_disagreeing();
+              counters_.mode_mismatches = mode_.mismatches();
+              if (emit_) emit_(scan);
+          },
+          &counters_) {}
 
 PacketOutcome ScanAssembler::add_packet(const std::uint8_t* data, std::size_t size) {
     ++counters_.packets;
@@ -92,14 +118,15 @@ PacketOutcome ScanAssembler::add_packet(const std::uint8_t* data, std::size_t si
             return PacketOutcome::kImu;
         case PacketKind::kWrongSize:
             ++counters_.bad_size;
+            mode_.observe_wrong_size(size);
+            counters_.mode_mismatches = mode_.mismatches();
             return PacketOutcome::kWrongSize;
         case PacketKind::kWrongProfile:
             ++counters_.bad_profile;
             return PacketOutcome::kWrongProfile;
     }
     // FW 2.2-2.4 fill the CRC field with a fixed marker, not a CRC: skip computing it.
-    if (params_.check_crc && format_.has_crc() &&
-        format_.stored_crc(data) != kUnfilledCrcMarker) {
+    if (params_.check_crc && format_.has_crc() && format_.stored_crc(data) != kUnfilledCrcMarker) {
         switch (format_.check_crc(data)) {
             case CrcStatus::kValid:
                 ++counters_.crc_valid;
@@ -113,9 +140,12 @@ PacketOutcome ScanAssembler::add_packet(const std::uint8_t* data, std::size_t si
         }
     }
     ++counters_.lidar_packets;
+    mode_.observe_lidar_packet();
 
+    const std::uint64_t resets = counters_.resets;
     LidarScan* scan =
         window_.scan_for(format_.frame_id(data), format_.init_id(data), format_.prod_sn(data));
+    if (counters_.resets != resets) mode_.forget_previous_frame();
     if (!scan) return PacketOutcome::kLate;
 
     const std::ptrdiff_t stride = static_cast<std::ptrdiff_t>(layout_.columns);

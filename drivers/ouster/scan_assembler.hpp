@@ -7,6 +7,10 @@
 // init_id / serial changes, late packets; see frame_window.hpp for the rules), and its
 // columns are copied into the frame's staggered arrays at their measurement_id.
 //
+// Every finished frame and every wrong-size datagram also goes through a ModeCheck
+// (mode_check.hpp): has the sensor's lidar_mode or profile changed under its metadata?
+// Its verdict on a frame is known when the EmitFn sees that frame (mode_check()).
+//
 // Output: the EmitFn given to the constructor is called with each finished frame, in
 // frame_id order, from inside add_packet() or flush(). The LidarScan reference is valid
 // only during that call (the buffer goes back to a pool of `frames_in_flight` scans);
@@ -21,6 +25,7 @@
 #include "drivers/ouster/frame_window.hpp"
 #include "drivers/ouster/lidar_scan.hpp"
 #include "drivers/ouster/metadata.hpp"
+#include "drivers/ouster/mode_check.hpp"
 #include "drivers/ouster/packet_format.hpp"
 
 namespace lidarfuse::ouster {
@@ -33,6 +38,7 @@ struct ScanAssemblerParams {
     // headers). A zero footer, or the 0xDEADBEEF0000C0DE marker that FW 2.2-2.4 write
     // instead of a CRC, means "not filled" and is never an error.
     bool check_crc = true;
+    ModeCheckParams mode_check;
 };
 
 // What add_packet() did with one datagram.
@@ -58,6 +64,9 @@ public:
 
     // Throws std::invalid_argument when the metadata cannot describe a packet format.
     ScanAssembler(const SensorInfo& info, const ScanAssemblerParams& params, EmitFn emit);
+    // The window's callback points at this object.
+    ScanAssembler(const ScanAssembler&) = delete;
+    ScanAssembler& operator=(const ScanAssembler&) = delete;
 
     PacketOutcome add_packet(const std::uint8_t* data, std::size_t size);
     // Emits every frame still in flight (end of a capture, or before a pause).
@@ -65,6 +74,7 @@ public:
 
     const AssemblyCounters& counters() const { return counters_; }
     const PacketFormat& format() const { return format_; }
+    const ModeCheck& mode_check() const { return mode_; }
     const LidarScanLayout& layout() const { return layout_; }
 
 private:
@@ -72,7 +82,9 @@ private:
     LidarScanLayout layout_;
     ScanAssemblerParams params_;
     AssemblyCounters counters_;
-    FrameWindow window_;
+    ModeCheck mode_;
+    EmitFn emit_;
+    FrameWindow window_;  // last: its callback uses mode_ and emit_
 };
 
 }  // namespace lidarfuse::ouster

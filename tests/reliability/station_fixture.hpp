@@ -26,10 +26,11 @@ inline std::uint16_t base_port(int slot) {
 // `lidarfuse sim` into `dir` (2 sensors, 512x20, RNG19 profile so that init_id exists,
 // no traffic, whole datagrams) with the given --fault specs. Returns the tool's output.
 inline std::string simulate(const std::filesystem::path& dir, double seconds,
-                            const std::vector<std::string>& faults, int sensors = 2) {
+                            const std::vector<std::string>& faults, int sensors = 2,
+                            const std::string& mode = "512x20") {
     std::string command = test::tool_path() + " sim --scenario straight --sensors " + std::to_string(sensors) +
                           " --seconds " + std::to_string(seconds) +
-                          " --mode 512x20 --profile RNG19_RFL8_SIG16_NIR16 --no-traffic --whole-datagrams"
+                          " --mode " + mode + " --profile RNG19_RFL8_SIG16_NIR16 --no-traffic --whole-datagrams"
                           " --threads 2 --seed 3 --out " + dir.string();
     for (const auto& f : faults) command += " --fault " + f;
     std::string out;
