@@ -7,9 +7,8 @@
 // order [omega; v], per second), so its pose at time t is T(t) = T(t_ref) exp(xi (t - t_ref)).
 // A point p measured at t_k in the sensor frame of that instant is, in the sensor frame at
 // t_ref:   p' = exp(xi * (t_k - t_ref)) * p.
-// The twist comes from the last two pose estimates: xi = log(T_{n-1}^-1 T_n) / dt.
-// Caution: fed back through the registration, that estimate can run away (see
-// FusionParams::deskew); the engine leaves deskew off by default.
+// The engine takes the twist over the last three pose estimates (SensorTrack::deskew_twist:
+// over one frame period the velocity fed back through the registration oscillates).
 
 #include <cstdint>
 #include <vector>

@@ -37,17 +37,23 @@ double process_cpu_ms() {
 const char* kUsage =
     "usage: lidarfuse fuse CAPTURE.pcap --config station.yaml --out DIR [--voxel-size M]\n"
     "                      [--window K] [--threads N] [--save-cloud FRAME ...] [--max-frames N]\n"
-    "                      [--deskew] [--no-dynamic]\n"
+    "                      [--no-deskew] [--no-dynamic] [--reference-voxel M]\n"
+    "                      [--reference-target-voxel M] [--sensor-grid]\n"
     "Decodes the capture with the production ingest, groups one scan per sensor into frames,\n"
     "and runs the FusionEngine on every frame. Writes DIR/poses.csv (T_root_sensor per sensor\n"
     "and frame; header frame,sensor,t_ns,x,y,z,qw,qx,qy,qz), DIR/timing.csv (ms per stage per\n"
-    "frame) and DIR/fused_<FRAME>.ply for each --save-cloud frame.\n";
+    "frame) and DIR/fused_<FRAME>.ply for each --save-cloud frame.\n"
+    "Accuracy knobs (core/pipeline/fusion_types.hpp): --no-deskew: no per-column motion\n"
+    "compensation; --reference-voxel: voxel of the one-off\n"
+    "fine edges between the reference frames (0: off); --reference-target-voxel: voxel of the\n"
+    "reference target (0: --voxel-size); --sensor-grid: voxel grids in each sensor's frame\n"
+    "instead of the root frame.\n";
 
 int run_fuse(int argc, char** argv) {
     const Args args(argc, argv,
                     {"--config", "--out", "--voxel-size", "--window", "--threads", "--save-cloud",
-                     "--max-frames"},
-                    {"--deskew", "--no-dynamic"});
+                     "--max-frames", "--reference-voxel", "--reference-target-voxel"},
+                    {"--no-deskew", "--no-dynamic", "--sensor-grid"});
     if (args.help()) {
         std::printf("%s", kUsage);
         return 0;
@@ -64,8 +70,12 @@ int run_fuse(int argc, char** argv) {
     params.voxel_size_m = args.number("--voxel-size", params.voxel_size_m);
     params.window_frames = static_cast<int>(args.integer("--window", params.window_frames));
     params.num_threads = static_cast<int>(args.integer("--threads", 2));
-    params.deskew = args.flag("--deskew");
+    params.deskew = !args.flag("--no-deskew");
     params.remove_dynamic = !args.flag("--no-dynamic");
+    params.reference_voxel_size_m = args.number("--reference-voxel", params.reference_voxel_size_m);
+    params.reference_target_voxel_size_m =
+        args.number("--reference-target-voxel", params.reference_target_voxel_size_m);
+    params.voxel_grid_in_root_frame = !args.flag("--sensor-grid");
     params.initial_registration_inline = true;  // offline: deterministic, timing-independent
     if (!(params.voxel_size_m > 0)) throw UsageError("--voxel-size must be positive");
     if (params.window_frames < 2) throw UsageError("--window must be at least 2");

@@ -73,10 +73,22 @@ struct FusionEngine::Impl {
     std::set<PoseGraph::NodeId> window_nodes;  // non-reference nodes in the graph
     std::optional<PendingInitialisation> pending;
     std::vector<bool> started_first;  // this frame: started by the station's first registration
+    // Deskew (FusionParams::deskew): edges measured between reference nodes in their own
+    // frame (from skewed scans), removed when those references are deskewed; per sensor the
+    // frame its reference was re-anchored (reference nodes stay free for a window after).
+    struct ReferenceEdge {
+        PoseGraph::EdgeId edge;
+        std::size_t a, b;
+    };
+    std::vector<ReferenceEdge> reference_edges;
+    std::vector<std::int64_t> reanchored_frame;
+    std::optional<Eigen::Isometry3d> root_reanchor;  // left factor for the root's batch
+    std::int64_t root_reanchor_reference = -1;       // the root reference frame it belongs to
 
     Impl(std::size_t num_sensors, const FusionParams& p)
         : params(p), n(num_sensors), graph(graph_params(p)), suspicious(num_sensors, 0),
-          needs_reinit(num_sensors, false), started_first(num_sensors, false) {
+          needs_reinit(num_sensors, false), started_first(num_sensors, false),
+          reanchored_frame(num_sensors, -1) {
         for (std::size_t i = 0; i < n; ++i) tracks.push_back(std::make_unique<SensorTrack>(params));
         GicpParams g = params.gicp;
         g.max_correspondence_distance_m = params.correspondence_factor * params.voxel_size_m;
@@ -168,6 +180,7 @@ struct FusionEngine::Impl {
             graph.add_node(node_id(s, p.frame), T, is_root);
             started->push_back(s);
             started_first[s] = p.first;
+            reanchored_frame[s] = -1;
             out->health[s].event = p.first || is_root ? "initialised" : "reinitialised";
             suspicious[s] = 0;
             needs_reinit[s] = false;
@@ -185,6 +198,132 @@ struct FusionEngine::Impl {
             }
         }
         if (tracks[s]->initialised()) graph.remove_node(node_id(s, tracks[s]->reference_frame()));
+        reference_edges.erase(std::remove_if(reference_edges.begin(), reference_edges.end(),
+                                             [s](const ReferenceEdge& e) { return e.a == s || e.b == s; }),
+                              reference_edges.end());
+    }
+
+    // Deskews the reference scans whose motion is now known and re-anchors their poses to
+    // the scan timestamps (SensorTrack::deskew_reference). The root goes first: its
+    // correction changes the meaning of the root frame, so the sensors registered against
+    // its reference get it as a left factor (sensors registered later, against a
+    // not-yet-deskewed root frame, keep a residual of the root's motion over half a sweep).
+    // Everything measured in the old meaning -- the sensor's window nodes and the edges
+    // between reference frames -- leaves the graph. Returns whether any sensor re-anchored.
+    bool reanchor_references(std::int64_t frame, const std::vector<char>& usable,
+                             const std::vector<std::size_t>& started) {
+        const std::size_t root = params.root_sensor;
+        std::vector<std::size_t> order{root};
+        for (std::size_t s = 0; s < n; ++s) {
+            if (s != root) order.push_back(s);
+        }
+        bool any = false;
+        std::vector<std::size_t> batch;  // re-anchored with the root's reference frame
+        for (std::size_t s : order) {
+            SensorTrack& track = *tracks[s];
+            if (!track.initialised() || !usable[s]) continue;
+            if (std::find(started.begin(), started.end(), s) != started.end()) continue;
+            const auto right = track.deskew_reference(frame);
+            if (!right) continue;
+            Eigen::Isometry3d left = Eigen::Isometry3d::Identity();
+            if (s == root) {
+                root_reanchor = right->inverse();
+                root_reanchor_reference = track.reference_frame();
+                left = *root_reanchor;
+            } else if (root_reanchor && track.reference_frame() == root_reanchor_reference) {
+                left = *root_reanchor;
+            }
+            track.reanchor(left, *right);
+            for (auto it = window_nodes.begin(); it != window_nodes.end();) {
+                if (*it % 64 == static_cast<std::int64_t>(s)) {
+                    graph.remove_node(*it);
+                    it = window_nodes.erase(it);
+                } else {
+                    ++it;
+                }
+            }
+            for (auto it = reference_edges.begin(); it != reference_edges.end();) {
+                if (it->a == s || it->b == s) {
+                    graph.remove_edge(it->edge);
+                    it = reference_edges.erase(it);
+                } else {
+                    ++it;
+                }
+            }
+            const auto ref = node_id(s, track.reference_frame());
+            if (s != root) {
+                graph.set_node_fixed(ref, false);
+                graph.set_node_pose(ref, track.reference_pose());
+            }
+            reanchored_frame[s] = frame;
+            if (track.reference_frame() == root_reanchor_reference) batch.push_back(s);
+            any = true;
+        }
+        add_fine_reference_edges(batch, true);
+        return any;
+    }
+
+    // G-ICP between the reference scans of `sensors` (pairs whose references share a frame)
+    // at the fine voxel size, as edges between their reference nodes (see
+    // FusionParams::reference_voxel_size_m). One-off: a few hundred ms on 4 sensors.
+    // Pairs: at least one of `fresh`, the other any sensor whose reference is final (deskew
+    // on: deskewed) and shares the frame.
+    void add_fine_reference_edges(const std::vector<std::size_t>& fresh, bool deskewed_only) {
+        if (!(params.reference_voxel_size_m > 0) || fresh.empty()) return;
+        std::vector<std::size_t> sensors;
+        for (std::size_t s = 0; s < n; ++s) {
+            const SensorTrack& t = *tracks[s];
+            if (!t.initialised() || (deskewed_only && !t.reference_deskewed())) continue;
+            const bool is_fresh = std::find(fresh.begin(), fresh.end(), s) != fresh.end();
+            bool shares = false;
+            for (std::size_t f : fresh) shares = shares || tracks[f]->reference_frame() == t.reference_frame();
+            if (is_fresh || shares) sensors.push_back(s);
+        }
+        const auto in_fresh = [&](std::size_t s) {
+            return std::find(fresh.begin(), fresh.end(), s) != fresh.end();
+        };
+        std::vector<GicpTarget> targets(sensors.size());
+        const int threads = std::max(1, params.num_threads);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+        for (std::size_t k = 0; k < sensors.size(); ++k) {
+            targets[k] = tracks[sensors[k]]->reference_target_at(params.reference_voxel_size_m);
+        }
+        struct Pair {
+            std::size_t a, b;  // indices into sensors: target a, source b
+            Eigen::Isometry3d T_init;
+            GicpResult result;
+        };
+        std::vector<Pair> pairs;
+        for (std::size_t a = 0; a < sensors.size(); ++a) {
+            for (std::size_t b = a + 1; b < sensors.size(); ++b) {
+                const SensorTrack& ta = *tracks[sensors[a]];
+                const SensorTrack& tb = *tracks[sensors[b]];
+                if (ta.reference_frame() != tb.reference_frame()) continue;
+                if (!in_fresh(sensors[a]) && !in_fresh(sensors[b])) continue;
+                if (targets[a].size() < 3 || targets[b].size() < 3) continue;
+                pairs.push_back({a, b, ta.reference_pose().inverse() * tb.reference_pose(), {}});
+            }
+        }
+        GicpParams g = params.gicp;
+        g.max_correspondence_distance_m = params.correspondence_factor * params.reference_voxel_size_m;
+        g.num_threads = 1;
+        std::vector<GicpRegistration> fine(static_cast<std::size_t>(threads), GicpRegistration(g));
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+        for (std::size_t k = 0; k < pairs.size(); ++k) {
+            auto& pair = pairs[k];
+            pair.result = fine[static_cast<std::size_t>(omp_get_thread_num())].align(
+                targets[pair.a], targets[pair.b].cloud(), pair.T_init);
+        }
+        for (const auto& pair : pairs) {
+            const auto& r = pair.result;
+            if (!r.converged && r.status != GicpStatus::kMaxIterations) continue;
+            if (r.inlier_ratio < 0.5 * params.min_fitness) continue;
+            const std::size_t sa = sensors[pair.a], sb = sensors[pair.b];
+            const auto e = graph.add_edge(node_id(sa, tracks[sa]->reference_frame()),
+                                          node_id(sb, tracks[sb]->reference_frame()),
+                                          r.T_target_source, calibrated_information(r));
+            if (e >= 0) reference_edges.push_back({e, sa, sb});
+        }
     }
 
     Matrix6d calibrated_information(const GicpResult& r) const {
@@ -261,6 +400,17 @@ struct FusionEngine::Impl {
 
         // 2. Prepare every tracked sensor with a scan (in parallel).
         const auto t_prep = Clock::now();
+        const bool reanchored = params.deskew && reanchor_references(frame, usable, started);
+        {
+            // The first registration's references: fine edges at once (with deskew they are
+            // replaced when the references are deskewed). At 3 m the tracking-voxel edges
+            // alone leave the initial registration's error (tens of cm) in the first frames.
+            std::vector<std::size_t> first;
+            for (std::size_t s : started) {
+                if (started_first[s]) first.push_back(s);
+            }
+            add_fine_reference_edges(first, false);
+        }
         std::vector<std::size_t> active;
         std::vector<Eigen::Isometry3d> predicted(n, Eigen::Isometry3d::Identity());
         for (std::size_t s = 0; s < n; ++s) {
@@ -298,7 +448,7 @@ struct FusionEngine::Impl {
             }
         }
         const int interval = std::max(1, params.window_frames - 1);
-        if (frame % interval == 0 || !started.empty()) {
+        if (frame % interval == 0 || !started.empty() || reanchored) {
             for (std::size_t a = 0; a < active.size(); ++a) {
                 for (std::size_t b = a + 1; b < active.size(); ++b) {
                     const std::size_t j = active[a], i = active[b];  // target j, source i
@@ -339,6 +489,11 @@ struct FusionEngine::Impl {
             ++degree[a];
             ++degree[b];
             edges.emplace_back(e, task.source_sensor);
+            if (params.deskew && task.kind == EdgeKind::kInterSensor &&
+                tracks[task.source_sensor]->reference_frame() == frame &&
+                tracks[task.target_sensor]->reference_frame() == frame) {
+                reference_edges.push_back({e, task.source_sensor, task.target_sensor});
+            }
         }
         // A node with no edge at all would float: hold it at its prediction this frame.
         std::vector<PoseGraph::NodeId> held;
@@ -415,7 +570,8 @@ struct FusionEngine::Impl {
             if (!track.initialised()) continue;
             const auto ref = node_id(s, track.reference_frame());
             if (const auto pose = graph.node_pose(ref)) track.set_reference_pose(*pose);
-            if (frame - track.reference_frame() + 1 >= params.window_frames) graph.set_node_fixed(ref, true);
+            const std::int64_t since = std::max(track.reference_frame(), reanchored_frame[s]);
+            if (frame - since + 1 >= params.window_frames) graph.set_node_fixed(ref, true);
         }
         for (std::size_t s : active) track_finish(s, frame, in.sensors[s].t_ns, out.T_root_sensor[s]);
         // Nodes older than the window leave (their edges with them).

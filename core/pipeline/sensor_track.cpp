@@ -3,10 +3,31 @@
 #include "core/deskew.hpp"
 #include "core/normals.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 namespace lidarfuse::core {
 
 namespace {
 constexpr double kNsToS = 1e-9;
+constexpr double kPi = 3.14159265358979323846;
+
+// Voxel-grid downsampling of `points` (sensor frame; overwritten) on a grid fixed in the
+// frame T_grid_sensor maps into (null: the sensor frame), centroids returned in the sensor
+// frame. See FusionParams::voxel_grid_in_root_frame.
+void downsample_in_grid(VoxelGrid* grid, std::vector<Eigen::Vector3d>* points, double voxel_size_m,
+                        const Eigen::Isometry3d* T_grid_sensor, PointCloud* cloud) {
+    if (T_grid_sensor) {
+        for (auto& p : *points) p = *T_grid_sensor * p;
+    }
+    VoxelGridParams voxel;
+    voxel.voxel_size_m = voxel_size_m;
+    grid->downsample(*points, voxel, cloud);
+    if (T_grid_sensor) {
+        const Eigen::Isometry3d T_sensor_grid = T_grid_sensor->inverse();
+        for (auto& p : cloud->points) p = T_sensor_grid * p;
+    }
+}
 }  // namespace
 
 SensorTrack::SensorTrack(const FusionParams& params)
@@ -29,6 +50,85 @@ Eigen::Isometry3d SensorTrack::predict(std::int64_t t_ns) const {
     return last.T_root_sensor * se3_exp(body_twist_per_s(before.T_root_sensor, last.T_root_sensor, dt) * ahead);
 }
 
+Vector6d SensorTrack::deskew_twist() const {
+    if (!params_.deskew || history_.size() < 3) return Vector6d::Zero();
+    const PoseSample& a = history_[history_.size() - 3];
+    const PoseSample& b = history_.back();
+    const double span_s = static_cast<double>(b.t_ns - a.t_ns) * kNsToS;
+    if (!(span_s > 0) || span_s > params_.deskew_max_span_s) return Vector6d::Zero();
+    const Vector6d twist = body_twist_per_s(a.T_root_sensor, b.T_root_sensor, span_s);
+    // Faster than a pole can sway: a registration glitch or a knock, not motion to undo.
+    if (twist.head<3>().norm() > params_.deskew_max_rate_deg_s * kPi / 180.0 ||
+        twist.tail<3>().norm() > params_.deskew_max_speed_m_s) {
+        return Vector6d::Zero();
+    }
+    return twist;
+}
+
+std::optional<Eigen::Isometry3d> SensorTrack::deskew_reference(std::int64_t frame) {
+    if (!params_.deskew || reference_deskewed_ || !initialised_) return std::nullopt;
+    if (frame < reference_frame_ + params_.deskew_reference_after_frames) return std::nullopt;
+    reference_deskewed_ = true;
+    if (history_.size() < 2 || history_.front().frame != reference_frame_) return std::nullopt;
+    const PoseSample& a = history_[0];
+    const PoseSample& b = history_[1];
+    const double dt_s = static_cast<double>(b.t_ns - a.t_ns) * kNsToS;
+    if (!(dt_s > 0) || dt_s > params_.deskew_max_span_s) return std::nullopt;
+    const Vector6d twist = body_twist_per_s(a.T_root_sensor, b.T_root_sensor, dt_s);
+    if (twist.head<3>().norm() > params_.deskew_max_rate_deg_s * kPi / 180.0 ||
+        twist.tail<3>().norm() > params_.deskew_max_speed_m_s ||
+        reference_point_dt_s_.size() != reference_points_.size() || reference_points_.empty()) {
+        return std::nullopt;
+    }
+    double mean_dt_s = 0, max_abs_dt_s = 0;
+    for (float t : reference_point_dt_s_) {
+        mean_dt_s += t;
+        max_abs_dt_s = std::max(max_abs_dt_s, std::abs(static_cast<double>(t)));
+    }
+    if (max_abs_dt_s == 0.0) return std::nullopt;  // no point times: nothing to undo
+    mean_dt_s /= static_cast<double>(reference_point_dt_s_.size());
+    deskew_points(twist, reference_point_dt_s_, &reference_points_);
+    rebuild_reference_target();
+    return se3_exp(-twist * mean_dt_s);
+}
+
+double SensorTrack::reference_voxel_size_m() const {
+    const double fine = params_.reference_target_voxel_size_m;
+    return fine > 0 ? std::min(fine, params_.voxel_size_m) : params_.voxel_size_m;
+}
+
+GicpTarget SensorTrack::reference_target_at(double voxel_size_m) const {
+    std::vector<Eigen::Vector3d> points;
+    const auto& flags = background_update_.reference_dynamic;
+    for (std::size_t j = 0; j < reference_points_.size(); ++j) {
+        if (j >= flags.size() || !flags[j]) points.push_back(reference_points_[j]);
+    }
+    PointCloud cloud;
+    VoxelGrid grid;
+    downsample_in_grid(&grid, &points, voxel_size_m,
+                       params_.voxel_grid_in_root_frame ? &T_root_reference_ : nullptr, &cloud);
+    if (cloud.size() < 3) return GicpTarget();
+    NormalParams normals;
+    normals.k_neighbors = params_.covariance_neighbors;
+    normals.compute_normals = false;
+    normals.num_threads = 1;
+    estimate_normals_covariances(&cloud, normals);
+    return GicpTarget(std::move(cloud));
+}
+
+void SensorTrack::reanchor(const Eigen::Isometry3d& left, const Eigen::Isometry3d& right_reference) {
+    const Vector6d twist = deskew_twist();
+    double mean_dt_s = 0;
+    for (float t : reference_point_dt_s_) mean_dt_s += t;
+    if (!reference_point_dt_s_.empty()) mean_dt_s /= static_cast<double>(reference_point_dt_s_.size());
+    const Eigen::Isometry3d right = se3_exp(-twist * mean_dt_s);
+    T_root_reference_ = orthonormalized(left * T_root_reference_ * right_reference);
+    for (auto& sample : history_) {
+        sample.T_root_sensor = orthonormalized(
+            left * sample.T_root_sensor * (sample.frame == reference_frame_ ? right_reference : right));
+    }
+}
+
 void SensorTrack::crop_and_deskew(const SensorScanInput& scan, const Vector6d& twist_per_s) {
     points_.clear();
     point_dt_s_.clear();
@@ -48,15 +148,14 @@ void SensorTrack::crop_and_deskew(const SensorScanInput& scan, const Vector6d& t
     if (params_.deskew && have_dt) deskew_points(twist_per_s, point_dt_s_, &points_);
 }
 
-void SensorTrack::build_current_target(bool static_only) {
+void SensorTrack::build_current_target(bool static_only, const Eigen::Isometry3d& T_root_sensor) {
     static_points_.clear();
     for (std::size_t i = 0; i < points_.size(); ++i) {
         if (!static_only || !dynamic_[i]) static_points_.push_back(points_[i]);
     }
     PointCloud cloud;
-    VoxelGridParams voxel;
-    voxel.voxel_size_m = params_.voxel_size_m;
-    voxel_grid_.downsample(static_points_, voxel, &cloud);
+    downsample_in_grid(&voxel_grid_, &static_points_, params_.voxel_size_m,
+                       params_.voxel_grid_in_root_frame ? &T_root_sensor : nullptr, &cloud);
     if (cloud.size() >= 3) {
         NormalParams normals;
         normals.k_neighbors = params_.covariance_neighbors;
@@ -78,10 +177,16 @@ void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
     dynamic_count_ = 0;
     background_.set_reference(points_);
     reference_points_ = points_;
+    reference_point_dt_s_ = point_dt_s_;
+    reference_deskewed_ = false;
     reference_dynamic_at_build_ = 0;
-    build_current_target(false);
+    build_current_target(false, T_root_sensor);
     // The reference target is a copy of the first frame's cloud (the current one moves on).
-    reference_target_ = GicpTarget(current_target_.cloud());
+    if (reference_voxel_size_m() == params_.voxel_size_m) {
+        reference_target_ = GicpTarget(current_target_.cloud());
+    } else {
+        reference_target_ = reference_target_at(reference_voxel_size_m());
+    }
 }
 
 void SensorTrack::reset() {
@@ -94,34 +199,14 @@ void SensorTrack::reset() {
 }
 
 void SensorTrack::rebuild_reference_target() {
-    static_points_.clear();
-    const auto& flags = background_update_.reference_dynamic;
-    for (std::size_t j = 0; j < reference_points_.size(); ++j) {
-        if (j >= flags.size() || !flags[j]) static_points_.push_back(reference_points_[j]);
-    }
-    PointCloud cloud;
-    VoxelGridParams voxel;
-    voxel.voxel_size_m = params_.voxel_size_m;
-    voxel_grid_.downsample(static_points_, voxel, &cloud);
-    if (cloud.size() < 3) return;  // keep the old target rather than none
-    NormalParams normals;
-    normals.k_neighbors = params_.covariance_neighbors;
-    normals.compute_normals = false;
-    normals.num_threads = 1;
-    estimate_normals_covariances(&cloud, normals);
-    reference_target_ = GicpTarget(std::move(cloud));
+    GicpTarget target = reference_target_at(reference_voxel_size_m());
+    if (target.size() < 3) return;  // keep the old target rather than none
+    reference_target_ = std::move(target);
     reference_dynamic_at_build_ = background_update_.num_reference_dynamic;
 }
 
 void SensorTrack::prepare(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted) {
-    Vector6d twist = Vector6d::Zero();
-    if (history_.size() >= 2) {
-        const PoseSample& a = history_[history_.size() - 2];
-        const PoseSample& b = history_.back();
-        twist = body_twist_per_s(a.T_root_sensor, b.T_root_sensor,
-                                 static_cast<double>(b.t_ns - a.t_ns) * kNsToS);
-    }
-    crop_and_deskew(scan, twist);
+    crop_and_deskew(scan, deskew_twist());
     dynamic_.assign(points_.size(), 0);
     dynamic_count_ = 0;
     if (params_.remove_dynamic && background_.has_reference()) {
@@ -139,7 +224,7 @@ void SensorTrack::prepare(const SensorScanInput& scan, const Eigen::Isometry3d& 
                                         : reference_dynamic_at_build_ - flagged;
         if (changed > reference_points_.size() / 100 + 50) rebuild_reference_target();
     }
-    build_current_target(params_.remove_dynamic);
+    build_current_target(params_.remove_dynamic, T_root_predicted);
 }
 
 void SensorTrack::finish_frame(std::int64_t frame, std::int64_t t_ns,

@@ -39,6 +39,30 @@ public:
 
     // Constant-velocity prediction of the pose at t_ns from the last two poses.
     Eigen::Isometry3d predict(std::int64_t t_ns) const;
+    // The body twist (per second) used to deskew the current scan: the mean velocity over
+    // the last three poses (two frame periods), clamped. Zero until three poses are known,
+    // across gaps longer than FusionParams::deskew_max_span_s, and above the rate bounds.
+    // Why two periods: a pose estimated from a scan deskewed with velocity v moves by about
+    // -v * T/2; with v from the last two poses that feedback has a pole at -1 (an undamped
+    // frame-to-frame oscillation); over two periods its poles lie inside |z| < 0.7.
+    Vector6d deskew_twist() const;
+    // Reference (first) frame deskew, once its motion is known: the reference scan was taken
+    // before any velocity estimate, so it is deskewed later, with the twist from its pose to
+    // the next, and the reference target is rebuilt. Returns the right factor that moves the
+    // reference pose from the rigid fit of the skewed scan (about its mean point time) to the
+    // scan timestamp, exp(-xi * mean dt); nullopt when nothing was done (deskew off, not
+    // enough history yet, or already done). Gives up (done, nothing changed) when the pose
+    // after the reference frame is unknown (history lost across a gap).
+    std::optional<Eigen::Isometry3d> deskew_reference(std::int64_t frame);
+    bool reference_deskewed() const { return reference_deskewed_; }
+    // The reference scan's static points downsampled at `voxel_size_m`, with covariances
+    // (for the fine inter-sensor edges between reference frames). Empty if fewer than 3.
+    GicpTarget reference_target_at(double voxel_size_m) const;
+    // Voxel size of the reference target (FusionParams::reference_target_voxel_size_m).
+    double reference_voxel_size_m() const;
+    // After deskew_reference(): maps the reference pose and the pose history to the deskewed
+    // meaning, T <- left * T * right (history: right from the current twist).
+    void reanchor(const Eigen::Isometry3d& left, const Eigen::Isometry3d& right_reference);
     const std::deque<PoseSample>& history() const { return history_; }
 
     // Deskews with the current motion estimate, crops, flags dynamic points against the
@@ -69,7 +93,8 @@ public:
 
 private:
     void crop_and_deskew(const SensorScanInput& scan, const Vector6d& twist_per_s);
-    void build_current_target(bool static_only);
+    // Downsamples on the grid of FusionParams::voxel_grid_in_root_frame, at T_root_sensor.
+    void build_current_target(bool static_only, const Eigen::Isometry3d& T_root_sensor);
     // Rebuilds the reference target without the reference points the background model
     // found to have left (vehicles present in the first frame).
     void rebuild_reference_target();
@@ -94,6 +119,8 @@ private:
     std::vector<Eigen::Vector3d> in_reference_frame_;
     std::vector<Eigen::Vector3d> static_points_;
     std::vector<Eigen::Vector3d> reference_points_;
+    std::vector<float> reference_point_dt_s_;
+    bool reference_deskewed_ = false;
     std::size_t reference_dynamic_at_build_ = 0;
 };
 
