@@ -14,8 +14,9 @@
 //         ransac_threshold, rank_share, height_diff, min_height, peaks (ground-aligned
 //         search), threads, quiet (1: only register_initial), match_only (1: no RANSAC
 //         rounds, no register_initial), refine (1: refine and check every ground-aligned
-//         peak), truth_shift_s (truth taken this long after the scan's timestamp; 0.025 =
-//         mid-sweep at 20 Hz, see calibrate_command_test)
+//         peak), tried (1: every candidate of register_pair that reached G-ICP, with the
+//         check that dropped it), truth_shift_s (truth taken this long after the scan's
+//         timestamp; 0.025 = mid-sweep at 20 Hz, see calibrate_command_test)
 // Prints `name value unit` lines (totals over all dirs) on stdout, details on stderr.
 
 #include <algorithm>
@@ -128,6 +129,7 @@ int main(int argc, char** argv) {
     params.num_threads = static_cast<int>(option(opts, "threads", 2));
     p.max_free_space_violation_share = option(opts, "max_free_space", p.max_free_space_violation_share);
     const bool quiet = option(opts, "quiet", 0) != 0;
+    const bool show_tried = option(opts, "tried", 0) != 0;
     const bool match_only = option(opts, "match_only", 0) != 0;
     const double threshold_m = p.ransac.inlier_threshold_m;
 
@@ -302,6 +304,17 @@ int main(int argc, char** argv) {
                          pair.candidates, pair.alternatives.size(), pair.chosen_candidate,
                          core::translation_error_m(pair.T_target_source, T),
                          core::rotation_error_deg(pair.T_target_source, T));
+            // Every candidate that reached G-ICP: which check dropped it, against the truth.
+            for (const core::CandidateRecord& r : pair.tried) {
+                if (!show_tried || r.gicp_inlier_ratio < 0.0) continue;
+                std::fprintf(stderr,
+                             "    tried %2d %s: %-20s err %7.3f m %7.2f deg | gicp_inl %.3f info/inl %6.2f p2p %.3f m "
+                             "overlap %.3f fs %.3f\n",
+                             r.candidate, r.ground_search ? "G" : "R", core::to_string(r.outcome),
+                             core::translation_error_m(r.T_refined, T), core::rotation_error_deg(r.T_refined, T),
+                             r.gicp_inlier_ratio, r.information_per_inlier, r.p2p_error_m, r.overlap_share,
+                             r.free_space_share);
+            }
         }
         std::fprintf(stderr, "%s: registered %d/%zu wrong %d time %.2f s (features %.2f pairs %.2f)%s\n",
                      dir.c_str(), registered, n, wrong, result.timings.total_s, result.timings.features_s,

@@ -13,7 +13,10 @@
 // Usage: registration_sweep_bench [seeds=2] [yaw_step=30] [fov=90] [threads=2]
 // Environment (for comparisons): SWEEP_ONLY_FOV=1 skips the yaw sweep;
 // SWEEP_MAX_FREE_SPACE=x sets max_free_space_violation_share; SWEEP_NO_GROUND_SEARCH=1
-// runs the paper's FPFH + RANSAC candidates only. Per-run errors go to stderr.
+// runs the paper's FPFH + RANSAC candidates only; SWEEP_NO_AMBIGUITY=1 turns the
+// consensus's ambiguity test off (edge_consensus.hpp: the old guess by p2p support).
+// Per-run errors go to stderr; SWEEP_VERBOSE=1 adds every candidate register_pair tried,
+// with its error against the truth and the check that dropped it.
 
 #include <cmath>
 #include <cstdio>
@@ -66,6 +69,7 @@ Outcome run(const core::PointCloud& target, const core::PointCloud& source, cons
     params.num_threads = threads;
     if (const char* fs = std::getenv("SWEEP_MAX_FREE_SPACE")) params.pair.max_free_space_violation_share = std::atof(fs);
     if (std::getenv("SWEEP_NO_GROUND_SEARCH")) params.pair.use_ground_aligned_search = false;
+    if (std::getenv("SWEEP_NO_AMBIGUITY")) params.ambiguity.enabled = false;
     const auto result = core::register_initial({target, source}, params);
     Outcome o;
     o.overlap_share = overlap_share(source, target, truth);
@@ -80,6 +84,21 @@ Outcome run(const core::PointCloud& target, const core::PointCloud& source, cons
                      result.pairs[0].free_space_violation_share, result.pairs[0].overlap_share, result.pairs[0].alternatives.size());
     } else {
         std::fprintf(stderr, "  not registered: %s\n", core::to_string(s.status));
+    }
+    if (std::getenv("SWEEP_VERBOSE")) {
+        const core::PairResult& p = result.pairs[0];
+        std::fprintf(stderr, "    pair: %s, chosen candidate %d, %zu alternatives\n", core::to_string(p.status),
+                     p.chosen_candidate, p.alternatives.size());
+        for (const core::CandidateRecord& r : p.tried) {
+            std::fprintf(stderr,
+                         "    cand %2d %s support %3zu: %-20s init %6.2f m %6.1f deg -> %6.2f m %7.2f deg | coarse_fs "
+                         "%.3f gicp_inl %.3f info/inl %.2f p2p %.3f m overlap %.3f fs %.3f\n",
+                         r.candidate, r.ground_search ? "G" : "R", r.support, core::to_string(r.outcome),
+                         core::translation_error_m(r.T_initial, truth), core::rotation_error_deg(r.T_initial, truth),
+                         core::translation_error_m(r.T_refined, truth), core::rotation_error_deg(r.T_refined, truth),
+                         r.coarse_free_space_share, r.gicp_inlier_ratio, r.information_per_inlier, r.p2p_error_m,
+                         r.overlap_share, r.free_space_share);
+        }
     }
     return o;
 }
@@ -117,6 +136,7 @@ int main(int argc, char** argv) {
     }
     std::printf("sweep_yaw_success_rate %.1f %%\n", 100.0 * yaw_success / std::max(1, yaw_runs));
     std::printf("sweep_yaw_wrong_poses %d poses\n", yaw_wrong);
+    std::printf("sweep_yaw_refused %d runs\n", yaw_runs - yaw_success - yaw_wrong);
 
     // 2. Field-of-view overlap.
     const Eigen::Isometry3d T_world_source = testing::street_sensor_poses()[2];
@@ -141,5 +161,6 @@ int main(int argc, char** argv) {
     }
     std::printf("sweep_fov_success_rate %.1f %%\n", 100.0 * fov_success / std::max(1, fov_runs));
     std::printf("sweep_fov_wrong_poses %d poses\n", fov_wrong);
+    std::printf("sweep_fov_refused %d runs\n", fov_runs - fov_success - fov_wrong);
     return 0;
 }

@@ -2,9 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <numeric>
-#include <random>
 
+#include "core/edge_consensus.hpp"
 #include "core/se3.hpp"
 
 namespace lidarfuse::core {
@@ -45,136 +44,6 @@ void spanning_tree_poses(std::size_t n, const std::vector<PairResult>& pairs,
     }
 }
 
-// Our addition: the largest mutually consistent set of pairwise results. On a symmetric
-// site a pair can pass every pairwise check with a look-alike (the intersection's arms),
-// even with a lower p2p error than the right candidate, and the worst-residual-first
-// pruning of the pose graph may then keep look-alikes that agree with each other. So
-// spanning trees are sampled (seeded; the max-support tree of the chosen candidates
-// first) over every pair's chosen candidate and its alternatives (one per pair), each tree
-// gives poses, and a tree is invalid when it puts two sensors within
-// min_sensor_separation_m of each other (two sensors cannot share a place; a look-alike
-// typically puts a sensor onto another's position). The valid tree under which the most
-// pairs have a consistent candidate wins (ties: more sensors reached, then more p2p
-// support); each pair keeps its consistent candidate, pairs without one are dropped.
-void keep_consistent_edges(std::size_t n, std::vector<PairResult>* pairs, std::vector<bool>* edge_ok,
-                           const InitialRegistrationParams& params) {
-    struct Option {
-        std::size_t pair;
-        PairAlternative estimate;
-    };
-    std::vector<Option> options;
-    std::vector<std::size_t> good;
-    for (std::size_t e = 0; e < pairs->size(); ++e) {
-        if (!(*edge_ok)[e]) continue;
-        good.push_back(e);
-        options.push_back({e, (*pairs)[e].chosen()});
-    }
-    std::stable_sort(options.begin(), options.end(), [](const Option& a, const Option& b) {
-        return a.estimate.p2p_inliers > b.estimate.p2p_inliers;
-    });
-    for (std::size_t e : good) {
-        for (const PairAlternative& a : (*pairs)[e].alternatives) options.push_back({e, a});
-    }
-    if (good.empty()) return;
-    // Index of the first option of a pair consistent with `poses`, or -1.
-    auto consistent_option = [&](std::size_t e, const std::vector<Eigen::Isometry3d>& poses,
-                                 const std::vector<bool>& has) -> int {
-        const PairResult& p = (*pairs)[e];
-        if (!has[p.source] || !has[p.target]) return -1;
-        const Eigen::Isometry3d implied = poses[p.target].inverse() * poses[p.source];
-        for (std::size_t k = 0; k < options.size(); ++k) {
-            if (options[k].pair != e) continue;
-            const Eigen::Isometry3d& T = options[k].estimate.T_target_source;
-            if (translation_error_m(implied, T) <= params.max_edge_translation_m &&
-                rotation_error_deg(implied, T) <= params.max_edge_rotation_deg) {
-                return static_cast<int>(k);
-            }
-        }
-        return -1;
-    };
-    struct Score {
-        int consistent = -1;
-        int reached = 0;
-        std::size_t support = 0;
-        bool operator>(const Score& o) const {
-            if (consistent != o.consistent) return consistent > o.consistent;
-            if (reached != o.reached) return reached > o.reached;
-            return support > o.support;
-        }
-    };
-    std::mt19937 rng(params.consensus_seed);
-    std::vector<std::size_t> order(options.size());
-    std::iota(order.begin(), order.end(), 0);
-    Score best;
-    std::vector<Eigen::Isometry3d> best_poses;
-    std::vector<bool> best_has;
-    for (int sample = 0; sample < params.consensus_samples; ++sample) {
-        if (sample > 0) std::shuffle(order.begin(), order.end(), rng);
-        // Tree: repeatedly take the first option (in `order`) that reaches a new sensor.
-        std::vector<Eigen::Isometry3d> poses(n, Eigen::Isometry3d::Identity());
-        std::vector<bool> has(n, false);
-        has[0] = true;
-        for (bool grew = true; grew;) {
-            grew = false;
-            for (std::size_t k : order) {
-                const PairResult& p = (*pairs)[options[k].pair];
-                const Eigen::Isometry3d& T = options[k].estimate.T_target_source;
-                if (has[p.source] == has[p.target]) continue;
-                if (has[p.target]) {
-                    poses[p.source] = poses[p.target] * T;
-                    has[p.source] = true;
-                } else {
-                    poses[p.target] = poses[p.source] * T.inverse();
-                    has[p.target] = true;
-                }
-                grew = true;
-                break;
-            }
-        }
-        bool valid = true;
-        for (std::size_t a = 0; a < n && valid; ++a) {
-            for (std::size_t b = a + 1; b < n && valid; ++b) {
-                valid = !(has[a] && has[b] &&
-                          (poses[a].translation() - poses[b].translation()).norm() <
-                              params.pair.min_sensor_separation_m);
-            }
-        }
-        if (!valid) continue;
-        Score score;
-        score.consistent = 0;
-        for (std::size_t i = 0; i < n; ++i) score.reached += has[i] ? 1 : 0;
-        for (std::size_t e : good) {
-            const int k = consistent_option(e, poses, has);
-            if (k < 0) continue;
-            ++score.consistent;
-            score.support += options[k].estimate.p2p_inliers;
-        }
-        if (score > best) {
-            best = score;
-            best_poses = poses;
-            best_has = has;
-        }
-    }
-    for (std::size_t e : good) {
-        PairResult& p = (*pairs)[e];
-        const int k = best.consistent >= 0 ? consistent_option(e, best_poses, best_has) : -1;
-        if (k < 0) {
-            p.status = PairStatus::kRejectedByPoseGraph;
-            (*edge_ok)[e] = false;
-            continue;
-        }
-        const PairAlternative pick = options[k].estimate;
-        if (pick.candidate != p.chosen_candidate) {
-            std::vector<PairAlternative> others{p.chosen()};
-            for (const PairAlternative& a : p.alternatives) {
-                if (a.candidate != pick.candidate) others.push_back(a);
-            }
-            p.choose(pick);
-            p.alternatives = std::move(others);
-        }
-    }
-}
-
 SensorRegistrationStatus from_features(SensorFeatureStatus status) {
     switch (status) {
         case SensorFeatureStatus::kOk: return SensorRegistrationStatus::kRegistered;
@@ -196,6 +65,7 @@ const char* to_string(SensorRegistrationStatus status) {
         case SensorRegistrationStatus::kNoConsistentCorrespondences: return "no consistent correspondences";
         case SensorRegistrationStatus::kCancelled: return "cancelled";
         case SensorRegistrationStatus::kNotConnectedToRoot: return "not connected to the root sensor";
+        case SensorRegistrationStatus::kAmbiguous: return "ambiguous: a look-alike placement fits as well";
     }
     return "unknown";
 }
@@ -306,7 +176,14 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
     for (std::size_t e = 0; e < result.pairs.size(); ++e) {
         edge_ok[e] = result.pairs[e].status == PairStatus::kOk;
     }
-    keep_consistent_edges(n, &result.pairs, &edge_ok, params);
+    EdgeConsensusParams consensus;
+    consensus.max_edge_translation_m = params.max_edge_translation_m;
+    consensus.max_edge_rotation_deg = params.max_edge_rotation_deg;
+    consensus.samples = params.consensus_samples;
+    consensus.seed = params.consensus_seed;
+    consensus.min_sensor_separation_m = params.pair.min_sensor_separation_m;
+    consensus.ambiguity = params.ambiguity;
+    const std::vector<bool> ambiguous = select_consistent_edges(n, &result.pairs, &edge_ok, consensus).ambiguous;
     std::vector<Eigen::Isometry3d> poses;
     std::vector<bool> reached;
     while (true) {
@@ -388,8 +265,9 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
             if (p.source != static_cast<int>(i) && p.target != static_cast<int>(i)) continue;
             any_ok = any_ok || edge_ok[e];
         }
-        s.status = any_ok ? SensorRegistrationStatus::kNotConnectedToRoot
-                          : SensorRegistrationStatus::kNoConsistentCorrespondences;
+        s.status = ambiguous[i] ? SensorRegistrationStatus::kAmbiguous
+                   : any_ok     ? SensorRegistrationStatus::kNotConnectedToRoot
+                                : SensorRegistrationStatus::kNoConsistentCorrespondences;
     }
     result.timings.total_s = seconds_since(start_total);
     return result;

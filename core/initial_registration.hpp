@@ -12,6 +12,9 @@
 //                            reached through others. Pairs that disagree with the solved
 //                            poses by more than the edge tolerances are dropped and the
 //                            graph solved again (our addition: a cycle-consistency check).
+//                            Before it, a consensus over sampled spanning trees picks one
+//                            candidate per pair and refuses sensors whose placement the
+//                            data does not decide (edge_consensus.hpp).
 //
 // Input clouds are in their own sensor frames (sensor at the origin). Output poses are
 // T_root_sensor (root = sensor 0). A sensor that cannot be registered gets a reason and no
@@ -25,6 +28,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/edge_consensus.hpp"
 #include "core/pair_registration.hpp"
 #include "core/point_cloud.hpp"
 #include "core/pose_graph.hpp"
@@ -45,6 +49,9 @@ struct InitialRegistrationParams {
     // .cpp): sampled trees (the max-support tree first) and the sampling seed.
     int consensus_samples = 256;
     std::uint32_t consensus_seed = 1;
+    // A sensor placed differently by a rival consensus tree that the winner does not
+    // clearly beat is refused (edge_consensus.hpp).
+    AmbiguityParams ambiguity{};
     int num_threads = 1;
     // Optional stop request, read between sensors and between pairs (a worker thread's
     // job is cancelled when the daemon stops): once set, the remaining work is skipped
@@ -62,6 +69,8 @@ enum class SensorRegistrationStatus {
     kDegenerate,                  // sees a plane only
     kNoConsistentCorrespondences, // no pair with another sensor survived RANSAC / G-ICP
     kNotConnectedToRoot,          // registered against others, but no path to the root
+    kAmbiguous,                   // a look-alike placement explains the data as well
+                                  // (edge_consensus.hpp); refused, not guessed
     kCancelled,                   // InitialRegistrationParams::cancel was set
 };
 

@@ -40,6 +40,21 @@ const char* to_string(PairStatus status) {
         case PairStatus::kDegenerate: return "degenerate (weak or singular G-ICP Hessian)";
         case PairStatus::kFreeSpaceViolated: return "points in the other sensor's free space";
         case PairStatus::kRejectedByPoseGraph: return "inconsistent with the other pairs";
+        case PairStatus::kAmbiguous: return "ambiguous: a look-alike candidate fits as well";
+    }
+    return "unknown";
+}
+
+const char* to_string(CandidateOutcome outcome) {
+    switch (outcome) {
+        case CandidateOutcome::kKept: return "kept";
+        case CandidateOutcome::kSameSensorPosition: return "same sensor position";
+        case CandidateOutcome::kCoarseFreeSpace: return "coarse free space";
+        case CandidateOutcome::kRefinementFailed: return "refinement failed";
+        case CandidateOutcome::kLowOverlap: return "low overlap";
+        case CandidateOutcome::kNoP2pOverlap: return "no p2p overlap";
+        case CandidateOutcome::kWeak: return "weak information";
+        case CandidateOutcome::kFreeSpace: return "free space";
     }
     return "unknown";
 }
@@ -110,22 +125,32 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
     int same_place_rejected = 0;
     int low_overlap_rejected = 0;
     int order = 0;
-    auto consider = [&](const Eigen::Isometry3d& T_initial, std::size_t support, double max_coarse_share) {
+    auto consider = [&](const Eigen::Isometry3d& T_initial, std::size_t support, double max_coarse_share,
+                        bool ground_search) {
         const int index = order++;
+        CandidateRecord& record = result.tried.emplace_back();
+        record.candidate = index;
+        record.ground_search = ground_search;
+        record.support = support;
+        record.T_initial = T_initial;
+        record.T_refined = T_initial;
+        auto drop = [&](CandidateOutcome outcome, int* counter) {
+            record.outcome = outcome;
+            if (counter != nullptr) ++*counter;
+        };
         // Two sensors cannot stand in the same place: on a symmetric site (the simulated
         // intersection) the strongest look-alike puts the source onto the target's own
         // position, where it would see exactly what the target sees.
         if (T_initial.translation().norm() < params.min_sensor_separation_m) {
-            ++same_place_rejected;
-            return;
+            return drop(CandidateOutcome::kSameSensorPosition, &same_place_rejected);
         }
         const FreeSpaceResult coarse_free_space = free_space_violations_both(
             source.gicp.cloud().points, target.gicp.cloud().points, T_initial, params.free_space);
+        record.coarse_free_space_share = coarse_free_space.violation_share;
         if (coarse_free_space.violation_share > max_coarse_share) {
-            ++free_space_rejected;
             result.worst_rejected_violation_share =
                 std::max(result.worst_rejected_violation_share, coarse_free_space.violation_share);
-            return;
+            return drop(CandidateOutcome::kCoarseFreeSpace, &free_space_rejected);
         }
         auto start_gicp = Clock::now();
         Candidate candidate;
@@ -147,35 +172,41 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
             candidate.T_target_source = candidate.gicp.T_target_source;
         }
         result.timings.gicp_s += seconds_since(start_gicp);
-        if (!refined || !keeps_up_vector(candidate.T_target_source)) return;
+        record.T_refined = candidate.T_target_source;
+        record.gicp_inlier_ratio = candidate.gicp.inlier_ratio;
+        if (!refined || !keeps_up_vector(candidate.T_target_source)) {
+            return drop(CandidateOutcome::kRefinementFailed, nullptr);
+        }
         if (candidate.T_target_source.translation().norm() < params.min_sensor_separation_m) {
-            ++same_place_rejected;
-            return;
+            return drop(CandidateOutcome::kSameSensorPosition, &same_place_rejected);
         }
         if (candidate.gicp.inlier_ratio < params.min_overlap_share) {
-            ++low_overlap_rejected;
-            return;
+            return drop(CandidateOutcome::kLowOverlap, &low_overlap_rejected);
         }
         auto start_p2p = Clock::now();
         candidate.p2p = p2p_error(source.gicp.cloud().points, target.gicp.tree(), candidate.T_target_source,
                                   p2p_params);
         result.timings.p2p_s += seconds_since(start_p2p);
-        if (!candidate.p2p.valid) return;  // no overlap at all within r_c: not a candidate
+        // No overlap at all within r_c: not a candidate.
+        if (!candidate.p2p.valid) return drop(CandidateOutcome::kNoP2pOverlap, nullptr);
+        record.p2p_error_m = candidate.p2p.error_m;
+        record.overlap_share = candidate.p2p.overlap_share;
         const double information_per_inlier =
             candidate.gicp.H_eigenvalues(0) /
             static_cast<double>(std::max<std::size_t>(candidate.gicp.num_inliers, 1));
+        record.information_per_inlier = information_per_inlier;
         if (information_per_inlier < params.min_information_per_inlier) {
-            ++weak_candidates;
-            return;
+            return drop(CandidateOutcome::kWeak, &weak_candidates);
         }
         candidate.free_space = free_space_violations_both(source.gicp.cloud().points, target.gicp.cloud().points,
                                                           candidate.T_target_source, params.free_space);
+        record.free_space_share = candidate.free_space.violation_share;
         if (candidate.free_space.violation_share > params.max_free_space_violation_share) {
-            ++free_space_rejected;
             result.worst_rejected_violation_share =
                 std::max(result.worst_rejected_violation_share, candidate.free_space.violation_share);
-            return;
+            return drop(CandidateOutcome::kFreeSpace, &free_space_rejected);
         }
+        record.outcome = CandidateOutcome::kKept;
         candidates.push_back(candidate);
     };
 
@@ -200,7 +231,8 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
                                              params.alternative_separation_m;
             }
             if (duplicate) continue;
-            consider(peak.T_target_source, peak.inliers.size(), params.max_ground_coarse_free_space_violation_share);
+            consider(peak.T_target_source, peak.inliers.size(), params.max_ground_coarse_free_space_violation_share,
+                     true);
         }
     }
 
@@ -217,7 +249,8 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         result.timings.ransac_s += seconds_since(start);
         if (!ransac.success) break;
         any_consensus = true;
-        consider(ransac.T_target_source, ransac.inliers.size(), params.max_coarse_free_space_violation_share);
+        consider(ransac.T_target_source, ransac.inliers.size(), params.max_coarse_free_space_violation_share,
+                 false);
 
         // Drop this round's supporters before the next round.
         std::vector<bool> used(remaining.size(), false);

@@ -105,6 +105,8 @@ enum class PairStatus {
     kFreeSpaceViolated,    // every refined candidate put points into the other sensor's
                            // observed free space (max_free_space_violation_share)
     kRejectedByPoseGraph,  // disagrees with the other pairs (set by the caller)
+    kAmbiguous,            // a look-alike candidate explains the pair as well and no other
+                           // pair decides (set by the caller, edge_consensus.hpp)
 };
 
 const char* to_string(PairStatus status);
@@ -134,6 +136,37 @@ struct PairAlternative {
     double free_space_violation_share = 0.0;
 };
 
+// What became of every candidate transform register_pair tried (diagnostics: the benches
+// print these against the truth to see which check separates right from wrong).
+enum class CandidateOutcome {
+    kKept,                // passed every check (the chosen one or an alternative)
+    kSameSensorPosition,  // min_sensor_separation_m, before or after G-ICP
+    kCoarseFreeSpace,     // max_(ground_)coarse_free_space_violation_share, before G-ICP
+    kRefinementFailed,    // G-ICP failed, or flipped the up axis
+    kLowOverlap,          // G-ICP inlier share below min_overlap_share
+    kNoP2pOverlap,        // no source point within r_c of the target
+    kWeak,                // min_information_per_inlier
+    kFreeSpace,           // max_free_space_violation_share, after G-ICP
+};
+
+const char* to_string(CandidateOutcome outcome);
+
+struct CandidateRecord {
+    int candidate = -1;           // position in the order tried
+    bool ground_search = false;   // a ground-aligned peak (else a RANSAC round)
+    std::size_t support = 0;      // peak inliers or RANSAC inliers
+    CandidateOutcome outcome = CandidateOutcome::kKept;
+    Eigen::Isometry3d T_initial = Eigen::Isometry3d::Identity();
+    Eigen::Isometry3d T_refined = Eigen::Isometry3d::Identity();  // after G-ICP, if run
+    // -1 where the check was not reached.
+    double coarse_free_space_share = -1.0;
+    double gicp_inlier_ratio = -1.0;
+    double information_per_inlier = -1.0;
+    double p2p_error_m = -1.0;
+    double overlap_share = -1.0;
+    double free_space_share = -1.0;
+};
+
 struct PairResult {
     int source = -1;  // sensor i
     int target = -1;  // sensor j < i
@@ -160,6 +193,8 @@ struct PairResult {
     // The other candidates that passed every check (kOk pairs only), lowest p2p error
     // first.
     std::vector<PairAlternative> alternatives;
+    // Every candidate transform tried, in order, with the check that dropped it.
+    std::vector<CandidateRecord> tried;
     PairTimings timings;
 
     // The chosen candidate's figures as an alternative, and the other way round.

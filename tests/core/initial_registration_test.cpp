@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "core/se3.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
@@ -145,6 +147,57 @@ TEST(InitialRegistration, CancelledRunRegistersNothing) {
     cancel = false;
     const InitialRegistrationResult ok = register_initial(clouds, params);
     EXPECT_TRUE(ok.sensors[1].registered) << to_string(ok.sensors[1].status);
+}
+
+}  // namespace
+}  // namespace lidarfuse::core
+
+namespace lidarfuse::core {
+namespace {
+
+// Keeps the points whose azimuth (sensor frame) lies within fov_deg / 2 of centre_deg.
+PointCloud azimuth_sector(const PointCloud& cloud, double centre_deg, double fov_deg) {
+    PointCloud out;
+    for (const auto& p : cloud.points) {
+        const double d = std::remainder(std::atan2(p.y(), p.x()) * 180.0 / M_PI - centre_deg, 360.0);
+        if (std::abs(d) <= 0.5 * fov_deg) out.points.push_back(p);
+    }
+    return out;
+}
+
+// Two sensors, the source cut to a 90-deg sector of the street (registration_sweep_bench's
+// overlap sweep): from sectors 0 and 315 deg the view matches a look-alike place about as
+// well as the right one, and with a single pair no cycle can veto it. The sensor must be
+// refused or registered right, never given a made-up pose.
+TEST(InitialRegistration, NarrowViewLookAlikeIsRefusedNotGuessed) {
+    testing::ScanPattern pattern;
+    pattern.columns = 1024;
+    pattern.range_noise_sigma_m = 0.03;
+    const auto poses = testing::street_sensor_poses();
+    const Eigen::Isometry3d truth = poses[0].inverse() * poses[2];
+    const PointCloud target = testing::scan_scene(testing::street_scene(), poses[0], pattern, 101);
+    const PointCloud full_source = testing::scan_scene(testing::street_scene(), poses[2], pattern, 201);
+    for (const double centre_deg : {0.0, 315.0}) {
+        const std::vector<PointCloud> clouds{target, azimuth_sector(full_source, centre_deg, 90.0)};
+        const InitialRegistrationResult r = register_initial(clouds, test_params());
+        ASSERT_EQ(r.sensors.size(), 2u);
+        const SensorRegistration& s = r.sensors[1];
+        if (s.registered) {
+            EXPECT_LT(translation_error_m(s.T_root_sensor, truth), 0.03) << "sector " << centre_deg;
+            EXPECT_LT(rotation_error_deg(s.T_root_sensor, truth), 0.1) << "sector " << centre_deg;
+        } else {
+            EXPECT_EQ(s.status, SensorRegistrationStatus::kAmbiguous) << "sector " << centre_deg;
+            EXPECT_EQ(r.pairs[0].status, PairStatus::kAmbiguous);
+            EXPECT_TRUE(s.T_root_sensor.isApprox(Eigen::Isometry3d::Identity()));
+        }
+
+        // The case is a real trap: without the ambiguity test the look-alike is taken.
+        InitialRegistrationParams guessing = test_params();
+        guessing.ambiguity.enabled = false;
+        const InitialRegistrationResult g = register_initial(clouds, guessing);
+        ASSERT_TRUE(g.sensors[1].registered) << "sector " << centre_deg;
+        EXPECT_GT(translation_error_m(g.sensors[1].T_root_sensor, truth), 1.0) << "sector " << centre_deg;
+    }
 }
 
 }  // namespace

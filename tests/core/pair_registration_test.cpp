@@ -32,6 +32,24 @@ TEST(PairRegistration, RegistersTwoSensorsAndIsDeterministic) {
     EXPECT_LT(r.p2p_error_m, 0.5);
     EXPECT_GT(r.min_hessian_eigenvalue, 0.0);
     EXPECT_TRUE(r.information.isApprox(r.information.transpose()));
+    // Every candidate tried is recorded with the check that dropped it; the kept ones are
+    // the pair's candidates, and the chosen one is among them with its figures.
+    int kept = 0;
+    bool chosen_recorded = false;
+    for (const CandidateRecord& c : r.tried) {
+        if (c.outcome != CandidateOutcome::kKept) continue;
+        ++kept;
+        EXPECT_GE(c.free_space_share, 0.0);
+        EXPECT_LE(c.free_space_share, 0.08);
+        if (c.candidate == r.chosen_candidate) {
+            chosen_recorded = true;
+            EXPECT_DOUBLE_EQ(c.p2p_error_m, r.p2p_error_m);
+            EXPECT_DOUBLE_EQ(c.overlap_share, r.overlap_share);
+            EXPECT_TRUE(c.T_refined.isApprox(r.T_target_source, 0.0));
+        }
+    }
+    EXPECT_EQ(kept, r.candidates);
+    EXPECT_TRUE(chosen_recorded);
 
     const PairResult again = register_pair(source, target, 2, 0);
     EXPECT_TRUE(again.T_target_source.isApprox(r.T_target_source, 0.0));
