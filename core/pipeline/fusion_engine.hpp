@@ -4,8 +4,10 @@
 //
 //   first frame:  initial registration of every sensor against the root (feature based),
 //                 as a job; until it is applied only the root is fused
-//   every frame:  per sensor: predict (constant velocity) -> deskew -> crop -> background
-//                 model (dynamic points) -> voxel grid of the static points -> covariances
+//   every frame:  per sensor: predict (constant velocity) -> deskew (to the scan timestamp,
+//                 the instant poses refer to) -> crop -> background model (dynamic points)
+//                 -> voxel grid of the static points (grid fixed in the root frame)
+//                 -> covariances
 //                 G-ICP edges (PAPER.md's table):
 //                   sensor vs its previous frame   init: the predicted motion
 //                   sensor vs its reference frame  init: the current estimate (the paper
@@ -16,6 +18,12 @@
 //                 sliding-window pose graph (Ceres, Huber): nodes of the last k_w frames
 //                 plus each sensor's reference frame; the root's reference is the gauge;
 //                 reference nodes are optimised while in the window, fixed after
+//   references:   on the first frame, and again once the reference scans are deskewed
+//                 (their motion is known a few frames later; their poses are re-anchored
+//                 to the scan timestamps and what was measured before leaves the graph),
+//                 fine G-ICP edges (0.5 m voxels) between the reference frames: every later
+//                 pose leans on them, and at the tracking voxel size edges between two
+//                 viewpoints are biased. The reference target is kept at <= 1 m.
 //   health:       a sensor whose reference edge keeps failing, or whose pose jumps, is
 //                 registered again from scratch against the root, the others unaffected.
 //
