@@ -2,6 +2,8 @@
 
 #include <nanoflann.hpp>
 
+#include <limits>
+
 namespace lidarfuse::core {
 
 namespace {
@@ -77,7 +79,10 @@ std::size_t KdTree::knn(const Eigen::Vector3d& query, std::size_t k, std::uint32
 
 bool KdTree::nearest(const Eigen::Vector3d& query, std::uint32_t* index,
                      double* squared_distance) const {
-    return knn(query, 1, index, squared_distance) == 1;
+    // The same search and tie rule as a 1-nearest knn (the first point met at the smallest
+    // distance wins), without the k-sorted result set.
+    return nearest_within(query, std::numeric_limits<double>::infinity(), index,
+                          squared_distance);
 }
 
 bool KdTree::nearest_within(const Eigen::Vector3d& query, double max_squared_distance,

@@ -26,7 +26,7 @@ public:
     std::size_t knn(const Eigen::Vector3d& query, std::size_t k, std::uint32_t* indices,
                     double* squared_distances) const;
 
-    // The nearest neighbour; false when the tree is empty.
+    // The nearest neighbour; false when the tree is empty (nearest_within without a bound).
     bool nearest(const Eigen::Vector3d& query, std::uint32_t* index,
                  double* squared_distance) const;
 

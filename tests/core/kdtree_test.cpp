@@ -87,6 +87,29 @@ TEST(KdTree, NearestWithinMatchesBruteForce) {
     EXPECT_FALSE(tree.nearest_within(queries[0], 0.0, &idx, &d2));
 }
 
+// nearest() is nearest_within() without a bound: the brute-force nearest, and the same
+// point a 1-nearest knn() picks, also among exact duplicates (ties).
+TEST(KdTree, NearestMatchesBruteForceAndKnnOne) {
+    auto points = random_points(2000, 21);
+    for (std::size_t i = 0; i < 200; ++i) points.push_back(points[i * 7]);  // duplicates
+    const auto queries = random_points(300, 22);
+    KdTree tree(points);
+    for (std::size_t qi = 0; qi < queries.size() + 50; ++qi) {
+        // The last queries sit exactly on duplicated points (two points at distance 0).
+        const Eigen::Vector3d q = qi < queries.size() ? queries[qi] : points[(qi - 300) * 7];
+        double best = 1e300;
+        for (const auto& p : points) best = std::min(best, (p - q).squaredNorm());
+        std::uint32_t idx = 0, idx1 = 0;
+        double d2 = -1.0, d2_1 = -1.0;
+        ASSERT_TRUE(tree.nearest(q, &idx, &d2));
+        ASSERT_EQ(tree.knn(q, 1, &idx1, &d2_1), 1u);
+        EXPECT_DOUBLE_EQ(d2, best);
+        EXPECT_DOUBLE_EQ((points[idx] - q).squaredNorm(), best);
+        EXPECT_EQ(idx, idx1);
+        EXPECT_EQ(d2, d2_1);
+    }
+}
+
 TEST(KdTree, EmptyTreeAnswersNothing) {
     std::vector<Eigen::Vector3d> none;
     KdTree tree(none);
