@@ -154,11 +154,14 @@ int main(int argc, char** argv) {
     const double sent = figure(replay_out, "replay_datagrams_sent");
     const double duration = figure(replay_out, "replay_duration");
     std::uint64_t packets = 0, scans = 0, incomplete = 0, rejected = 0, late = 0, resets = 0;
+    std::uint64_t mode_mismatches = 0, mode_rejected = 0;
     for (const auto& s : st.sensors) {
         packets += s.packets;
         scans += s.scans;
         incomplete += s.scans_incomplete;
         rejected += s.scans_rejected;
+        mode_mismatches += s.mode_mismatches;
+        mode_rejected += s.scans_mode_rejected;
         late += s.late_packets;
         resets += s.resets;
     }
@@ -183,6 +186,9 @@ int main(int argc, char** argv) {
     std::printf("load_scans_per_s %.2f scans/s/sensor\n", static_cast<double>(scans) / duration / sensors);
     std::printf("load_scans_incomplete %llu scans\n", static_cast<unsigned long long>(incomplete));
     std::printf("load_scans_rejected %llu scans\n", static_cast<unsigned long long>(rejected));
+    // A sensor flagged as not matching its metadata (ModeCheck): 0 expected for simulated data.
+    std::printf("load_mode_mismatches %llu times\n", static_cast<unsigned long long>(mode_mismatches));
+    std::printf("load_scans_mode_rejected %llu scans\n", static_cast<unsigned long long>(mode_rejected));
     std::printf("load_frames_synchronised_per_s %.2f frames/s\n", static_cast<double>(st.frames_synchronised) / duration);
     std::printf("load_frames_partial %llu frames\n", static_cast<unsigned long long>(st.frames_partial));
     std::printf("load_frames_fused_per_s %.2f frames/s\n", static_cast<double>(st.frames_fused) / duration);

@@ -10,7 +10,10 @@ build="$1"; minutes="${2:-30}"; sensors="${3:-4}"; sample="${4:-30}"
 log="$(mktemp)"
 nice -n 5 "$build/bench/load_bench" --sensors "$sensors" --seconds "$((minutes * 60))" \
     --sample-s "$sample" --series | tee "$log"
-awk '/^load_t / { t[n] = $2; rss[n] = $5; lat[n] = $7; n++ }
+# n starts at 0 explicitly: an unset n would index the first sample as rss[""], and the
+# first quarter's mean would count a 0 in its place (it read 11 MiB low for a 30-sample run).
+awk 'BEGIN { n = 0 }
+     /^load_t / { t[n] = $2; rss[n] = $5; lat[n] = $7; n++ }
      END {
          if (n < 4) { print "soak_samples " n " samples (too few for drift)"; exit }
          q = int(n / 4)
