@@ -58,6 +58,20 @@ for t in "${tsan_tests[@]}"; do
         timeout 900 "$top/build-tsan/tests/$t" --gtest_brief=1 --gtest_filter="$filter"
 done
 
+# The host wall-clock jump (host_clock_jump_test re-runs itself under its LD_PRELOAD shim,
+# tests/reliability/realtime_shift_shim.c, built without sanitizers) and the mode change
+# (ingest_faults_test) drive the daemon's threads too: the same TSan build, DDS off.
+stage "thread sanitizer: host clock jump and mode change"
+tsan_clock_tests=(host_clock_jump_test ingest_faults_test)
+CCACHE_BASEDIR="$top" CCACHE_NOHASHDIR=true cmake --build "$top/build-tsan" -j "$jobs" --target "${tsan_clock_tests[@]}"
+for t in "${tsan_clock_tests[@]}"; do
+    echo "-- $t"
+    OMP_NUM_THREADS=1 \
+    TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$top/tests/reliability/tsan.supp" \
+        LIDARFUSE_DATA_DIR="${LIDARFUSE_DATA_DIR:-$top/../shared/data}" \
+        timeout 900 "$top/build-tsan/tests/$t" --gtest_brief=1
+done
+
 # libFuzzer (clang 14): every harness in fuzz/ for 20 s with a fixed seed, from seeds
 # built out of the sample captures; longer runs and their figures: fuzz/README.md.
 stage "fuzzers (clang, ASan + UBSan, 20 s each)"
