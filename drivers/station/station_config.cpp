@@ -5,6 +5,7 @@
 
 #include "drivers/station/yaml_reader.hpp"
 
+#include <cstdint>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -36,6 +37,49 @@ bool valid_sensor_name(const std::string& name) {
         const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
                         c == '_' || c == '.' || c == '-';
         if (!ok) return false;
+    }
+    return true;
+}
+
+// The station name is free text for logs, diagnostics and extrinsics.yaml, but it must
+// survive those round trips: 1..128 bytes of well-formed UTF-8 (no overlong forms, no
+// surrogates) without control characters. yaml-cpp turns each invalid byte into U+FFFD,
+// so a name with one would come back different (fuzz finding 5).
+bool valid_station_name(const std::string& name) {
+    if (name.empty() || name.size() > 128) return false;
+    std::size_t i = 0;
+    while (i < name.size()) {
+        const auto c = static_cast<unsigned char>(name[i]);
+        if (c < 0x80) {
+            if (c < 0x20 || c == 0x7F) return false;
+            ++i;
+            continue;
+        }
+        std::size_t length = 0;
+        std::uint32_t code = 0;
+        if (c >= 0xC2 && c <= 0xDF) {
+            length = 2;
+            code = c & 0x1Fu;
+        } else if (c >= 0xE0 && c <= 0xEF) {
+            length = 3;
+            code = c & 0x0Fu;
+        } else if (c >= 0xF0 && c <= 0xF4) {
+            length = 4;
+            code = c & 0x07u;
+        } else {
+            return false;  // a continuation byte first, an overlong 0xC0/0xC1 lead, or > U+10FFFF
+        }
+        if (i + length > name.size()) return false;
+        for (std::size_t k = 1; k < length; ++k) {
+            const auto next = static_cast<unsigned char>(name[i + k]);
+            if ((next & 0xC0u) != 0x80u) return false;
+            code = (code << 6) | (next & 0x3Fu);
+        }
+        const bool overlong = (length == 3 && code < 0x800) || (length == 4 && code < 0x10000);
+        if (overlong || (code >= 0xD800 && code <= 0xDFFF) || code > 0x10FFFF || (code >= 0x80 && code < 0xA0)) {
+            return false;  // the last: C1 control characters
+        }
+        i += length;
     }
     return true;
 }
@@ -82,7 +126,14 @@ StationConfig parse_station_config(const std::string& yaml_text, const std::stri
     YamlReader r;
     StationConfig config;
     r.only_keys(doc, "", kTopLevelKeys);
-    if (auto s = r.string(doc["station"], "station", false)) config.station = *s;
+    if (auto s = r.string(doc["station"], "station", false)) {
+        if (valid_station_name(*s)) {
+            config.station = *s;
+        } else {
+            r.problems.push_back("station: expected 1..128 bytes of printable UTF-8 text, got \"" + printable(*s) +
+                                 "\"");
+        }
+    }
 
     const YAML::Node sensors = doc["sensors"];
     if (!sensors || !sensors.IsSequence() || sensors.size() == 0) {

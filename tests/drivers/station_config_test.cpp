@@ -75,6 +75,46 @@ sensors:
     }
 }
 
+// The station name is free text, but it must come back unchanged from every file it is
+// written to: well-formed UTF-8 is kept (and round-trips), broken UTF-8 and control
+// characters are refused naming the key (fuzz finding 5: yaml-cpp rewrote each invalid
+// byte as U+FFFD, so the name changed on the way through extrinsics.yaml).
+TEST_F(StationConfigTest, StationNameMustBePrintableUtf8) {
+    const std::string sensor = "sensors:\n  - {name: a, udp_port: 7502, metadata: a.json}\n";
+    for (const std::string good : {"Kreuzung Süd", "路口-3", "A9 km 12.4 (Nord) \xF0\x9F\x9A\x97"}) {
+        const auto config = parse_station_config("station: \"" + good + "\"\n" + sensor, "good.yaml", dir_.path());
+        EXPECT_EQ(config.station, good);
+        const auto back = parse_station_config(to_yaml(config, dir_.path()), "back.yaml", dir_.path());
+        EXPECT_EQ(back.station, good);
+    }
+    const std::string bad_names[] = {
+        "samples\xFF\xFF",      // not UTF-8 at all
+        "caf\xC3",               // truncated sequence
+        "\xC0\xAF",             // overlong '/'
+        "\xED\xA0\x80",        // a UTF-16 surrogate
+        "two\nlines",            // a control character
+        "bell\x07",
+        std::string(129, 'x'),  // too long
+    };
+    for (const std::string& bad : bad_names) {
+        std::string yaml = "station: \"";
+        for (const char c : bad) {
+            if (c == '\n') yaml += "\\n";
+            else if (c == '\x07') yaml += "\\a";
+            else yaml += c;
+        }
+        yaml += "\"\n" + sensor;
+        try {
+            parse_station_config(yaml, "bad.yaml", dir_.path());
+            ADD_FAILURE() << "accepted station name of " << bad.size() << " bytes";
+        } catch (const ConfigError& error) {
+            EXPECT_THAT(error.what(), HasSubstr("bad.yaml"));
+            EXPECT_THAT(error.what(), HasSubstr("station: expected 1..128 bytes of printable UTF-8 text"));
+            EXPECT_EQ(error.problems().size(), 1u) << error.what();
+        }
+    }
+}
+
 TEST_F(StationConfigTest, SharedPortNeedsDistinctSourceAddresses) {
     EXPECT_THROW(parse_station_config(R"(
 sensors:
