@@ -1,0 +1,111 @@
+#pragma once
+// FusionEngine's state and its steps, shared by the files that implement them (internal to
+// core/pipeline; the interface is fusion_engine.hpp):
+//   fusion_engine.cpp                  process(): one frame, steps 1-6
+//   fusion_engine_initialisation.cpp   initial registrations handed out and applied
+//   fusion_engine_references.cpp       reference frames: deskew re-anchoring, fine edges,
+//                                      removing a sensor's nodes
+// Not thread safe, like FusionEngine.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <set>
+#include <vector>
+
+#include "core/pipeline/fusion_engine.hpp"
+#include "core/pipeline/initial_registration_job.hpp"
+#include "core/pipeline/sensor_track.hpp"
+#include "core/pose_graph.hpp"
+
+namespace lidarfuse::core {
+
+// Graph node of `sensor` at `frame` (at most 64 sensors).
+inline PoseGraph::NodeId node_id(std::size_t sensor, std::int64_t frame) {
+    return frame * 64 + static_cast<std::int64_t>(sensor);
+}
+inline std::size_t node_sensor(PoseGraph::NodeId id) { return static_cast<std::size_t>(id % 64); }
+inline std::int64_t node_frame(PoseGraph::NodeId id) { return id / 64; }
+
+// An initial registration handed out (or run inline) and what applying it needs.
+struct PendingInitialisation {
+    std::shared_ptr<InitialRegistrationJob> job;
+    std::int64_t frame = 0;               // the frame of its scans
+    bool first = false;                   // the station's first registration
+    std::vector<std::size_t> order;       // the root, then the sensors to register
+    std::vector<SensorScanInput> scans;   // their scans of `frame`, in `order`
+    Eigen::Isometry3d T_root0_root = Eigen::Isometry3d::Identity();  // root pose at `frame`
+};
+
+struct FusionEngine::Impl {
+    FusionParams params;
+    std::size_t n;
+    std::vector<std::unique_ptr<SensorTrack>> tracks;
+    PoseGraph graph;
+    std::vector<GicpRegistration> registrations;  // one per thread
+    std::int64_t frame_counter = 0;
+    std::int64_t last_retry_frame = -1'000'000;
+    std::vector<int> suspicious;         // consecutive suspicious frames per sensor
+    std::vector<bool> needs_reinit;
+    std::set<PoseGraph::NodeId> window_nodes;  // non-reference nodes in the graph
+    std::optional<PendingInitialisation> pending;
+    std::vector<bool> started_first;  // this frame: started by the station's first registration
+    // Deskew (FusionParams::deskew): edges measured between reference nodes in their own
+    // frame (from skewed scans), removed when those references are deskewed; per sensor the
+    // frame its reference was re-anchored (reference nodes stay free for a window after).
+    struct ReferenceEdge {
+        PoseGraph::EdgeId edge;
+        std::size_t a, b;
+    };
+    std::vector<ReferenceEdge> reference_edges;
+    std::vector<std::int64_t> reanchored_frame;
+    std::optional<Eigen::Isometry3d> root_reanchor;  // left factor for the root's batch
+    std::int64_t root_reanchor_reference = -1;       // the root reference frame it belongs to
+
+    Impl(std::size_t num_sensors, const FusionParams& p);
+    // A worker that has not begun the job yet can skip it; the job outlives the engine.
+    ~Impl();
+
+    FrameOutput process(const FrameInput& in);
+
+    // Starts an initial registration of `sensors` on this frame's scans, relative to the
+    // root's pose at this frame (T_root0_root_now). Inline: runs and applies it at once.
+    // Otherwise hands it out in out->initial_job; on the station's first frame the root
+    // starts tracking right away (its pose is the identity by definition).
+    void request_initialisation(std::int64_t frame, const FrameInput& in,
+                                const std::vector<std::size_t>& sensors, bool first,
+                                const Eigen::Isometry3d& T_root0_root_now,
+                                std::vector<std::size_t>* started, FrameOutput* out);
+    // Starts the tracks of the sensors the finished job registered. Their reference frame is
+    // the job's frame (its scans); when that is an earlier frame, they are tracked from this
+    // frame on like any sensor (reference edge from the registered pose, inter-sensor edges).
+    void apply_initialisation(std::int64_t frame, std::vector<std::size_t>* started, FrameOutput* out);
+    // Removes every graph node of sensor `s` (window and reference) and forgets its
+    // reference edges (a sensor that diverged and is registered again).
+    void remove_track_nodes(std::size_t s);
+    // Removes the window nodes (and their edges) of sensor `s`.
+    void remove_window_nodes(std::size_t s);
+    // Deskews the reference scans whose motion is now known and re-anchors their poses to
+    // the scan timestamps (SensorTrack::deskew_reference). The root goes first: its
+    // correction changes the meaning of the root frame, so the sensors registered against
+    // its reference get it as a left factor (sensors registered later, against a
+    // not-yet-deskewed root frame, keep a residual of the root's motion over half a sweep).
+    // Everything measured in the old meaning -- the sensor's window nodes and the edges
+    // between reference frames -- leaves the graph. Returns whether any sensor re-anchored.
+    bool reanchor_references(std::int64_t frame, const std::vector<char>& usable,
+                             const std::vector<std::size_t>& started);
+    // G-ICP between the reference scans of `sensors` (pairs whose references share a frame)
+    // at the fine voxel size, as edges between their reference nodes (see
+    // FusionParams::reference_voxel_size_m). One-off: a few hundred ms on 4 sensors.
+    // Pairs: at least one of `fresh`, the other any sensor whose reference is final (deskew
+    // on: deskewed) and shares the frame.
+    void add_fine_reference_edges(const std::vector<std::size_t>& fresh, bool deskewed_only);
+
+    // G-ICP Hessian scaled so that whitened residuals are in sigmas (fusion_engine.hpp).
+    Matrix6d calibrated_information(const GicpResult& r) const {
+        const double scale = r.mean_error > 1e-12 ? 3.0 / r.mean_error : 1.0;
+        return r.H * scale;
+    }
+};
+
+}  // namespace lidarfuse::core

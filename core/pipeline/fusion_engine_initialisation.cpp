@@ -1,0 +1,82 @@
+// FusionEngine: initial registrations handed out as jobs (or run inline) and applied when
+// they finish (see fusion_engine_impl.hpp).
+#include <algorithm>
+
+#include "core/pipeline/fusion_engine_impl.hpp"
+
+namespace lidarfuse::core {
+
+void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameInput& in,
+                            const std::vector<std::size_t>& sensors, bool first,
+                            const Eigen::Isometry3d& T_root0_root_now,
+                            std::vector<std::size_t>* started, FrameOutput* out) {
+    const std::size_t root = params.root_sensor;
+    PendingInitialisation p;
+    p.frame = frame;
+    p.first = first;
+    p.T_root0_root = T_root0_root_now;
+    p.order.push_back(root);
+    for (std::size_t s : sensors) {
+        if (s != root) p.order.push_back(s);
+    }
+    const bool run_inline = params.initial_registration_inline;
+    if (!run_inline && first) {
+        tracks[root]->start(frame, in.sensors[root], Eigen::Isometry3d::Identity());
+        graph.add_node(node_id(root, frame), Eigen::Isometry3d::Identity(), true);
+        started->push_back(root);
+        started_first[root] = true;
+        out->health[root].event = "initialised";
+        if (p.order.size() == 1) return;  // a station of one: nothing to register
+    }
+    std::vector<PointCloud> clouds;
+    for (std::size_t s : p.order) {
+        p.scans.push_back(in.sensors[s]);
+        PointCloud c;
+        c.points = in.sensors[s].points;
+        clouds.push_back(std::move(c));
+    }
+    InitialRegistrationParams ip = params.initial;
+    ip.num_threads = std::max(1, run_inline ? params.num_threads : params.initial_threads);
+    p.job = std::make_shared<InitialRegistrationJob>(std::move(clouds), ip);
+    pending = std::move(p);
+    if (run_inline) {
+        pending->job->run();
+        apply_initialisation(frame, started, out);
+    } else {
+        out->initial_job = pending->job;
+        for (std::size_t k = 1; k < pending->order.size(); ++k) {
+            out->health[pending->order[k]].event = "initial registration started";
+        }
+    }
+}
+
+void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<std::size_t>* started, FrameOutput* out) {
+    const PendingInitialisation p = std::move(*pending);
+    pending.reset();
+    const auto& result = p.job->result();
+    bool any_failed = false;
+    for (std::size_t k = 0; k < p.order.size(); ++k) {
+        const std::size_t s = p.order[k];
+        const bool is_root = s == params.root_sensor;
+        if (is_root && tracks[s]->initialised()) continue;  // only a reference here
+        if (k >= result.sensors.size() || !result.sensors[k].registered) {
+            out->health[s].event =
+                std::string("initial registration failed: ") +
+                (k < result.sensors.size() ? to_string(result.sensors[k].status) : p.job->error().c_str());
+            any_failed = true;
+            continue;
+        }
+        const Eigen::Isometry3d T = p.T_root0_root * result.sensors[k].T_root_sensor;
+        tracks[s]->start(p.frame, p.scans[k], T);
+        graph.add_node(node_id(s, p.frame), T, is_root);
+        started->push_back(s);
+        started_first[s] = p.first;
+        reanchored_frame[s] = -1;
+        out->health[s].event = p.first || is_root ? "initialised" : "reinitialised";
+        suspicious[s] = 0;
+        needs_reinit[s] = false;
+    }
+    if (p.first || any_failed) last_retry_frame = frame;
+}
+
+}  // namespace lidarfuse::core

@@ -1,0 +1,134 @@
+// FusionEngine's reference frames: re-anchoring deskewed references, the fine edges between
+// reference frames, and removing a sensor's nodes (see fusion_engine_impl.hpp).
+#include <omp.h>
+
+#include <algorithm>
+
+#include "core/pipeline/fusion_engine_impl.hpp"
+
+namespace lidarfuse::core {
+
+void FusionEngine::Impl::remove_window_nodes(std::size_t s) {
+    for (auto it = window_nodes.begin(); it != window_nodes.end();) {
+        if (node_sensor(*it) == s) {
+            graph.remove_node(*it);
+            it = window_nodes.erase(it);
+        } else {
+            ++it;
+        }
+    }
+}
+
+void FusionEngine::Impl::remove_track_nodes(std::size_t s) {
+    remove_window_nodes(s);
+    if (tracks[s]->initialised()) graph.remove_node(node_id(s, tracks[s]->reference_frame()));
+    reference_edges.erase(std::remove_if(reference_edges.begin(), reference_edges.end(),
+                                         [s](const ReferenceEdge& e) { return e.a == s || e.b == s; }),
+                          reference_edges.end());
+}
+
+bool FusionEngine::Impl::reanchor_references(std::int64_t frame, const std::vector<char>& usable,
+                         const std::vector<std::size_t>& started) {
+    const std::size_t root = params.root_sensor;
+    std::vector<std::size_t> order{root};
+    for (std::size_t s = 0; s < n; ++s) {
+        if (s != root) order.push_back(s);
+    }
+    bool any = false;
+    std::vector<std::size_t> batch;  // re-anchored with the root's reference frame
+    for (std::size_t s : order) {
+        SensorTrack& track = *tracks[s];
+        if (!track.initialised() || !usable[s]) continue;
+        if (std::find(started.begin(), started.end(), s) != started.end()) continue;
+        const auto right = track.deskew_reference(frame);
+        if (!right) continue;
+        Eigen::Isometry3d left = Eigen::Isometry3d::Identity();
+        if (s == root) {
+            root_reanchor = right->inverse();
+            root_reanchor_reference = track.reference_frame();
+            left = *root_reanchor;
+        } else if (root_reanchor && track.reference_frame() == root_reanchor_reference) {
+            left = *root_reanchor;
+        }
+        track.reanchor(left, *right);
+        remove_window_nodes(s);
+        for (auto it = reference_edges.begin(); it != reference_edges.end();) {
+            if (it->a == s || it->b == s) {
+                graph.remove_edge(it->edge);
+                it = reference_edges.erase(it);
+            } else {
+                ++it;
+            }
+        }
+        const auto ref = node_id(s, track.reference_frame());
+        if (s != root) {
+            graph.set_node_fixed(ref, false);
+            graph.set_node_pose(ref, track.reference_pose());
+        }
+        reanchored_frame[s] = frame;
+        if (track.reference_frame() == root_reanchor_reference) batch.push_back(s);
+        any = true;
+    }
+    add_fine_reference_edges(batch, true);
+    return any;
+}
+
+void FusionEngine::Impl::add_fine_reference_edges(const std::vector<std::size_t>& fresh, bool deskewed_only) {
+    if (!(params.reference_voxel_size_m > 0) || fresh.empty()) return;
+    std::vector<std::size_t> sensors;
+    for (std::size_t s = 0; s < n; ++s) {
+        const SensorTrack& t = *tracks[s];
+        if (!t.initialised() || (deskewed_only && !t.reference_deskewed())) continue;
+        const bool is_fresh = std::find(fresh.begin(), fresh.end(), s) != fresh.end();
+        bool shares = false;
+        for (std::size_t f : fresh) shares = shares || tracks[f]->reference_frame() == t.reference_frame();
+        if (is_fresh || shares) sensors.push_back(s);
+    }
+    const auto in_fresh = [&](std::size_t s) {
+        return std::find(fresh.begin(), fresh.end(), s) != fresh.end();
+    };
+    std::vector<GicpTarget> targets(sensors.size());
+    const int threads = std::max(1, params.num_threads);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+    for (std::size_t k = 0; k < sensors.size(); ++k) {
+        targets[k] = tracks[sensors[k]]->reference_target_at(params.reference_voxel_size_m);
+    }
+    struct Pair {
+        std::size_t a, b;  // indices into sensors: target a, source b
+        Eigen::Isometry3d T_init;
+        GicpResult result;
+    };
+    std::vector<Pair> pairs;
+    for (std::size_t a = 0; a < sensors.size(); ++a) {
+        for (std::size_t b = a + 1; b < sensors.size(); ++b) {
+            const SensorTrack& ta = *tracks[sensors[a]];
+            const SensorTrack& tb = *tracks[sensors[b]];
+            if (ta.reference_frame() != tb.reference_frame()) continue;
+            if (!in_fresh(sensors[a]) && !in_fresh(sensors[b])) continue;
+            if (targets[a].size() < 3 || targets[b].size() < 3) continue;
+            pairs.push_back({a, b, ta.reference_pose().inverse() * tb.reference_pose(), {}});
+        }
+    }
+    GicpParams g = params.gicp;
+    g.max_correspondence_distance_m = params.correspondence_factor * params.reference_voxel_size_m;
+    g.num_threads = 1;
+    std::vector<GicpRegistration> fine(static_cast<std::size_t>(threads), GicpRegistration(g));
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+        auto& pair = pairs[k];
+        pair.result = fine[static_cast<std::size_t>(omp_get_thread_num())].align(
+            targets[pair.a], targets[pair.b].cloud(), pair.T_init);
+    }
+    for (const auto& pair : pairs) {
+        const auto& r = pair.result;
+        if (!r.converged && r.status != GicpStatus::kMaxIterations) continue;
+        if (r.inlier_ratio < 0.5 * params.min_fitness) continue;
+        const std::size_t sa = sensors[pair.a], sb = sensors[pair.b];
+        const auto e = graph.add_edge(node_id(sa, tracks[sa]->reference_frame()),
+                                      node_id(sb, tracks[sb]->reference_frame()),
+                                      r.T_target_source, calibrated_information(r));
+        if (e >= 0) reference_edges.push_back({e, sa, sb});
+    }
+}
+
+}  // namespace lidarfuse::core
