@@ -177,25 +177,23 @@ SensorScanInput moving_scan(const Scene& scene, int sensor, double t0_s, std::ui
     return scan;
 }
 
-// Strict RMSE (translation m, rotation deg) over frames 6..end, against the pose at each
-// scan's timestamp.
-Errors fast_sway_rmse(bool deskew) {
-    FusionParams params = test_params();
-    params.deskew = deskew;
+// Strict RMSE (translation m, rotation deg) of 14 frames of the fast sway with per-column
+// timing, over frames first_scored..13, against the pose at each scan's timestamp.
+Errors fast_sway_rmse(const FusionParams& params, int first_scored) {
     FusionEngine engine(kSensors, params);
     double sum_t = 0, sum_r = 0;
     int count = 0;
+    const Scene scene = testing::street_scene();
+    const Eigen::Isometry3d root0 = fast_pose(0, 1.0);
     for (int f = 0; f < 14; ++f) {
         FrameInput in;
-        const Scene scene = testing::street_scene();
         for (int s = 0; s < kSensors; ++s) {
             const double t0 = 1.0 + f * kFramePeriodS + s * 0.011;
             in.sensors.push_back(moving_scan(scene, s, t0, static_cast<std::uint32_t>(1000 * f + s)));
         }
         const auto out = engine.process(in);
         EXPECT_TRUE(out.graph_usable) << "frame " << f;
-        if (f < 6) continue;
-        const Eigen::Isometry3d root0 = fast_pose(0, 1.0);
+        if (f < first_scored) continue;
         for (int s = 0; s < kSensors; ++s) {
             const auto k = static_cast<std::size_t>(s);
             EXPECT_TRUE(out.health[k].pose_valid);
@@ -208,6 +206,12 @@ Errors fast_sway_rmse(bool deskew) {
         }
     }
     return {std::sqrt(sum_t / count), std::sqrt(sum_r / count)};
+}
+
+Errors fast_sway_rmse(bool deskew) {
+    FusionParams params = test_params();
+    params.deskew = deskew;
+    return fast_sway_rmse(params, 6);
 }
 
 TEST(FusionEngine, DeskewRemovesTheSweepMotionError) {
@@ -230,31 +234,7 @@ Errors coarse_rmse(bool knobs) {
         params.reference_target_voxel_size_m = 0.0;
         params.voxel_grid_in_root_frame = false;
     }
-    FusionEngine engine(kSensors, params);
-    double sum_t = 0, sum_r = 0;
-    int count = 0;
-    const Scene scene = testing::street_scene();
-    for (int f = 0; f < 14; ++f) {
-        FrameInput in;
-        for (int s = 0; s < kSensors; ++s) {
-            in.sensors.push_back(moving_scan(scene, s, 1.0 + f * kFramePeriodS + s * 0.011,
-                                             static_cast<std::uint32_t>(1000 * f + s)));
-        }
-        const auto out = engine.process(in);
-        EXPECT_TRUE(out.graph_usable) << "frame " << f;
-        const Eigen::Isometry3d root0 = fast_pose(0, 1.0);
-        for (int s = 0; s < kSensors; ++s) {
-            const auto k = static_cast<std::size_t>(s);
-            EXPECT_TRUE(out.health[k].pose_valid);
-            const Eigen::Isometry3d truth = root0.inverse() * fast_pose(s, 1.0 + f * kFramePeriodS + s * 0.011);
-            const double et = translation_error_m(out.T_root_sensor[k], truth);
-            const double er = rotation_error_deg(out.T_root_sensor[k], truth);
-            sum_t += et * et;
-            sum_r += er * er;
-            ++count;
-        }
-    }
-    return {std::sqrt(sum_t / count), std::sqrt(sum_r / count)};
+    return fast_sway_rmse(params, 0);
 }
 
 // The knobs are measured on the simulator's captures (bench/paper_table.sh); on this
