@@ -37,6 +37,15 @@ void emit_sensor(YAML::Emitter& out, const ExtrinsicsEntry& s) {
     out << YAML::EndMap;
 }
 
+// The number at `node`; `where` names it in the error.
+double read_number(const YAML::Node& node, const std::string& where) {
+    try {
+        return node.as<double>();
+    } catch (const YAML::Exception&) {
+        throw std::runtime_error(where + ": expected a number");
+    }
+}
+
 // Reads a map of scalar figures at `node` (absent: empty); `where` names it in errors.
 std::map<std::string, double> read_figures(const YAML::Node& node, const std::string& where) {
     std::map<std::string, double> figures;
@@ -44,11 +53,7 @@ std::map<std::string, double> read_figures(const YAML::Node& node, const std::st
     if (!node.IsMap()) throw std::runtime_error(where + ": expected a map of numbers");
     for (const auto& kv : node) {
         const std::string key = kv.first.as<std::string>();
-        try {
-            figures[key] = kv.second.as<double>();
-        } catch (const YAML::Exception&) {
-            throw std::runtime_error(where + "." + key + ": expected a number");
-        }
+        figures[key] = read_number(kv.second, where + "." + key);
     }
     return figures;
 }
@@ -96,11 +101,7 @@ ExtrinsicsPair read_pair(const YAML::Node& node, const std::string& path) {
         } else if (key == "status") {
             p.status = kv.second.as<std::string>();
         } else {
-            try {
-                p.figures[key] = kv.second.as<double>();
-            } catch (const YAML::Exception&) {
-                throw std::runtime_error(path + "." + key + ": expected a number");
-            }
+            p.figures[key] = read_number(kv.second, path + "." + key);
         }
     }
     if (p.source.empty() || p.target.empty()) throw std::runtime_error(path + ": expected source and target");

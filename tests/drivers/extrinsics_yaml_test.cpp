@@ -123,6 +123,8 @@ TEST(ExtrinsicsYaml, DamagedFilesAreRefusedNamingTheKey) {
     expect_refused("sensors: [{name: a, registered: false, quality: {points: lots}}]\n",
                    "sensors[0].quality.points: expected a number");
     expect_refused("sensors: []\npairs: [{source: a, status: accepted}]\n", "pairs[0]: expected source and target");
+    expect_refused("sensors: []\npairs: [{source: a, target: b, status: ok, inliers: many}]\n",
+                   "pairs[0].inliers: expected a number");
     expect_refused("sensors: [\n", "broken.yaml");
 }
 
