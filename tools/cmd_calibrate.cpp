@@ -2,9 +2,8 @@
 // the initial registration (issue 4) on one synchronised frame of a capture. Decodes with
 // the production ingest, takes the first complete synchronised frame (or the N-th, 0-based)
 // -- one complete scan per enabled sensor, grouped as `fuse` groups them (members within
-// 1/SR) -- runs
-// core::register_initial and writes every sensor's T_root_sensor plus the per-pair quality
-// figures. Sensors that cannot be registered are written with `registered: false` and the
+// 1/SR) -- runs core::register_initial and writes every sensor's T_root_sensor plus the
+// per-pair quality figures. Sensors that cannot be registered are written with `registered: false` and the
 // reason, never with a pose.
 #include <algorithm>
 #include <chrono>
@@ -65,11 +64,8 @@ int run_calibrate(int argc, char** argv) {
     // The frame: the same grouping as `fuse` (core::FrameSynchroniser, members within one
     // frame period of the root's rate, capture time as the clock), over complete scans only;
     // the wanted-th frame that holds every enabled sensor.
-    const int rate = std::max(1, capture.infos()[root].frames_per_second);
-    core::SyncParams sync;
-    sync.max_offset_ns = 1'000'000'000LL / rate;
-    sync.deadline_ns = sync.max_offset_ns * 3 / 2;
-    core::FrameSynchroniser<core::PointCloud> synchroniser(order.size(), sync);
+    core::FrameSynchroniser<core::PointCloud> synchroniser(
+        order.size(), core::offline_sync_params(capture.infos()[root].frames_per_second));
     long long complete_frames = 0;
     std::vector<core::PointCloud> clouds;
     const auto take_ready = [&](std::int64_t now_ns) {

@@ -85,11 +85,8 @@ int run_fuse(int argc, char** argv) {
     core::FusionEngine engine(n, params);
 
     // Frames: members within one frame period of each other (1/SR of the root sensor).
-    const int rate = std::max(1, capture.infos()[params.root_sensor].frames_per_second);
-    core::SyncParams sync;
-    sync.max_offset_ns = 1'000'000'000LL / rate;
-    sync.deadline_ns = sync.max_offset_ns * 3 / 2;
-    core::FrameSynchroniser<PendingScan> synchroniser(n, sync);
+    core::FrameSynchroniser<PendingScan> synchroniser(
+        n, core::offline_sync_params(capture.infos()[params.root_sensor].frames_per_second));
 
     std::vector<io::PoseRecord> poses;
     std::ofstream timing(out_dir / "timing.csv");

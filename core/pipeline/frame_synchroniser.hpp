@@ -27,6 +27,15 @@ struct SyncParams {
     std::vector<std::int64_t> time_offset_ns;  // per sensor, added to its timestamps
 };
 
+// Offline grouping of a recorded capture (`fuse`, `calibrate`), where capture time is the
+// clock: members within one frame period of each other, late members waited for 1.5 periods.
+inline SyncParams offline_sync_params(int frames_per_second) {
+    SyncParams params;
+    params.max_offset_ns = 1'000'000'000LL / (frames_per_second > 0 ? frames_per_second : 1);
+    params.deadline_ns = params.max_offset_ns * 3 / 2;
+    return params;
+}
+
 struct SyncCounters {
     std::uint64_t frames_complete = 0;
     std::uint64_t frames_partial = 0;

@@ -133,4 +133,13 @@ TEST(FrameSynchroniser, RandomisedStreamsNeverGoBackwards) {
 }
 
 }  // namespace
+// fuse and calibrate group a recording's scans alike: one frame period, 1.5 periods' wait.
+TEST(FrameSynchroniser, OfflineParamsFollowTheFrameRate) {
+    EXPECT_EQ(offline_sync_params(20).max_offset_ns, 50'000'000);
+    EXPECT_EQ(offline_sync_params(20).deadline_ns, 75'000'000);
+    EXPECT_EQ(offline_sync_params(10).max_offset_ns, 100'000'000);
+    EXPECT_EQ(offline_sync_params(10).deadline_ns, 150'000'000);
+    EXPECT_EQ(offline_sync_params(0).max_offset_ns, 1'000'000'000);  // unknown rate: 1 Hz
+}
+
 }  // namespace lidarfuse::core
