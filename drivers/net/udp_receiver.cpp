@@ -1,6 +1,7 @@
 #include "drivers/net/udp_receiver.hpp"
 
 #include <arpa/inet.h>
+#include <linux/sock_diag.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/eventfd.h>
@@ -136,13 +137,38 @@ std::size_t UdpReceiver::poll_once(int timeout_ms, const DatagramHandler& handle
         if (errno != EINTR) stats_.errors.fetch_add(1, std::memory_order_relaxed);
         return 0;
     }
-    if (ready == 0 || stopped()) return 0;
+    if (ready == 0) {
+        // Idle: drops after the last delivered datagram have no later datagram to carry
+        // them, so ask each socket for its count directly.
+        for (std::size_t i = 0; i < count; ++i) read_drop_count(i);
+        return 0;
+    }
+    if (stopped()) return 0;
     stats_.wakeups.fetch_add(1, std::memory_order_relaxed);
     std::size_t delivered = 0;
     for (std::size_t i = 0; i < count; ++i) {
         if (fds[i + 1].revents != 0) delivered += drain(i, handler);
     }
     return delivered;
+}
+
+void UdpReceiver::note_drop_count(std::size_t socket_index, std::uint32_t drops) {
+    // The kernel's running count since the socket opened (the same counter through
+    // SO_RXQ_OVFL and SO_MEMINFO); the unsigned difference survives wrap-around.
+    const std::uint32_t delta = drops - last_drop_count_[socket_index];
+    if (delta > 0 && delta < 0x80000000u) {
+        stats_.kernel_drops.fetch_add(delta, std::memory_order_relaxed);
+        last_drop_count_[socket_index] = drops;
+    }
+}
+
+void UdpReceiver::read_drop_count(std::size_t socket_index) {
+    std::uint32_t info[SK_MEMINFO_VARS] = {};
+    socklen_t len = sizeof info;
+    if (::getsockopt(fds_[socket_index], SOL_SOCKET, SO_MEMINFO, info, &len) == 0 &&
+        len >= (SK_MEMINFO_DROPS + 1) * sizeof(std::uint32_t)) {
+        note_drop_count(socket_index, info[SK_MEMINFO_DROPS]);
+    }
 }
 
 std::size_t UdpReceiver::drain(std::size_t socket_index, const DatagramHandler& handler) {
@@ -191,12 +217,7 @@ std::size_t UdpReceiver::drain(std::size_t socket_index, const DatagramHandler& 
                 } else if (c->cmsg_type == SO_RXQ_OVFL) {
                     std::uint32_t drops;
                     std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
-                    // Running count since the socket opened; unsigned difference survives wrap.
-                    const std::uint32_t delta = drops - last_drop_count_[socket_index];
-                    if (delta > 0 && delta < 0x80000000u) {
-                        stats_.kernel_drops.fetch_add(delta, std::memory_order_relaxed);
-                        last_drop_count_[socket_index] = drops;
-                    }
+                    note_drop_count(socket_index, drops);
                 }
             }
             if (h.msg_flags & MSG_TRUNC) {

@@ -5,9 +5,9 @@
 // Per socket: non-blocking, a large receive buffer (SO_RCVBUFFORCE when the process may,
 // else SO_RCVBUF capped by net.core.rmem_max; the granted size is read back), kernel
 // receive timestamps (SO_TIMESTAMPNS: CLOCK_REALTIME, ns since the Unix epoch, taken when
-// the packet reached the socket layer), and the kernel's drop counter (SO_RXQ_OVFL: packets
-// dropped because the receive buffer was full). Each datagram carries its source address, so
-// several sensors sharing a port can be told apart.
+// the packet reached the socket layer), and the kernel's drop counter (packets dropped
+// because the receive buffer was full: SO_RXQ_OVFL, and SO_MEMINFO when idle). Each datagram
+// carries its source address, so several sensors sharing a port can be told apart.
 //
 // Threading: poll_once()/run() on one thread; stop() and stats() from any thread. stop() is
 // async-signal-safe (an atomic store and a write to an eventfd), and wakes a blocked poll at
@@ -53,7 +53,8 @@ struct UdpReceiverStats {
     std::atomic<std::uint64_t> bytes{0};      // payload bytes delivered
     std::atomic<std::uint64_t> truncated{0};  // longer than max_datagram_bytes: counted, dropped
     // Dropped by the kernel for a full receive buffer. The kernel reports its running count
-    // with the next datagram it does deliver, so drops after the last datagram show late.
+    // with the next datagram it delivers (SO_RXQ_OVFL); drops after the last datagram are
+    // read with SO_MEMINFO when a poll times out, so they show within poll_timeout_ms.
     std::atomic<std::uint64_t> kernel_drops{0};
     std::atomic<std::uint64_t> errors{0};   // failed recvmmsg/poll calls (EINTR excepted)
     std::atomic<std::uint64_t> batches{0};  // recvmmsg calls that returned data
@@ -92,11 +93,13 @@ public:
 private:
     struct Batch;
     std::size_t drain(std::size_t socket_index, const DatagramHandler& handler);
+    void note_drop_count(std::size_t socket_index, std::uint32_t drops);
+    void read_drop_count(std::size_t socket_index);
 
     UdpReceiverParams params_;
     std::vector<int> fds_;
     std::vector<UdpSocketInfo> sockets_;
-    std::vector<std::uint32_t> last_drop_count_;  // SO_RXQ_OVFL value seen last, per socket
+    std::vector<std::uint32_t> last_drop_count_;  // kernel drop count seen last, per socket
     int wake_fd_ = -1;                            // eventfd written by stop()
     std::unique_ptr<Batch> batch_;
     std::atomic<bool> stop_{false};

@@ -167,6 +167,25 @@ TEST(UdpReceiver, KernelDropsAreCounted) {
     EXPECT_EQ(receiver.stats().kernel_drops.load() + got.size() + more.size(), 201u);
 }
 
+TEST(UdpReceiver, KernelDropsAfterTheLastDatagramShowWhenIdle) {
+    UdpReceiverParams params = loopback_params(1);
+    params.requested_rcvbuf_bytes = 4096;
+    UdpReceiver receiver(params);
+    UdpSender sender({"127.0.0.1", 0});
+    const auto data = payload(1400, 0);
+    for (int i = 0; i < 200; ++i) {
+        ASSERT_TRUE(
+            sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
+    }
+    // Nothing follows the burst: no later datagram carries the count, the idle poll reads it.
+    const auto got = receive(receiver, 1);  // the first poll drains all that was kept
+    ASSERT_GE(got.size(), 1u);
+    ASSERT_LT(got.size(), 200u);
+    EXPECT_EQ(receiver.stats().kernel_drops.load(), 0u);
+    receiver.poll_once(10, [](const ReceivedDatagram&) { FAIL() << "nothing was sent"; });
+    EXPECT_EQ(receiver.stats().kernel_drops.load() + got.size(), 200u);
+}
+
 TEST(UdpReceiver, StopWakesABlockedLoopAtOnce) {
     UdpReceiverParams params = loopback_params(1);
     params.poll_timeout_ms = -1;  // only stop() can end the poll
