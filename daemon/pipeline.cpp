@@ -2,7 +2,12 @@
 
 #include <pthread.h>
 #include <spdlog/spdlog.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -30,6 +35,27 @@ const char* to_string(SensorState state) {
 }
 
 using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// A receiver that waits for CPU behind registration loses packets for good once its socket
+// buffer fills; a fusion thread that waits only delivers a frame later. So the compute
+// threads (fusion, output) run this much nicer than the process, and so do the threads they
+// start (the initial-registration worker, their OpenMP teams): Linux keeps a nice value per
+// thread and a new thread inherits its creator's. Raising one needs no privilege.
+constexpr int kComputeNiceOffset = 5;
+
+void lower_this_thread_priority(const char* name) {
+    const id_t tid = static_cast<id_t>(::gettid());
+    errno = 0;
+    const int now = ::getpriority(PRIO_PROCESS, tid);
+    if (errno != 0 ||
+        ::setpriority(PRIO_PROCESS, tid, std::min(now + kComputeNiceOffset, 19)) != 0) {
+        spdlog::warn("{}: cannot lower its priority: {}", name, std::strerror(errno));
+    }
+}
+
+}  // namespace
 
 struct Pipeline::Impl {
     DaemonConfig config;
@@ -195,6 +221,7 @@ struct Pipeline::Impl {
         // One job at a time (the engine's rule), so the queue of two never drops one.
         DropOldestQueue<std::shared_ptr<core::InitialRegistrationJob>> init_jobs(2);
         std::thread init_worker([this, &init_jobs] {
+            ::pthread_setname_np(::pthread_self(), "lf-init");
             while (true) {
                 auto job = init_jobs.pop_wait(std::chrono::milliseconds(100));
                 if (job) {
@@ -347,7 +374,7 @@ Pipeline::Pipeline(const DaemonConfig& config) : impl_(std::make_unique<Impl>(co
 Pipeline::~Pipeline() { stop(); }
 
 // Thread names (at most 15 characters) let `top -H` and the daemon bench tell the stages
-// apart: lf-recv-<port>, lf-sync, lf-fusion, lf-output.
+// apart: lf-recv-<port>, lf-sync, lf-fusion (and its lf-init worker), lf-output.
 void Pipeline::start() {
     Impl& m = *impl_;
     for (auto& r : m.receivers) {
@@ -363,10 +390,12 @@ void Pipeline::start() {
     });
     m.fusion_thread = std::thread([&m] {
         ::pthread_setname_np(::pthread_self(), "lf-fusion");
+        lower_this_thread_priority("lf-fusion");
         m.fusion_loop();
     });
     m.output_thread = std::thread([&m] {
         ::pthread_setname_np(::pthread_self(), "lf-output");
+        lower_this_thread_priority("lf-output");
         m.output_loop();
     });
 }
