@@ -43,6 +43,13 @@ public:
 private:
     SphericalGridParams params_;
     double az_scale_, el_scale_, el_min_rad_;
+    // Cell boundaries, so that cell_of() needs neither asin nor atan2 per point (it is run on
+    // every point of every scan): sin of each row's lower elevation (elevation_bins + 1),
+    // each column's lower azimuth as a unit vector, and per slot of z/r in [-1, 1] the row
+    // of the slot's lower end (-1 below the span), which is at most one row off.
+    std::vector<double> sin_el_lower_;
+    std::vector<double> cos_az_lower_, sin_az_lower_;
+    std::vector<std::int16_t> row_of_slot_;
 };
 
 // Per cell: the nearest range of the points whose rays fall in it (metres), +inf if none.
@@ -66,11 +73,16 @@ public:
     const SphericalGrid& grid() const { return grid_; }
 
 private:
+    void clear_rows(std::vector<double>* image, int lo, int hi) const;
+
     SphericalGrid grid_;
     std::vector<double> nearest_;
     std::vector<double> scratch_;
     std::vector<double> window_min_;
     std::vector<double> row_;  // one padded azimuth row (compute_window_min)
+    // Rows that hold finite values (lo > hi: none). A sensor covers a band of elevations
+    // (an OS1-64 45 of the 120 degrees), so the window and the clearing skip the others.
+    int nearest_lo_, nearest_hi_, window_lo_, window_hi_;
 };
 
 struct ChangeDetectionParams {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <random>
 
@@ -135,6 +136,123 @@ TEST(SphericalRangeImage, WindowMinimumWrapsInAzimuth) {
     EXPECT_EQ(az, 0);
     EXPECT_NEAR(image.window_min(az, el), 5.0, 1e-9);  // seen across the wrap
     EXPECT_TRUE(std::isinf(image.window_min(8, el)));
+}
+
+// Successive builds over different bands of rows: every window minimum equals the brute
+// force over the cone, and nothing of an earlier scan is left behind.
+TEST(SphericalRangeImage, WindowMinimumMatchesBruteForceAcrossRebuilds) {
+    SphericalGridParams g;
+    g.azimuth_bins = 64;
+    g.elevation_bins = 24;
+    SphericalRangeImage image(g);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (const auto& band : {std::pair{-10.0, 20.0}, {30.0, 55.0}, {-59.0, -40.0}, {-5.0, 5.0}}) {
+        std::vector<Eigen::Vector3d> points;
+        for (int i = 0; i < 300; ++i) {
+            const double el = (band.first + (band.second - band.first) * unit(rng)) * M_PI / 180;
+            const double az = 2 * M_PI * unit(rng);
+            const double r = 1 + 50 * unit(rng);
+            points.emplace_back(r * std::cos(el) * std::cos(az), r * std::cos(el) * std::sin(az),
+                                r * std::sin(el));
+        }
+        for (int cone : {0, 1, 2}) {
+            image.build(points);
+            image.compute_window_min(cone);
+            for (int e = 0; e < g.elevation_bins; ++e) {
+                for (int a = 0; a < g.azimuth_bins; ++a) {
+                    double want = std::numeric_limits<double>::infinity();
+                    for (int de = -cone; de <= cone; ++de) {
+                        const int ee = e + de;
+                        if (ee < 0 || ee >= g.elevation_bins) continue;
+                        for (int da = -cone; da <= cone; ++da) {
+                            want = std::min(want, image.nearest((a + da + g.azimuth_bins) % g.azimuth_bins, ee));
+                        }
+                    }
+                    ASSERT_EQ(image.window_min(a, e), want) << "band " << band.first << " cone " << cone
+                                                            << " cell " << a << "," << e;
+                }
+            }
+        }
+    }
+    // An empty scan leaves an empty image.
+    image.build({});
+    image.compute_window_min(1);
+    for (int e = 0; e < g.elevation_bins; ++e) {
+        for (int a = 0; a < g.azimuth_bins; ++a) {
+            ASSERT_TRUE(std::isinf(image.nearest(a, e)));
+            ASSERT_TRUE(std::isinf(image.window_min(a, e)));
+        }
+    }
+}
+
+// The cell by the definition: elevation and azimuth from asin and atan2, floored.
+std::optional<std::pair<int, int>> reference_cell(const SphericalGridParams& g, const Eigen::Vector3d& p) {
+    const double r = p.norm();
+    if (!(r > 1e-6) || !std::isfinite(r)) return std::nullopt;
+    const double deg = M_PI / 180.0;
+    const double el_scale = g.elevation_bins / ((g.max_elevation_deg - g.min_elevation_deg) * deg);
+    const int e = static_cast<int>(std::floor((std::asin(std::clamp(p.z() / r, -1.0, 1.0)) -
+                                               g.min_elevation_deg * deg) * el_scale));
+    if (e < 0 || e >= g.elevation_bins) return std::nullopt;
+    double azimuth = std::atan2(p.y(), p.x());
+    if (azimuth < 0) azimuth += 2.0 * M_PI;
+    const int a = std::min(static_cast<int>(azimuth * g.azimuth_bins / (2.0 * M_PI)), g.azimuth_bins - 1);
+    return std::make_pair(a, e);
+}
+
+TEST(SphericalGrid, CellsAreThoseOfAsinAndAtan2) {
+    std::vector<SphericalGridParams> grids(4);
+    grids[1].azimuth_bins = 2048;
+    grids[1].elevation_bins = 64;
+    grids[1].min_elevation_deg = -22.5;
+    grids[1].max_elevation_deg = 22.5;
+    grids[2].azimuth_bins = 512;
+    grids[2].elevation_bins = 180;
+    grids[2].min_elevation_deg = -90;
+    grids[2].max_elevation_deg = 90;
+    grids[3].azimuth_bins = 16;
+    grids[3].elevation_bins = 3;
+    std::mt19937 rng(7);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    std::uniform_real_distribution<double> range(0.3, 200.0);
+    for (const auto& g : grids) {
+        SCOPED_TRACE(std::to_string(g.azimuth_bins) + "x" + std::to_string(g.elevation_bins));
+        SphericalGrid grid(g);
+        std::vector<Eigen::Vector3d> points;
+        for (int i = 0; i < 200000; ++i) {
+            const Eigen::Vector3d d(normal(rng), normal(rng), 0.3 * normal(rng));
+            points.push_back(range(rng) * d.normalized());
+        }
+        // Axes, poles, signed zeros, the origin, a NaN, and rays a hair off the column
+        // boundaries on both sides.
+        for (double x : {-1.0, -0.0, 0.0, 1.0}) {
+            for (double y : {-1.0, -0.0, 0.0, 1.0}) {
+                for (double z : {-1.0, 0.0, 1.0}) points.emplace_back(x, y, z);
+            }
+        }
+        points.emplace_back(std::nan(""), 0.0, 0.0);
+        for (int k = 0; k < g.azimuth_bins; ++k) {
+            for (double off : {-1e-9, 1e-9}) {
+                const double angle = (k + off) * 2.0 * M_PI / g.azimuth_bins;
+                points.emplace_back(10 * std::cos(angle), 10 * std::sin(angle), 0.1);
+            }
+        }
+        int checked = 0;
+        for (const auto& p : points) {
+            int az = -1, el = -1;
+            double r = 0;
+            const bool in = grid.cell_of(p, &az, &el, &r);
+            const auto want = reference_cell(g, p);
+            ASSERT_EQ(in, want.has_value()) << p.transpose();
+            if (!in) continue;
+            ASSERT_EQ(az, want->first) << p.transpose();
+            ASSERT_EQ(el, want->second) << p.transpose();
+            ASSERT_DOUBLE_EQ(r, p.norm());
+            ++checked;
+        }
+        EXPECT_GT(checked, 1000);
+    }
 }
 
 }  // namespace
