@@ -59,6 +59,8 @@ private:
     double score_of(std::uint64_t key) const;  // attenuated to the current frame
     double attenuation_after(std::uint64_t frames) const;  // params_.attenuation ^ frames
     void raise(std::uint64_t key);
+    void mark_hot_voxels();  // fills hot_slots_, forgets faded voxels
+    bool maybe_hot(std::uint64_t key) const;
 
     BackgroundModelParams params_;
     ChangeDetector detector_;
@@ -69,6 +71,13 @@ private:
     // current points, per frame.
     std::vector<std::uint64_t> reference_keys_, current_keys_;
     std::vector<double> attenuation_powers_;  // attenuation^k, k < size (std::pow values)
+    // Per frame, one bit per hash slot of the voxels above the threshold: a point whose slot
+    // is clear is below it without a lookup in voxels_ (most are: the dynamic regions are a
+    // small part of a scan).
+    std::vector<std::uint64_t> hot_slots_;
+    // A voxel not raised for this many frames has attenuated below 1e-12 and is forgotten,
+    // so that a station running for days keeps only the regions that still change.
+    std::uint64_t forget_after_frames_ = 0;
     ChangeDetectionResult changes_;
 };
 

@@ -80,5 +80,45 @@ TEST(BackgroundModel, VehicleInTheReferenceFrameIsMarkedWhenItLeaves) {
     EXPECT_GT(marked_on_vehicle, 20u);
 }
 
+// Every frame, a point is dynamic exactly when it changed now or its voxel's score is above
+// the threshold: the per-frame filter of hot voxels never hides one, and a voxel that has
+// faded below 1e-12 is forgotten (its score reads 0, as a voxel never raised).
+TEST(BackgroundModel, DynamicFlagsFollowTheScoresAndFadedVoxelsAreForgotten) {
+    BackgroundModelParams params;
+    params.attenuation = 0.5;  // forgotten after ceil(log(1e-13) / log(0.5)) = 44 frames
+    BackgroundModel model(params);
+    const auto reference = scan(0, false, 1);
+    model.set_reference(reference);
+    BackgroundUpdate update;
+    ChangeDetector detector(params.change);
+    detector.set_reference(reference);
+    ChangeDetectionResult changes;
+    std::size_t hot_points = 0;
+    for (int f = 0; f < 12; ++f) {
+        const auto current = scan(6 + 0.5 * f, true, 10 + f);
+        model.update(current, &update);
+        detector.detect(current, &changes);
+        for (std::size_t i = 0; i < current.size(); ++i) {
+            const bool hot = model.score_at(current[i]) > params.dynamic_threshold;
+            ASSERT_EQ(update.dynamic[i] != 0, changes.added[i] || hot) << "frame " << f << " point " << i;
+            hot_points += hot && !changes.added[i];
+        }
+        for (std::size_t j = 0; j < reference.size(); ++j) {
+            const bool hot = model.score_at(reference[j]) > params.dynamic_threshold;
+            ASSERT_EQ(update.reference_dynamic[j] != 0, changes.removed[j] || hot) << "frame " << f;
+        }
+    }
+    EXPECT_GT(hot_points, 50u);  // points flagged by their voxel alone were checked
+    const Eigen::Vector3d lane(9.0, 0, -1);
+    ASSERT_GT(model.score_at(lane), 0.5);
+    const auto empty = scan(0, false, 50);
+    for (int f = 0; f < 44; ++f) model.update(empty, &update);
+    EXPECT_GT(model.score_at(lane), 0.0);
+    EXPECT_LT(model.score_at(lane), 1e-11);
+    model.update(empty, &update);
+    model.update(empty, &update);
+    EXPECT_EQ(model.score_at(lane), 0.0);
+}
+
 }  // namespace
 }  // namespace lidarfuse::core
