@@ -52,7 +52,10 @@ public:
     // reference pose from the rigid fit of the skewed scan (about its mean point time) to the
     // scan timestamp, exp(-xi * mean dt); nullopt when nothing was done (deskew off, not
     // enough history yet, or already done). Gives up (done, nothing changed) when the pose
-    // after the reference frame is unknown (history lost across a gap).
+    // after the reference frame is unknown: history lost across a gap, or a sensor that
+    // started tracking frames after its reference scan (registered on another thread; its
+    // free reference node takes up the sweep's rigid part, see fusion_engine_test
+    // LateRegisteredSensorsAreAsAccurateAsInline).
     std::optional<Eigen::Isometry3d> deskew_reference(std::int64_t frame);
     bool reference_deskewed() const { return reference_deskewed_; }
     // The reference scan's static points downsampled at `voxel_size_m`, with covariances
