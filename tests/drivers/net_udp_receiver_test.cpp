@@ -146,16 +146,22 @@ TEST(UdpReceiver, OversizedDatagramIsCountedAsTruncatedAndNotDelivered) {
     EXPECT_EQ(receiver.stats().datagrams.load(), 1u);
 }
 
+// Sends `count` copies of `data` to the receiver's first socket.
+void send_burst(UdpSender& sender, const UdpReceiver& receiver, const std::vector<std::uint8_t>& data,
+                int count) {
+    for (int i = 0; i < count; ++i) {
+        ASSERT_TRUE(
+            sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
+    }
+}
+
 TEST(UdpReceiver, KernelDropsAreCounted) {
     UdpReceiverParams params = loopback_params(1);
     params.requested_rcvbuf_bytes = 4096;  // the kernel's minimum: a few datagrams at most
     UdpReceiver receiver(params);
     UdpSender sender({"127.0.0.1", 0});
     const auto data = payload(1400, 0);
-    for (int i = 0; i < 200; ++i) {
-        ASSERT_TRUE(
-            sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
-    }
+    ASSERT_NO_FATAL_FAILURE(send_burst(sender, receiver, data, 200));
     const auto got = receive(receiver, 1);
     ASSERT_GE(got.size(), 1u);
     // The drop count rides on the next datagram that gets through.
@@ -173,10 +179,7 @@ TEST(UdpReceiver, KernelDropsAfterTheLastDatagramShowWhenIdle) {
     UdpReceiver receiver(params);
     UdpSender sender({"127.0.0.1", 0});
     const auto data = payload(1400, 0);
-    for (int i = 0; i < 200; ++i) {
-        ASSERT_TRUE(
-            sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
-    }
+    ASSERT_NO_FATAL_FAILURE(send_burst(sender, receiver, data, 200));
     // Nothing follows the burst: no later datagram carries the count, the idle poll reads it.
     const auto got = receive(receiver, 1);  // the first poll drains all that was kept
     ASSERT_GE(got.size(), 1u);
