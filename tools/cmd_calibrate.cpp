@@ -16,6 +16,7 @@
 #include "core/se3.hpp"
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
+#include "drivers/station/fusion_config.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
 
@@ -40,6 +41,8 @@ int run_calibrate(int argc, char** argv) {
     if (args.positionals().size() != 1) throw UsageError("expected one CAPTURE.pcap\n" + std::string(kUsage));
     const auto start = std::chrono::steady_clock::now();
     auto station_config = station::load_station_config(args.required("--config"));
+    // The registration section's initial-registration keys, as lidarfused uses them.
+    core::InitialRegistrationParams params = station::load_fusion_params(args.required("--config")).initial;
     const std::string out_path = args.required("--out");
     const long long wanted = args.integer("--frame", 0);
     if (wanted < 0) throw UsageError("--frame must be >= 0");
@@ -92,7 +95,6 @@ int run_calibrate(int argc, char** argv) {
     const double decode_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-    core::InitialRegistrationParams params = core::default_initial_registration_params();
     params.num_threads = static_cast<int>(args.integer("--threads", 2));
     const core::InitialRegistrationResult result = core::register_initial(clouds, params);
 

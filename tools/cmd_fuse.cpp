@@ -11,6 +11,7 @@
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/io/cloud_ply.hpp"
 #include "drivers/io/pose_csv.hpp"
+#include "drivers/station/fusion_config.hpp"
 #include "drivers/ouster/projection.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
@@ -43,6 +44,8 @@ const char* kUsage =
     "and runs the FusionEngine on every frame. Writes DIR/poses.csv (T_root_sensor per sensor\n"
     "and frame; header frame,sensor,t_ns,x,y,z,qw,qx,qy,qz), DIR/timing.csv (ms per stage per\n"
     "frame) and DIR/fused_<FRAME>.ply for each --save-cloud frame.\n"
+    "Parameters: the config's registration and dynamics sections, as lidarfused reads them\n"
+    "(config/station.schema.md); the options override them (--threads: default 2).\n"
     "Accuracy knobs (core/pipeline/fusion_types.hpp): --no-deskew: no per-column motion\n"
     "compensation; --reference-voxel: voxel of the one-off\n"
     "fine edges between the reference frames (0: off); --reference-target-voxel: voxel of the\n"
@@ -65,17 +68,19 @@ int run_fuse(int argc, char** argv) {
 
     capture::StationCapture capture(station, args.positionals()[0]);
     const std::size_t n = station.sensors.size();
-    core::FusionParams params;
+    // The config's registration and dynamics sections, as lidarfused reads them; the
+    // options below override them.
+    core::FusionParams params = station::load_fusion_params(args.required("--config"));
     params.root_sensor = station.root_index();
     params.voxel_size_m = args.number("--voxel-size", params.voxel_size_m);
     params.window_frames = static_cast<int>(args.integer("--window", params.window_frames));
     params.num_threads = static_cast<int>(args.integer("--threads", 2));
-    params.deskew = !args.flag("--no-deskew");
-    params.remove_dynamic = !args.flag("--no-dynamic");
+    if (args.flag("--no-deskew")) params.deskew = false;
+    if (args.flag("--no-dynamic")) params.remove_dynamic = false;
     params.reference_voxel_size_m = args.number("--reference-voxel", params.reference_voxel_size_m);
     params.reference_target_voxel_size_m =
         args.number("--reference-target-voxel", params.reference_target_voxel_size_m);
-    params.voxel_grid_in_root_frame = !args.flag("--sensor-grid");
+    if (args.flag("--sensor-grid")) params.voxel_grid_in_root_frame = false;
     params.initial_registration_inline = true;  // offline: deterministic, timing-independent
     if (!(params.voxel_size_m > 0)) throw UsageError("--voxel-size must be positive");
     if (params.window_frames < 2) throw UsageError("--window must be at least 2");
@@ -171,6 +176,11 @@ int run_fuse(int argc, char** argv) {
                     static_cast<unsigned long long>(c.frames_incomplete));
     }
     const auto& sc = synchroniser.counters();
+    // The parameters this run used (config sections and options combined).
+    std::printf("fuse_voxel_size %g m\n", params.voxel_size_m);
+    std::printf("fuse_window %d frames\n", params.window_frames);
+    std::printf("fuse_deskew %d flag\n", params.deskew ? 1 : 0);
+    std::printf("fuse_remove_dynamic %d flag\n", params.remove_dynamic ? 1 : 0);
     std::printf("fuse_frames %lld frames\n", frames);
     std::printf("fuse_frames_partial %llu frames\n", static_cast<unsigned long long>(sc.frames_partial));
     std::printf("fuse_scans_late_dropped %llu scans\n", static_cast<unsigned long long>(sc.late_dropped));

@@ -30,4 +30,10 @@ public:
     static std::string describe(const YAML::Node& node);
 };
 
+// Stores a value that was read (and is valid) into the config field it belongs to.
+template <typename T, typename U>
+void set_if(const std::optional<U>& value, T* target) {
+    if (value) *target = static_cast<T>(*value);
+}
+
 }  // namespace lidarfuse::station

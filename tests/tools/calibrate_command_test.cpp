@@ -123,5 +123,28 @@ TEST(CalibrateCommand, MissingCaptureFailsWithItsName) {
     EXPECT_FALSE(std::ifstream(d + "/extrinsics.yaml").good());
 }
 
+// calibrate takes the initial-registration keys of the config's registration section, as
+// lidarfused does, and refuses a bad one before decoding anything.
+TEST(CalibrateCommand, BadRegistrationKeyIsRefusedWithItsPath) {
+    test::TempDir dir("calibrate_cfg");
+    const std::string d = dir.path().string();
+    const std::string tool = test::tool_path();
+    std::string out;
+    ASSERT_EQ(test::run_command(tool + " sim --scenario curve --sensors 2 --seconds 0.1 --out " + d, &out), 0) << out;
+    {
+        std::ifstream in(d + "/station.yaml");
+        std::ofstream config(d + "/bad.yaml");
+        config << in.rdbuf() << "registration:\n  ransac_iterations: 5\n";
+    }
+    out.clear();
+    EXPECT_EQ(test::run_command(tool + " calibrate " + d + "/capture.pcap --config " + d + "/bad.yaml --out " + d +
+                                    "/extrinsics.yaml",
+                                &out),
+              1)
+        << out;
+    EXPECT_NE(out.find("registration.ransac_iterations"), std::string::npos) << out;
+    EXPECT_FALSE(std::ifstream(d + "/extrinsics.yaml").good());
+}
+
 }  // namespace
 }  // namespace lidarfuse

@@ -65,6 +65,48 @@ TEST(FuseCommand, SimulatedStationIsFusedAgainstGroundTruth) {
     EXPECT_LT(rot, 0.2);
 }
 
+// fuse reads the config's registration and dynamics sections as lidarfused does; the
+// options override them, and a bad key in them is refused with its path.
+TEST(FuseCommand, UsesTheConfigsRegistrationSectionUnlessOverridden) {
+    test::TempDir dir("fusecfg");
+    const std::string d = dir.path().string();
+    const std::string tool = test::tool_path();
+    std::string out;
+    ASSERT_EQ(test::run_command(tool + " sim --scenario curve --sensors 2 --seconds 0.2 --out " + d, &out), 0)
+        << out;
+    const auto with_sections = [&](const std::string& name, const std::string& sections) {
+        std::ifstream in(dir.path() / "station.yaml");
+        std::ofstream config(dir.path() / name);
+        config << in.rdbuf() << sections;
+        return d + "/" + name;
+    };
+    const std::string tuned = with_sections(
+        "tuned.yaml", "registration:\n  voxel_size_m: 3.0\n  window_frames: 7\ndynamics:\n  enabled: false\n");
+    const std::string run = tool + " fuse " + d + "/capture.pcap --out " + d + "/out --max-frames 2 --config ";
+    out.clear();
+    ASSERT_EQ(test::run_command(run + tuned, &out), 0) << out;
+    EXPECT_EQ(figure(out, "fuse_voxel_size"), 3.0) << out;
+    EXPECT_EQ(figure(out, "fuse_window"), 7.0);
+    EXPECT_EQ(figure(out, "fuse_remove_dynamic"), 0.0);
+    EXPECT_EQ(figure(out, "fuse_deskew"), 1.0);
+    out.clear();
+    ASSERT_EQ(test::run_command(run + tuned + " --voxel-size 1 --window 4 --no-deskew", &out), 0) << out;
+    EXPECT_EQ(figure(out, "fuse_voxel_size"), 1.0) << out;
+    EXPECT_EQ(figure(out, "fuse_window"), 4.0);
+    EXPECT_EQ(figure(out, "fuse_deskew"), 0.0);
+    out.clear();
+    ASSERT_EQ(test::run_command(run + d + "/station.yaml", &out), 0) << out;
+    EXPECT_EQ(figure(out, "fuse_voxel_size"), 1.0) << out;  // FusionParams' defaults
+    EXPECT_EQ(figure(out, "fuse_window"), 5.0);
+    EXPECT_EQ(figure(out, "fuse_remove_dynamic"), 1.0);
+    out.clear();
+    const std::string bad = with_sections("bad.yaml", "registration:\n  voxel_size_m: -1\n  voxel_sise_m: 2\n");
+    EXPECT_NE(test::run_command(run + bad, &out), 0);
+    EXPECT_THAT(out, HasSubstr("bad.yaml"));
+    EXPECT_THAT(out, HasSubstr("registration.voxel_size_m"));
+    EXPECT_THAT(out, HasSubstr("registration.voxel_sise_m"));
+}
+
 TEST(FuseCommand, BadInputFailsWithTheFileNamed) {
     test::TempDir dir("fusebad");
     std::string out;
