@@ -68,7 +68,14 @@ struct DaemonConfig {
     station::StationConfig station;
     NetworkConfig network;
     SyncConfig sync;
-    core::FusionParams fusion;  // registration + dynamics sections
+    // registration + dynamics sections. Two fusion threads unless the config says otherwise:
+    // one keeps up with 20 Hz only for two sensors (1 m voxels: 25 CPU ms per frame for two,
+    // 61 for four; README), and the receivers run at a higher priority than both.
+    core::FusionParams fusion = [] {
+        core::FusionParams f;
+        f.num_threads = 2;
+        return f;
+    }();
     OutputConfig output;
     HealthConfig health;
     std::string log_level = "info";

@@ -5,6 +5,7 @@
 
 #include <fstream>
 
+#include "drivers/station/fusion_config.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace lidarfuse::daemon {
@@ -142,6 +143,37 @@ output:
             << bad;
     }
     EXPECT_NO_THROW(parse_daemon_config(sensors_ + "output: {dds: {namespace: \"\"}}\n", "s.yaml", dir_.path()));
+}
+
+// config/station.example.yaml says it lists every key with its default: its registration
+// and dynamics sections read back as exactly lidarfused's defaults.
+TEST(DaemonConfigExample, RegistrationAndDynamicsHoldTheDefaults) {
+    const core::FusionParams d = DaemonConfig().fusion;
+    const core::FusionParams e = station::load_fusion_params(test::source_dir() / "config" / "station.example.yaml");
+    EXPECT_EQ(e.voxel_size_m, d.voxel_size_m);
+    EXPECT_EQ(e.window_frames, d.window_frames);
+    EXPECT_EQ(e.covariance_neighbors, d.covariance_neighbors);
+    EXPECT_EQ(e.correspondence_factor, d.correspondence_factor);
+    EXPECT_EQ(e.huber_delta, d.huber_delta);
+    EXPECT_EQ(e.deskew, d.deskew);
+    EXPECT_EQ(e.min_fitness, d.min_fitness);
+    EXPECT_EQ(e.max_jump_m, d.max_jump_m);
+    EXPECT_EQ(e.max_jump_deg, d.max_jump_deg);
+    EXPECT_EQ(e.divergence_frames, d.divergence_frames);
+    EXPECT_EQ(e.retry_interval_frames, d.retry_interval_frames);
+    EXPECT_EQ(e.num_threads, d.num_threads);
+    EXPECT_EQ(e.initial.features.octree.max_voxel_size_m, d.initial.features.octree.max_voxel_size_m);
+    EXPECT_EQ(e.initial.features.octree.min_voxel_size_m, d.initial.features.octree.min_voxel_size_m);
+    EXPECT_EQ(e.initial.pair.ransac.max_iterations, d.initial.pair.ransac.max_iterations);
+    EXPECT_EQ(e.initial.pair.ransac.inlier_threshold_m, d.initial.pair.ransac.inlier_threshold_m);
+    EXPECT_EQ(e.initial.pair.p2p_cutoff_m, d.initial.pair.p2p_cutoff_m);
+    EXPECT_EQ(e.initial.pair.ransac.seed, d.initial.pair.ransac.seed);
+    EXPECT_EQ(e.remove_dynamic, d.remove_dynamic);
+    EXPECT_EQ(e.background.attenuation, d.background.attenuation);
+    EXPECT_EQ(e.background.change.range_threshold_m, d.background.change.range_threshold_m);
+    EXPECT_EQ(e.background.dynamic_threshold, d.background.dynamic_threshold);
+    EXPECT_EQ(e.background.voxel_size_m, d.background.voxel_size_m);
+    EXPECT_EQ(e.background.change.cone_bins, d.background.change.cone_bins);
 }
 
 }  // namespace

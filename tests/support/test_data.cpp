@@ -20,6 +20,8 @@ std::optional<std::filesystem::path> data_dir() {
     return dir;
 }
 
+std::filesystem::path source_dir() { return LIDARFUSE_SOURCE_DIR; }
+
 std::optional<std::filesystem::path> ouster_file(const std::string& name) {
     const auto dir = data_dir();
     if (!dir) return std::nullopt;

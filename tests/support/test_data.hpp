@@ -13,6 +13,9 @@ namespace lidarfuse::test {
 // LIDARFUSE_DATA_DIR (default ../shared/data beside the checkout). Empty when absent.
 std::optional<std::filesystem::path> data_dir();
 
+// The checkout the tests were built from (config/, systemd/ ...).
+std::filesystem::path source_dir();
+
 // Path of an Ouster sample file (data_dir()/ouster/NAME), or nullopt when the data
 // folder or the file is missing. Use through LIDARFUSE_REQUIRE_OUSTER_FILE.
 std::optional<std::filesystem::path> ouster_file(const std::string& name);

@@ -1,0 +1,50 @@
+// station.yaml's registration and dynamics sections (drivers/station/fusion_config.hpp):
+// a bad file is refused naming it and every bad key (the example config is checked
+// against lidarfused's defaults in daemon_config_test).
+#include "drivers/station/fusion_config.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "drivers/station/station_config.hpp"
+#include "tests/support/test_data.hpp"
+
+namespace lidarfuse::station {
+namespace {
+
+using ::testing::HasSubstr;
+
+TEST(FusionConfig, BadFilesAreRefusedNamingTheFileAndEveryKey) {
+    test::TempDir dir("fusioncfg");
+    const auto refused = [&](const std::string& text) -> std::string {
+        std::ofstream(dir.path() / "s.yaml") << text;
+        try {
+            load_fusion_params(dir.path() / "s.yaml");
+        } catch (const ConfigError& e) {
+            return e.what();
+        }
+        ADD_FAILURE() << "accepted:\n" << text;
+        return "";
+    };
+    EXPECT_THAT(refused("registration:\n  window_frames: 1\n  windw: 3\ndynamics:\n  attenuation: 2\n"),
+                AllOf(HasSubstr("s.yaml"), HasSubstr("registration.window_frames"),
+                      HasSubstr("registration.windw"), HasSubstr("dynamics.attenuation")));
+    EXPECT_THAT(refused("registration: [1, 2\n"), HasSubstr("not valid YAML"));
+    EXPECT_THAT(refused("- a\n- b\n"), HasSubstr("mapping"));
+    EXPECT_THAT(refused("registration: 3\n"), HasSubstr("registration"));
+    try {
+        load_fusion_params(dir.path() / "absent.yaml");
+        ADD_FAILURE() << "a missing file was accepted";
+    } catch (const ConfigError& e) {
+        EXPECT_THAT(e.what(), HasSubstr("absent.yaml"));
+    }
+    // Absent sections: the defaults.
+    std::ofstream(dir.path() / "plain.yaml") << "sensors: []\n";
+    EXPECT_EQ(load_fusion_params(dir.path() / "plain.yaml").covariance_neighbors,
+              core::FusionParams().covariance_neighbors);
+}
+
+}  // namespace
+}  // namespace lidarfuse::station
