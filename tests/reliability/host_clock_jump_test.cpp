@@ -164,9 +164,11 @@ TEST(HostClockJump, WallClockJumpsChangeOnlyTheReportedClockOffset) {
         std::size_t stale = 0;
         std::vector<double> offsets;
         for (const auto& s : samples) {
-            EXPECT_LT(s.heartbeat_age_s, 1.0);
+            // A wall-clock age or latency would be 1 h or 1 day off. The bounds leave room for
+            // a ThreadSanitizer build sharing the cores (seen: a frame taking 1.2 s).
+            EXPECT_LT(s.heartbeat_age_s, 10.0);
             EXPECT_GE(s.stats.last_latency_ms, 0.0);
-            EXPECT_LT(s.stats.last_latency_ms, 1000.0);
+            EXPECT_LT(s.stats.last_latency_ms, 10000.0);
             for (const auto& sensor : s.stats.sensors) {
                 EXPECT_NE(sensor.state, daemon::SensorState::kLost)
                     << sensor.name << " at " << s.at_s;
