@@ -3,6 +3,8 @@
 // Frames: every input scan is in its own sensor frame; every output pose is T_root_sensor,
 // root = the root sensor at its first frame (the fused frame). Units: metres, seconds.
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -40,13 +42,16 @@ struct FusionParams {
     double voxel_size_m = 1.0;
     int window_frames = 5;  // k_w: nodes of the last k_w frames stay in the pose graph
     RangeFilterParams range{1.0, 120.0, Eigen::Vector3d::Zero()};
-    // k of the G-ICP covariances (the point itself included). Fewer neighbours keep the
-    // local surface local: 10 voxels of 3 m span a street's width. Measured on the 20 s
-    // captures, rotation RMSE aligned, k = 10 / 8 / 6 / 5 / 4: 3 m straight seed 2 0.106 /
-    // 0.081 / 0.057 / 0.054 / 0.053 deg, intersection seed 1 0.072 / 0.056 / 0.048 / 0.039 /
-    // 0.033; 1 m straight seed 2 0.027 / - / 0.022 / 0.026 / 0.045, intersection seed 1
-    // 0.018 / - / 0.015 / 0.017 / 0.032. 6 is the best at 1 m and near it at 3 m.
-    int covariance_neighbors = 6;
+    // k of the G-ICP covariances (the point itself included); 0: from each cloud's voxel
+    // size v, round(6 / sqrt(v)) clamped to 4..16 (v = 0.5 m: 8, 1 m: 6, 3 m: 4). Too many
+    // neighbours describe the street rather than the surface (10 voxels of 3 m span its
+    // width), too few a line rather than a plane. Measured, rotation RMSE (aligned), k = 10 /
+    // 8 / 6 / 5 / 4: 20 s captures at 3 m, straight seed 2 0.106 / 0.081 / 0.057 / 0.054 /
+    // 0.053 deg, intersection seed 1 0.072 / 0.056 / 0.048 / 0.039 / 0.033; at 1 m straight
+    // seed 2 0.027 / - / 0.022 / 0.026 / 0.045, intersection seed 1 0.018 / - / 0.015 /
+    // 0.017 / 0.032; the synthetic street at 0.5 m (fusion_engine_test, worst frame) k = 10 /
+    // 8 / 7 / 6: 0.011 / 0.028 / 0.037 / 0.052 deg.
+    int covariance_neighbors = 0;
     // G-ICP per edge; max correspondence distance = this factor * voxel_size_m.
     GicpParams gicp{};
     double correspondence_factor = 1.5;
@@ -178,5 +183,12 @@ struct FrameOutput {
     std::shared_ptr<InitialRegistrationJob> initial_job;
     bool initial_registration_pending = false;  // a job is out and not applied yet
 };
+
+// FusionParams::covariance_neighbors for a cloud downsampled at voxel_size_m.
+inline int covariance_neighbors_for(const FusionParams& params, double voxel_size_m) {
+    if (params.covariance_neighbors > 0) return params.covariance_neighbors;
+    const double v = voxel_size_m > 0 ? voxel_size_m : 1.0;
+    return std::clamp(static_cast<int>(std::lround(6.0 / std::sqrt(v))), 4, 16);
+}
 
 }  // namespace lidarfuse::core

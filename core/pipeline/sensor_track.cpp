@@ -109,7 +109,7 @@ GicpTarget SensorTrack::reference_target_at(double voxel_size_m) const {
                        params_.voxel_grid_in_root_frame ? &T_root_reference_ : nullptr, &cloud);
     if (cloud.size() < 3) return GicpTarget();
     NormalParams normals;
-    normals.k_neighbors = params_.covariance_neighbors;
+    normals.k_neighbors = covariance_neighbors_for(params_, voxel_size_m);
     normals.compute_normals = false;
     normals.num_threads = 1;
     estimate_normals_covariances(&cloud, normals);
@@ -158,7 +158,7 @@ void SensorTrack::build_current_target(bool static_only, const Eigen::Isometry3d
                        params_.voxel_grid_in_root_frame ? &T_root_sensor : nullptr, &cloud);
     if (cloud.size() >= 3) {
         NormalParams normals;
-        normals.k_neighbors = params_.covariance_neighbors;
+        normals.k_neighbors = covariance_neighbors_for(params_, params_.voxel_size_m);
         normals.compute_normals = false;
         normals.num_threads = 1;  // tracks already run in parallel
         estimate_normals_covariances(&cloud, normals);

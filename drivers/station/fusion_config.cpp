@@ -22,8 +22,14 @@ void read_registration(YamlReader& r, const YAML::Node& n, core::FusionParams* f
                  "p2p_cutoff_m", "seed"});
     set_if(r.number(n["voxel_size_m"], p + "voxel_size_m", 0.05, 20, false), &f->voxel_size_m);
     set_if(r.integer(n["window_frames"], p + "window_frames", 2, 100, false), &f->window_frames);
-    set_if(r.integer(n["covariance_neighbors"], p + "covariance_neighbors", 4, 100, false),
-           &f->covariance_neighbors);
+    if (const auto k = r.integer(n["covariance_neighbors"], p + "covariance_neighbors", 0, 100, false)) {
+        if (*k >= 1 && *k <= 3) {
+            r.problems.push_back(p + "covariance_neighbors: expected 0 (by voxel size) or 4..100, got " +
+                                 std::to_string(*k));
+        } else {
+            f->covariance_neighbors = static_cast<int>(*k);
+        }
+    }
     set_if(r.number(n["correspondence_factor"], p + "correspondence_factor", 0.5, 10, false),
            &f->correspondence_factor);
     set_if(r.number(n["huber_delta"], p + "huber_delta", 0, 100, false), &f->huber_delta);

@@ -319,6 +319,17 @@ TEST(FusionEngine, LateRegisteredSensorsAreAsAccurateAsInline) {
     EXPECT_LT(handed_out.rot_deg, 1.5 * inline_registration.rot_deg + 0.005);
 }
 
+TEST(FusionParams, CovarianceNeighboursFollowTheVoxelSizeUnlessSet) {
+    FusionParams params;
+    EXPECT_EQ(covariance_neighbors_for(params, 0.5), 8);
+    EXPECT_EQ(covariance_neighbors_for(params, 1.0), 6);
+    EXPECT_EQ(covariance_neighbors_for(params, 3.0), 4);
+    EXPECT_EQ(covariance_neighbors_for(params, 0.05), 16);
+    EXPECT_EQ(covariance_neighbors_for(params, 0.0), 6);  // no voxel size: as at 1 m
+    params.covariance_neighbors = 10;
+    EXPECT_EQ(covariance_neighbors_for(params, 3.0), 10);
+}
+
 TEST(FusionEngine, HandedOutInitialRegistrationDoesNotHoldFramesUp) {
     FusionParams params = test_params();
     params.initial_registration_inline = false;
