@@ -36,6 +36,42 @@ struct Tree {
     std::vector<int> pick;  // per pair index; -1 when none is consistent (or not good)
 };
 
+// EdgeConsensusParams::min_bridge_information_per_inlier: for each weak consistent pair of
+// the winning tree, the sensors that lose their link to the root (sensor 0) without it.
+void mark_beyond_weak_bridges(std::size_t n, const std::vector<PairResult>& pairs,
+                              const std::vector<std::size_t>& good, const std::vector<Option>& options,
+                              const Tree& winner, const EdgeConsensusParams& params,
+                              std::vector<bool>* unconfirmed) {
+    std::vector<std::size_t> consistent;
+    for (std::size_t e : good) {
+        if (winner.pick[e] >= 0) consistent.push_back(e);
+    }
+    for (std::size_t weak : consistent) {
+        const PairAlternative& a = options[static_cast<std::size_t>(winner.pick[weak])].estimate;
+        const double per_inlier =
+            a.min_hessian_eigenvalue / static_cast<double>(std::max<std::size_t>(a.gicp_inliers, 1));
+        if (per_inlier >= params.min_bridge_information_per_inlier) continue;
+        // Reach from the root over the other consistent pairs.
+        std::vector<bool> reach(n, false);
+        reach[0] = true;
+        for (bool grew = true; grew;) {
+            grew = false;
+            for (std::size_t e : consistent) {
+                if (e == weak) continue;
+                const auto s = static_cast<std::size_t>(pairs[e].source);
+                const auto t = static_cast<std::size_t>(pairs[e].target);
+                if (reach[s] != reach[t]) {
+                    reach[s] = reach[t] = true;
+                    grew = true;
+                }
+            }
+        }
+        for (std::size_t i = 0; i < n; ++i) {
+            if (winner.has[i] && !reach[i]) (*unconfirmed)[i] = true;
+        }
+    }
+}
+
 // -1: a is worse beyond the tolerance, +1: better by the margin, 0: neither.
 int compare_larger_is_better(double a, double b, double share) {
     if (a < (1.0 - share) * b) return -1;
@@ -68,6 +104,7 @@ EdgeConsensusResult select_consistent_edges(std::size_t n, std::vector<PairResul
                                             const EdgeConsensusParams& params) {
     EdgeConsensusResult result;
     result.ambiguous.assign(n, false);
+    result.unconfirmed.assign(n, false);
     std::vector<Option> options;
     std::vector<std::size_t> good;
     for (std::size_t e = 0; e < pairs->size(); ++e) {
@@ -221,10 +258,19 @@ EdgeConsensusResult select_consistent_edges(std::size_t n, std::vector<PairResul
         }
     }
 
+    if (!trees.empty() && params.min_bridge_information_per_inlier > 0) {
+        mark_beyond_weak_bridges(n, *pairs, good, options, trees[best], params, &result.unconfirmed);
+    }
+
     for (std::size_t e : good) {
         PairResult& p = (*pairs)[e];
         if (result.ambiguous[p.source] || result.ambiguous[p.target]) {
             p.status = PairStatus::kAmbiguous;
+            (*edge_ok)[e] = false;
+            continue;
+        }
+        if (result.unconfirmed[p.source] || result.unconfirmed[p.target]) {
+            p.status = PairStatus::kUnconfirmed;
             (*edge_ok)[e] = false;
             continue;
         }

@@ -69,12 +69,20 @@ struct EdgeConsensusParams {
     std::uint32_t seed = 1;
     double min_sensor_separation_m = 0.5;
     AmbiguityParams ambiguity{};
+    // Unconfirmed: a consistent pair of the winning tree that is a bridge (no cycle of
+    // consistent pairs runs through it: a station of two, or a sensor that overlaps only
+    // one other) decides the sensors beyond it alone. They are refused when its G-ICP is
+    // weakly constrained: smallest Hessian eigenvalue per G-ICP inlier below this (0: off).
+    double min_bridge_information_per_inlier = 0.0;
 };
 
 struct EdgeConsensusResult {
     // Per sensor: placed differently by a rival tree that the winner does not clearly
     // beat. Every good pair touching such a sensor was dropped with kAmbiguous.
     std::vector<bool> ambiguous;
+    // Per sensor: beyond a weak bridge (min_bridge_information_per_inlier). Every good pair
+    // touching such a sensor was dropped with kUnconfirmed.
+    std::vector<bool> unconfirmed;
     int rival_trees = 0;  // distinct valid trees as good as the winner by pair count
 };
 

@@ -66,6 +66,8 @@ const char* to_string(SensorRegistrationStatus status) {
         case SensorRegistrationStatus::kCancelled: return "cancelled";
         case SensorRegistrationStatus::kNotConnectedToRoot: return "not connected to the root sensor";
         case SensorRegistrationStatus::kAmbiguous: return "ambiguous: a look-alike placement fits as well";
+        case SensorRegistrationStatus::kUnconfirmed:
+            return "unconfirmed: one weak match, and no other sensor confirms it";
     }
     return "unknown";
 }
@@ -183,7 +185,10 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
     consensus.seed = params.consensus_seed;
     consensus.min_sensor_separation_m = params.pair.min_sensor_separation_m;
     consensus.ambiguity = params.ambiguity;
-    const std::vector<bool> ambiguous = select_consistent_edges(n, &result.pairs, &edge_ok, consensus).ambiguous;
+    consensus.min_bridge_information_per_inlier = params.min_bridge_information_per_inlier;
+    const EdgeConsensusResult consensus_result = select_consistent_edges(n, &result.pairs, &edge_ok, consensus);
+    const std::vector<bool>& ambiguous = consensus_result.ambiguous;
+    const std::vector<bool>& unconfirmed = consensus_result.unconfirmed;
     std::vector<Eigen::Isometry3d> poses;
     std::vector<bool> reached;
     while (true) {
@@ -265,9 +270,10 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
             if (p.source != static_cast<int>(i) && p.target != static_cast<int>(i)) continue;
             any_ok = any_ok || edge_ok[e];
         }
-        s.status = ambiguous[i] ? SensorRegistrationStatus::kAmbiguous
-                   : any_ok     ? SensorRegistrationStatus::kNotConnectedToRoot
-                                : SensorRegistrationStatus::kNoConsistentCorrespondences;
+        s.status = ambiguous[i]     ? SensorRegistrationStatus::kAmbiguous
+                   : unconfirmed[i] ? SensorRegistrationStatus::kUnconfirmed
+                   : any_ok         ? SensorRegistrationStatus::kNotConnectedToRoot
+                                    : SensorRegistrationStatus::kNoConsistentCorrespondences;
     }
     result.timings.total_s = seconds_since(start_total);
     return result;

@@ -41,6 +41,7 @@ const char* to_string(PairStatus status) {
         case PairStatus::kFreeSpaceViolated: return "points in the other sensor's free space";
         case PairStatus::kRejectedByPoseGraph: return "inconsistent with the other pairs";
         case PairStatus::kAmbiguous: return "ambiguous: a look-alike candidate fits as well";
+        case PairStatus::kUnconfirmed: return "unconfirmed: a weak match that no other pair confirms";
     }
     return "unknown";
 }

@@ -107,6 +107,8 @@ enum class PairStatus {
     kRejectedByPoseGraph,  // disagrees with the other pairs (set by the caller)
     kAmbiguous,            // a look-alike candidate explains the pair as well and no other
                            // pair decides (set by the caller, edge_consensus.hpp)
+    kUnconfirmed,          // the only link of some sensor to the root, no cycle confirms it,
+                           // and its G-ICP is weakly constrained (edge_consensus.hpp)
 };
 
 const char* to_string(PairStatus status);

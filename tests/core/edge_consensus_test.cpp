@@ -153,5 +153,49 @@ TEST(EdgeConsensus, NoGoodPairs) {
     EXPECT_FALSE(edge_ok[0]);
 }
 
+// A weakly constrained pair (smallest Hessian eigenvalue per G-ICP inlier below the bound)
+// decides a sensor alone when it is a bridge: a chain root - 1 - 2 with the weak pair 2-1
+// refuses sensor 2 (and only it), the same weak pair closed into a triangle by a
+// consistent pair 2-0 does not, and a strong bridge does not either.
+TEST(EdgeConsensus, SensorsBeyondAWeakBridgeAreUnconfirmed) {
+    const Eigen::Isometry3d T1 = pose(10, 0, 30), T2 = pose(20, 5, 60);  // T_root_sensor
+    const auto with_information = [](PairAlternative a, double per_inlier) {
+        a.gicp_inliers = 1000;
+        a.min_hessian_eigenvalue = per_inlier * 1000;
+        return a;
+    };
+    const auto strong_1_0 = with_information(candidate(0, T1, 900, 0.35, 0.01), 6.0);
+    const auto weak_2_1 = with_information(candidate(0, T1.inverse() * T2, 700, 0.40, 0.02), 0.5);
+    const auto strong_2_0 = with_information(candidate(0, T2, 800, 0.35, 0.01), 6.0);
+    EdgeConsensusParams params;
+    params.min_bridge_information_per_inlier = 2.2;
+
+    std::vector<PairResult> chain{pair(1, 0, strong_1_0), pair(2, 1, weak_2_1)};
+    std::vector<bool> chain_ok{true, true};
+    const EdgeConsensusResult c = select_consistent_edges(3, &chain, &chain_ok, params);
+    EXPECT_EQ(c.unconfirmed, (std::vector<bool>{false, false, true}));
+    EXPECT_TRUE(chain_ok[0]);
+    EXPECT_FALSE(chain_ok[1]);
+    EXPECT_EQ(chain[1].status, PairStatus::kUnconfirmed);
+
+    std::vector<PairResult> triangle{pair(1, 0, strong_1_0), pair(2, 1, weak_2_1), pair(2, 0, strong_2_0)};
+    std::vector<bool> triangle_ok{true, true, true};
+    const EdgeConsensusResult t = select_consistent_edges(3, &triangle, &triangle_ok, params);
+    EXPECT_EQ(t.unconfirmed, (std::vector<bool>(3, false)));
+    EXPECT_EQ(triangle_ok, (std::vector<bool>(3, true)));
+
+    std::vector<PairResult> strong_chain{pair(1, 0, strong_1_0),
+                                         pair(2, 1, with_information(weak_2_1, 2.5))};
+    std::vector<bool> strong_ok{true, true};
+    const EdgeConsensusResult s = select_consistent_edges(3, &strong_chain, &strong_ok, params);
+    EXPECT_EQ(s.unconfirmed, (std::vector<bool>(3, false)));
+
+    params.min_bridge_information_per_inlier = 0.0;  // off: the weak bridge is taken
+    std::vector<PairResult> unchecked{pair(1, 0, strong_1_0), pair(2, 1, weak_2_1)};
+    std::vector<bool> unchecked_ok{true, true};
+    select_consistent_edges(3, &unchecked, &unchecked_ok, params);
+    EXPECT_EQ(unchecked_ok, (std::vector<bool>{true, true}));
+}
+
 }  // namespace
 }  // namespace lidarfuse::core
