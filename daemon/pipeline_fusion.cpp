@@ -1,0 +1,135 @@
+// Pipeline's sync thread (scans from the receivers into synchronised frames) and fusion
+// thread (frames through the FusionEngine, the initial registration on a worker).
+#include <pthread.h>
+
+#include <algorithm>
+
+#include "daemon/pipeline_impl.hpp"
+
+namespace lidarfuse::daemon {
+
+void Pipeline::Impl::sync_loop() {
+    const auto& root_info = sensors[config.fusion.root_sensor]->info;
+    core::SyncParams params;
+    const int rate = std::max(1, root_info.frames_per_second);
+    params.max_offset_ns = config.sync.max_offset_ms > 0
+                               ? static_cast<std::int64_t>(config.sync.max_offset_ms * 1e6)
+                               : 1'000'000'000LL / rate;
+    params.deadline_ns = static_cast<std::int64_t>(config.sync.deadline_ms * 1e6);
+    params.reset_jump_ns = static_cast<std::int64_t>(config.sync.reset_jump_ms * 1e6);
+    core::FrameSynchroniser<ScanMessage> sync(sensors.size(), params);
+    while (!stopping.load(std::memory_order_acquire)) {
+        bool any = false;
+        for (auto& r : receivers) {
+            while (auto m = r->queue.try_pop()) {
+                any = true;
+                const std::size_t sensor = m->sensor;
+                const std::int64_t t = m->t_ns;
+                sync.push(sensor, t, steady_ns(), std::move(*m));
+            }
+        }
+        while (auto frame = sync.poll(steady_ns())) {
+            record_frame_time(*frame);
+            frames.push(std::move(*frame));
+        }
+        {
+            std::lock_guard<std::mutex> lock(stats_mutex);
+            sync_counters = sync.counters();
+        }
+        if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    frames.close();
+}
+
+void Pipeline::Impl::record_frame_time(const core::SyncedFrame<ScanMessage>& frame) {
+    std::lock_guard<std::mutex> lock(frame_times_mutex);
+    FrameTime& ft = frame_times[frame_times_next++ % kFrameTimes];
+    ft.t_ns.assign(sensors.size(), 0);
+    ft.last_scan_steady_ns = 0;
+    for (std::size_t s = 0; s < frame.members.size() && s < sensors.size(); ++s) {
+        if (!frame.members[s]) continue;
+        ft.t_ns[s] = frame.members[s]->t_ns;
+        ft.last_scan_steady_ns = std::max(ft.last_scan_steady_ns, frame.members[s]->complete_steady_ns);
+    }
+}
+
+// The steady time the frame's last scan completed, or 0 when it is no longer known.
+std::int64_t Pipeline::Impl::frame_time(const core::FrameOutput& out) {
+    std::lock_guard<std::mutex> lock(frame_times_mutex);
+    for (const auto& ft : frame_times) {
+        bool match = !ft.t_ns.empty();
+        bool any = false;
+        for (std::size_t s = 0; match && s < out.health.size() && s < ft.t_ns.size(); ++s) {
+            if (!out.health[s].included) continue;
+            any = true;
+            match = ft.t_ns[s] == out.t_ns[s];
+        }
+        if (match && any) return ft.last_scan_steady_ns;
+    }
+    return 0;
+}
+
+void Pipeline::Impl::fusion_loop() {
+    // The initial registration (~1 s) runs on one worker thread that this function starts
+    // and joins before it returns, so stop() joining the fusion thread joins it too: the
+    // engine hands a job out (FrameOutput::initial_job), this thread passes it on and
+    // keeps fusing the sensors already tracked; a later process() applies the result.
+    // One job at a time (the engine's rule), so the queue of two never drops one.
+    DropOldestQueue<std::shared_ptr<core::InitialRegistrationJob>> init_jobs(2);
+    std::thread init_worker([this, &init_jobs] {
+        ::pthread_setname_np(::pthread_self(), "lf-init");
+        while (true) {
+            auto job = init_jobs.pop_wait(std::chrono::milliseconds(100));
+            if (job) {
+                (*job)->run();
+                fusion_log->info("initial registration done in {:.0f} ms{}", (*job)->run_ms(),
+                                 (*job)->error().empty() ? "" : ": " + (*job)->error());
+            } else if (init_jobs.closed()) {
+                break;
+            }
+        }
+    });
+    std::shared_ptr<core::InitialRegistrationJob> last_job;
+    while (!stopping.load(std::memory_order_acquire)) {
+        heartbeat_ns.store(steady_ns(), std::memory_order_release);
+        auto frame = frames.pop_wait(std::chrono::milliseconds(100));
+        if (!frame) continue;
+        core::FrameInput input;
+        input.sensors.resize(sensors.size());
+        for (std::size_t s = 0; s < sensors.size(); ++s) {
+            if (!frame->members[s]) continue;
+            auto& in = input.sensors[s];
+            in.present = true;
+            in.t_ns = frame->members[s]->t_ns;
+            in.points = std::move(frame->members[s]->points);
+            in.point_dt_s = std::move(frame->members[s]->point_dt_s);
+            in.intensity = std::move(frame->members[s]->intensity);
+        }
+        auto out = engine->process(input);
+        if (out.initial_job) {
+            last_job = std::move(out.initial_job);
+            init_jobs.push(last_job);
+        }
+        for (std::size_t s = 0; s < sensors.size(); ++s) {
+            if (!out.health[s].event.empty()) {
+                fusion_log->warn("frame {}: {}: {}", out.frame_index, sensors[s]->name, out.health[s].event);
+            }
+        }
+        {
+            std::lock_guard<std::mutex> lock(stats_mutex);
+            ++frames_fused;
+            last_fusion_ms = out.timings.total_ms;
+            sum_fusion_ms += out.timings.total_ms;
+            last_health = out.health;
+        }
+        results.push(std::move(out));
+    }
+    // Shutdown: a job not begun is skipped; one running stops at register_initial's next
+    // check (between sensors' features or pairs), the longest stop() can wait here.
+    if (last_job) last_job->cancel();
+    init_jobs.close();
+    init_worker.join();
+    results.close();
+}
+
+}  // namespace lidarfuse::daemon

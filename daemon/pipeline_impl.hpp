@@ -1,0 +1,77 @@
+#pragma once
+// Pipeline's state shared by its threads (daemon/pipeline.hpp), one file per concern:
+// pipeline.cpp builds it and starts and stops the threads; pipeline_fusion.cpp holds the
+// sync and fusion threads' loops (scans in, fused frames out); pipeline_output.cpp the
+// output thread's loop (files, DDS) and the stats every thread reports into.
+
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/pipeline/frame_synchroniser.hpp"
+#include "core/pipeline/fusion_engine.hpp"
+#include "daemon/dds_publisher.hpp"
+#include "daemon/pipeline.hpp"
+#include "daemon/sensor_ingest.hpp"
+
+namespace lidarfuse::daemon {
+
+struct Pipeline::Impl {
+    DaemonConfig config;
+    std::vector<std::unique_ptr<SensorIngest>> sensors;
+    std::vector<std::unique_ptr<Receiver>> receivers;
+    DropOldestQueue<core::SyncedFrame<ScanMessage>> frames;
+    DropOldestQueue<core::FrameOutput> results;
+    std::unique_ptr<core::FusionEngine> engine;
+    std::thread sync_thread, fusion_thread, output_thread;
+    std::atomic<bool> stopping{false};
+    std::atomic<std::int64_t> heartbeat_ns{0};
+    std::atomic<bool> reopen{false};
+    std::shared_ptr<spdlog::logger> ingest_log, sync_log, fusion_log, output_log;
+
+    std::unique_ptr<DdsPublisher> dds;  // null when output.dds.enabled is false
+
+    // When each synchronised frame's last scan completed, for the output thread's latency
+    // figure: written by the sync thread, looked up by the members' timestamps (the
+    // FusionEngine passes them through), a ring of the last kFrameTimes frames.
+    struct FrameTime {
+        std::vector<std::int64_t> t_ns;  // per sensor, 0 = not included
+        std::int64_t last_scan_steady_ns = 0;
+    };
+    static constexpr std::size_t kFrameTimes = 64;
+    std::mutex frame_times_mutex;
+    std::vector<FrameTime> frame_times{kFrameTimes};
+    std::size_t frame_times_next = 0;
+
+    mutable std::mutex stats_mutex;  // guards the fields below (written by sync/fusion/output)
+    core::SyncCounters sync_counters;
+    std::uint64_t frames_fused = 0;
+    double last_fusion_ms = 0, sum_fusion_ms = 0;
+    std::vector<core::SensorHealth> last_health;
+    double last_latency_ms = 0;
+    std::vector<double> offset_to_root_ms;
+
+
+    explicit Impl(const DaemonConfig& c);
+    static std::shared_ptr<spdlog::logger> logger(const std::string& name);
+
+    // pipeline_fusion.cpp
+    void sync_loop();
+    void record_frame_time(const core::SyncedFrame<ScanMessage>& frame);
+    // The steady time the frame's last scan completed, or 0 when it is no longer known.
+    std::int64_t frame_time(const core::FrameOutput& out);
+    void fusion_loop();
+
+    // pipeline_output.cpp
+    void output_loop();
+    // Output thread, after a frame went to DDS: its latency and the members' offsets to the root.
+    void note_published(const core::FrameOutput& out);
+    PipelineStats collect_stats() const;
+};
+
+}  // namespace lidarfuse::daemon
