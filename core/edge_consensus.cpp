@@ -48,9 +48,10 @@ void mark_beyond_weak_bridges(std::size_t n, const std::vector<PairResult>& pair
     }
     for (std::size_t weak : consistent) {
         const PairAlternative& a = options[static_cast<std::size_t>(winner.pick[weak])].estimate;
-        const double per_inlier =
-            a.min_hessian_eigenvalue / static_cast<double>(std::max<std::size_t>(a.gicp_inliers, 1));
-        if (per_inlier >= params.min_bridge_information_per_inlier) continue;
+        if (information_per_inlier(a.min_hessian_eigenvalue, a.gicp_inliers) >=
+            params.min_bridge_information_per_inlier) {
+            continue;
+        }
         // Reach from the root over the other consistent pairs.
         std::vector<bool> reach(n, false);
         reach[0] = true;

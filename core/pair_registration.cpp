@@ -192,11 +192,9 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         if (!candidate.p2p.valid) return drop(CandidateOutcome::kNoP2pOverlap, nullptr);
         record.p2p_error_m = candidate.p2p.error_m;
         record.overlap_share = candidate.p2p.overlap_share;
-        const double information_per_inlier =
-            candidate.gicp.H_eigenvalues(0) /
-            static_cast<double>(std::max<std::size_t>(candidate.gicp.num_inliers, 1));
-        record.information_per_inlier = information_per_inlier;
-        if (information_per_inlier < params.min_information_per_inlier) {
+        record.information_per_inlier =
+            information_per_inlier(candidate.gicp.H_eigenvalues(0), candidate.gicp.num_inliers);
+        if (record.information_per_inlier < params.min_information_per_inlier) {
             return drop(CandidateOutcome::kWeak, &weak_candidates);
         }
         candidate.free_space = free_space_violations_both(source.gicp.cloud().points, target.gicp.cloud().points,

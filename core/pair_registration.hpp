@@ -17,6 +17,7 @@
 // Single-threaded unless `num_threads` > 1 (G-ICP, p2p).
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cstddef>
 
 #include "core/feature_matching.hpp"
@@ -137,6 +138,13 @@ struct PairAlternative {
     double min_translation_hessian_eigenvalue = 0.0;
     double free_space_violation_share = 0.0;
 };
+
+// Smallest G-ICP Hessian eigenvalue per G-ICP inlier: how well a candidate constrains all
+// six directions, whatever its size (PairRegistrationParams::min_information_per_inlier,
+// EdgeConsensusParams::min_bridge_information_per_inlier).
+inline double information_per_inlier(double min_hessian_eigenvalue, std::size_t gicp_inliers) {
+    return min_hessian_eigenvalue / static_cast<double>(std::max<std::size_t>(gicp_inliers, 1));
+}
 
 // What became of every candidate transform register_pair tried (diagnostics: the benches
 // print these against the truth to see which check separates right from wrong).
