@@ -17,7 +17,7 @@
 //         peak), tried (1: every candidate of register_pair that reached G-ICP, with the
 //         check that dropped it), truth_shift_s (truth taken this long after the scan's
 //         timestamp; 0.025 = mid-sweep at 20 Hz, see calibrate_command_test),
-//         min_bridge_info (InitialRegistrationParams::min_bridge_information_per_inlier)
+//         min_bridge_info (EdgeConsensusParams::min_bridge_information_per_inlier)
 // Prints `name value unit` lines (totals over all dirs) on stdout, details on stderr.
 
 #include <algorithm>
@@ -128,8 +128,8 @@ int main(int argc, char** argv) {
     p.ransac.max_iterations = static_cast<int>(option(opts, "ransac_iterations", p.ransac.max_iterations));
     p.ransac.inlier_threshold_m = option(opts, "ransac_threshold", p.ransac.inlier_threshold_m);
     params.num_threads = static_cast<int>(option(opts, "threads", 2));
-    params.min_bridge_information_per_inlier =
-        option(opts, "min_bridge_info", params.min_bridge_information_per_inlier);
+    params.consensus.min_bridge_information_per_inlier =
+        option(opts, "min_bridge_info", params.consensus.min_bridge_information_per_inlier);
     p.max_free_space_violation_share = option(opts, "max_free_space", p.max_free_space_violation_share);
     const bool quiet = option(opts, "quiet", 0) != 0;
     const bool show_tried = option(opts, "tried", 0) != 0;

@@ -15,7 +15,7 @@
 // SWEEP_MAX_FREE_SPACE=x sets max_free_space_violation_share; SWEEP_NO_GROUND_SEARCH=1
 // runs the paper's FPFH + RANSAC candidates only; SWEEP_NO_AMBIGUITY=1 turns the
 // consensus's ambiguity test off (edge_consensus.hpp: the old guess by p2p support);
-// SWEEP_MIN_BRIDGE_INFO=x sets min_bridge_information_per_inlier (0: the weak-bridge test off).
+// SWEEP_MIN_BRIDGE_INFO=x sets consensus.min_bridge_information_per_inlier (0: the weak-bridge test off).
 // Per-run errors go to stderr; SWEEP_VERBOSE=1 adds every candidate register_pair tried,
 // with its error against the truth and the check that dropped it.
 
@@ -70,8 +70,8 @@ Outcome run(const core::PointCloud& target, const core::PointCloud& source, cons
     params.num_threads = threads;
     if (const char* fs = std::getenv("SWEEP_MAX_FREE_SPACE")) params.pair.max_free_space_violation_share = std::atof(fs);
     if (std::getenv("SWEEP_NO_GROUND_SEARCH")) params.pair.use_ground_aligned_search = false;
-    if (std::getenv("SWEEP_NO_AMBIGUITY")) params.ambiguity.enabled = false;
-    if (const char* b = std::getenv("SWEEP_MIN_BRIDGE_INFO")) params.min_bridge_information_per_inlier = std::atof(b);
+    if (std::getenv("SWEEP_NO_AMBIGUITY")) params.consensus.ambiguity.enabled = false;
+    if (const char* b = std::getenv("SWEEP_MIN_BRIDGE_INFO")) params.consensus.min_bridge_information_per_inlier = std::atof(b);
     const auto result = core::register_initial({target, source}, params);
     Outcome o;
     o.overlap_share = overlap_share(source, target, truth);

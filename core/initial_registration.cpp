@@ -178,14 +178,10 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
     for (std::size_t e = 0; e < result.pairs.size(); ++e) {
         edge_ok[e] = result.pairs[e].status == PairStatus::kOk;
     }
-    EdgeConsensusParams consensus;
+    EdgeConsensusParams consensus = params.consensus;
     consensus.max_edge_translation_m = params.max_edge_translation_m;
     consensus.max_edge_rotation_deg = params.max_edge_rotation_deg;
-    consensus.samples = params.consensus_samples;
-    consensus.seed = params.consensus_seed;
     consensus.min_sensor_separation_m = params.pair.min_sensor_separation_m;
-    consensus.ambiguity = params.ambiguity;
-    consensus.min_bridge_information_per_inlier = params.min_bridge_information_per_inlier;
     const EdgeConsensusResult consensus_result = select_consistent_edges(n, &result.pairs, &edge_ok, consensus);
     const std::vector<bool>& ambiguous = consensus_result.ambiguous;
     const std::vector<bool>& unconfirmed = consensus_result.unconfirmed;

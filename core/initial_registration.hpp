@@ -45,15 +45,11 @@ struct InitialRegistrationParams {
     // than this is dropped (m, deg).
     double max_edge_translation_m = 0.25;
     double max_edge_rotation_deg = 1.0;
-    // Consensus over spanning trees before the pose graph (keep_consistent_edges in the
-    // .cpp): sampled trees (the max-support tree first) and the sampling seed.
-    int consensus_samples = 256;
-    std::uint32_t consensus_seed = 1;
-    // A sensor placed differently by a rival consensus tree that the winner does not
-    // clearly beat is refused (edge_consensus.hpp).
-    AmbiguityParams ambiguity{};
-    // A sensor reached only through a weakly constrained pair that no cycle confirms is
-    // refused (EdgeConsensusParams::min_bridge_information_per_inlier; 0: off). In a
+    // Consensus over sampled spanning trees before the pose graph, with its ambiguity and
+    // weak-bridge tests (edge_consensus.hpp). register_initial sets its edge tolerances to
+    // max_edge_* above and its sensor separation to pair.min_sensor_separation_m.
+    // The weak-bridge test is on here (EdgeConsensusParams leaves it off): a sensor reached
+    // only through a weakly constrained pair that no cycle confirms is refused. In a
     // station of two nothing can contradict a look-alike that passes every pairwise check.
     // Measured (smallest G-ICP Hessian eigenvalue per inlier of the chosen candidate):
     // registration_sweep_bench, source cut to 60-180 deg, 2 seeds: the 13 wrong poses had
@@ -63,7 +59,11 @@ struct InitialRegistrationParams {
     // road fall below it (1.64 to 2.2) and are refused: 24 of 30 registered instead of
     // 27. The 4-sensor captures keep 120 of 120 (their pairs form cycles). A refused sensor
     // is retried by the daemon on later frames; a wrong pose would stay.
-    double min_bridge_information_per_inlier = 2.2;
+    EdgeConsensusParams consensus = [] {
+        EdgeConsensusParams c;
+        c.min_bridge_information_per_inlier = 2.2;
+        return c;
+    }();
     int num_threads = 1;
     // Optional stop request, read between sensors and between pairs (a worker thread's
     // job is cancelled when the daemon stops): once set, the remaining work is skipped

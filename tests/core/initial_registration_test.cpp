@@ -209,8 +209,8 @@ TEST(InitialRegistration, NarrowViewLookAlikeIsRefusedNotGuessed) {
         // The case is a real trap: without the ambiguity test and the weak-bridge test the
         // look-alike is taken.
         InitialRegistrationParams guessing = test_params();
-        guessing.ambiguity.enabled = false;
-        guessing.min_bridge_information_per_inlier = 0.0;
+        guessing.consensus.ambiguity.enabled = false;
+        guessing.consensus.min_bridge_information_per_inlier = 0.0;
         const InitialRegistrationResult g = register_initial(clouds, guessing);
         ASSERT_TRUE(g.sensors[1].registered) << "sector " << centre_deg;
         EXPECT_GT(translation_error_m(g.sensors[1].T_root_sensor, truth), 1.0) << "sector " << centre_deg;
@@ -234,7 +234,7 @@ TEST(InitialRegistration, WeakSinglePairIsUnconfirmedNotTaken) {
     EXPECT_EQ(r.pairs[0].status, PairStatus::kUnconfirmed);
 
     InitialRegistrationParams guessing = test_params();
-    guessing.min_bridge_information_per_inlier = 0.0;
+    guessing.consensus.min_bridge_information_per_inlier = 0.0;
     const InitialRegistrationResult g = register_initial({target, source}, guessing);
     ASSERT_TRUE(g.sensors[1].registered);
     EXPECT_GT(translation_error_m(g.sensors[1].T_root_sensor, truth), 1.0);
