@@ -28,6 +28,18 @@ void downsample_in_grid(VoxelGrid* grid, std::vector<Eigen::Vector3d>* points, d
         for (auto& p : cloud->points) p = T_sensor_grid * p;
     }
 }
+
+// Slower than the deskew limits: faster is a registration glitch or a knock, not sway to undo.
+bool within_sway_limits(const Vector6d& twist, const FusionParams& params) {
+    return twist.head<3>().norm() <= params.deskew_max_rate_deg_s * kPi / 180.0 &&
+           twist.tail<3>().norm() <= params.deskew_max_speed_m_s;
+}
+
+double mean_of(const std::vector<float>& values) {
+    double sum = 0;
+    for (float v : values) sum += v;
+    return values.empty() ? 0.0 : sum / static_cast<double>(values.size());
+}
 }  // namespace
 
 SensorTrack::SensorTrack(const FusionParams& params)
@@ -57,12 +69,7 @@ Vector6d SensorTrack::deskew_twist() const {
     const double span_s = static_cast<double>(b.t_ns - a.t_ns) * kNsToS;
     if (!(span_s > 0) || span_s > params_.deskew_max_span_s) return Vector6d::Zero();
     const Vector6d twist = body_twist_per_s(a.T_root_sensor, b.T_root_sensor, span_s);
-    // Faster than a pole can sway: a registration glitch or a knock, not motion to undo.
-    if (twist.head<3>().norm() > params_.deskew_max_rate_deg_s * kPi / 180.0 ||
-        twist.tail<3>().norm() > params_.deskew_max_speed_m_s) {
-        return Vector6d::Zero();
-    }
-    return twist;
+    return within_sway_limits(twist, params_) ? twist : Vector6d::Zero();
 }
 
 std::optional<Eigen::Isometry3d> SensorTrack::deskew_reference(std::int64_t frame) {
@@ -75,21 +82,18 @@ std::optional<Eigen::Isometry3d> SensorTrack::deskew_reference(std::int64_t fram
     const double dt_s = static_cast<double>(b.t_ns - a.t_ns) * kNsToS;
     if (!(dt_s > 0) || dt_s > params_.deskew_max_span_s) return std::nullopt;
     const Vector6d twist = body_twist_per_s(a.T_root_sensor, b.T_root_sensor, dt_s);
-    if (twist.head<3>().norm() > params_.deskew_max_rate_deg_s * kPi / 180.0 ||
-        twist.tail<3>().norm() > params_.deskew_max_speed_m_s ||
-        reference_point_dt_s_.size() != reference_points_.size() || reference_points_.empty()) {
+    if (!within_sway_limits(twist, params_) || reference_point_dt_s_.size() != reference_points_.size() ||
+        reference_points_.empty()) {
         return std::nullopt;
     }
-    double mean_dt_s = 0, max_abs_dt_s = 0;
-    for (float t : reference_point_dt_s_) {
-        mean_dt_s += t;
-        max_abs_dt_s = std::max(max_abs_dt_s, std::abs(static_cast<double>(t)));
+    // No point times: nothing to undo.
+    if (std::none_of(reference_point_dt_s_.begin(), reference_point_dt_s_.end(),
+                     [](float t) { return std::abs(t) > 0.0f; })) {
+        return std::nullopt;
     }
-    if (max_abs_dt_s == 0.0) return std::nullopt;  // no point times: nothing to undo
-    mean_dt_s /= static_cast<double>(reference_point_dt_s_.size());
     deskew_points(twist, reference_point_dt_s_, &reference_points_);
     rebuild_reference_target();
-    return se3_exp(-twist * mean_dt_s);
+    return se3_exp(-twist * mean_of(reference_point_dt_s_));
 }
 
 double SensorTrack::reference_voxel_size_m() const {
@@ -117,11 +121,7 @@ GicpTarget SensorTrack::reference_target_at(double voxel_size_m) const {
 }
 
 void SensorTrack::reanchor(const Eigen::Isometry3d& left, const Eigen::Isometry3d& right_reference) {
-    const Vector6d twist = deskew_twist();
-    double mean_dt_s = 0;
-    for (float t : reference_point_dt_s_) mean_dt_s += t;
-    if (!reference_point_dt_s_.empty()) mean_dt_s /= static_cast<double>(reference_point_dt_s_.size());
-    const Eigen::Isometry3d right = se3_exp(-twist * mean_dt_s);
+    const Eigen::Isometry3d right = se3_exp(-deskew_twist() * mean_of(reference_point_dt_s_));
     T_root_reference_ = orthonormalized(left * T_root_reference_ * right_reference);
     for (auto& sample : history_) {
         sample.T_root_sensor = orthonormalized(
