@@ -3,8 +3,8 @@
 // the production ingest, takes the first complete synchronised frame (or the N-th, 0-based)
 // -- one complete scan per enabled sensor, grouped as `fuse` groups them (members within
 // 1/SR) -- runs core::register_initial and writes every sensor's T_root_sensor plus the
-// per-pair quality figures. Sensors that cannot be registered are written with `registered: false` and the
-// reason, never with a pose.
+// per-pair quality figures. Sensors that cannot be registered are written with
+// `registered: false` and the reason, never with a pose.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
