@@ -75,18 +75,17 @@ bool FusionEngine::Impl::reanchor_references(std::int64_t frame, const std::vect
 
 void FusionEngine::Impl::add_fine_reference_edges(const std::vector<std::size_t>& fresh, bool deskewed_only) {
     if (!(params.reference_voxel_size_m > 0) || fresh.empty()) return;
+    const auto in_fresh = [&](std::size_t s) {
+        return std::find(fresh.begin(), fresh.end(), s) != fresh.end();
+    };
     std::vector<std::size_t> sensors;
     for (std::size_t s = 0; s < n; ++s) {
         const SensorTrack& t = *tracks[s];
         if (!t.initialised() || (deskewed_only && !t.reference_deskewed())) continue;
-        const bool is_fresh = std::find(fresh.begin(), fresh.end(), s) != fresh.end();
         bool shares = false;
         for (std::size_t f : fresh) shares = shares || tracks[f]->reference_frame() == t.reference_frame();
-        if (is_fresh || shares) sensors.push_back(s);
+        if (in_fresh(s) || shares) sensors.push_back(s);
     }
-    const auto in_fresh = [&](std::size_t s) {
-        return std::find(fresh.begin(), fresh.end(), s) != fresh.end();
-    };
     std::vector<GicpTarget> targets(sensors.size());
     const int threads = std::max(1, params.num_threads);
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
