@@ -2,9 +2,6 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include <fstream>
-#include <sstream>
-
 #include "drivers/station/fusion_config.hpp"
 #include "drivers/station/yaml_reader.hpp"
 
@@ -155,11 +152,7 @@ DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string
 }
 
 DaemonConfig load_daemon_config(const std::filesystem::path& file) {
-    std::ifstream in(file);
-    if (!in) throw station::ConfigError(file.string(), {"cannot open the file for reading"});
-    std::ostringstream text;
-    text << in.rdbuf();
-    auto config = parse_daemon_config(text.str(), file.string(), file.parent_path());
+    auto config = parse_daemon_config(station::read_config_file(file), file.string(), file.parent_path());
     config.station.source_file = file;
     return config;
 }

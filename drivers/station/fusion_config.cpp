@@ -1,8 +1,5 @@
 #include "drivers/station/fusion_config.hpp"
 
-#include <fstream>
-#include <sstream>
-
 #include "drivers/station/station_config.hpp"
 
 namespace lidarfuse::station {
@@ -81,17 +78,7 @@ void read_fusion_sections(YamlReader& r, const YAML::Node& document, core::Fusio
 }
 
 core::FusionParams load_fusion_params(const std::filesystem::path& file) {
-    std::ifstream in(file);
-    if (!in) throw ConfigError(file.string(), {"cannot open the file for reading"});
-    std::ostringstream text;
-    text << in.rdbuf();
-    YAML::Node document;
-    try {
-        document = YAML::Load(text.str());
-    } catch (const YAML::Exception& e) {
-        throw ConfigError(file.string(), {std::string("not valid YAML: ") + e.what()});
-    }
-    if (!document.IsMap()) throw ConfigError(file.string(), {"expected a mapping at the top level"});
+    const YAML::Node document = load_config_document(read_config_file(file), file.string());
     core::FusionParams params;
     YamlReader r;
     read_fusion_sections(r, document, &params);

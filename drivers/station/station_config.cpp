@@ -115,13 +115,7 @@ std::size_t StationConfig::root_index() const {
 
 StationConfig parse_station_config(const std::string& yaml_text, const std::string& source_name,
                                    const std::filesystem::path& base_dir) {
-    YAML::Node doc;
-    try {
-        doc = YAML::Load(yaml_text);
-    } catch (const YAML::Exception& error) {
-        throw ConfigError(source_name, {"not valid YAML: " + std::string(error.what())});
-    }
-    if (!doc.IsMap()) throw ConfigError(source_name, {"(top level): expected a mapping"});
+    const YAML::Node doc = load_config_document(yaml_text, source_name);
 
     YamlReader r;
     StationConfig config;
@@ -214,12 +208,16 @@ StationConfig parse_station_config(const std::string& yaml_text, const std::stri
     return config;
 }
 
-StationConfig load_station_config(const std::filesystem::path& file) {
+std::string read_config_file(const std::filesystem::path& file) {
     std::ifstream in(file);
     if (!in) throw ConfigError(file.string(), {"cannot open the file for reading"});
     std::ostringstream text;
     text << in.rdbuf();
-    auto config = parse_station_config(text.str(), file.string(), file.parent_path());
+    return text.str();
+}
+
+StationConfig load_station_config(const std::filesystem::path& file) {
+    auto config = parse_station_config(read_config_file(file), file.string(), file.parent_path());
     config.source_file = file;
     return config;
 }

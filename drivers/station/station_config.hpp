@@ -44,6 +44,9 @@ private:
     std::vector<std::string> problems_;
 };
 
+// The whole text of a config file; ConfigError naming the file when it cannot be read.
+std::string read_config_file(const std::filesystem::path& file);
+
 // Parses and validates YAML text. Relative metadata paths resolve against `base_dir`.
 StationConfig parse_station_config(const std::string& yaml_text, const std::string& source_name,
                                    const std::filesystem::path& base_dir);

@@ -3,7 +3,20 @@
 #include <cmath>
 #include <sstream>
 
+#include "drivers/station/station_config.hpp"
+
 namespace lidarfuse::station {
+
+YAML::Node load_config_document(const std::string& yaml_text, const std::string& source_name) {
+    YAML::Node doc;
+    try {
+        doc = YAML::Load(yaml_text);
+    } catch (const YAML::Exception& error) {
+        throw ConfigError(source_name, {"not valid YAML: " + std::string(error.what())});
+    }
+    if (!doc.IsMap()) throw ConfigError(source_name, {"(top level): expected a mapping"});
+    return doc;
+}
 
 std::optional<std::string> YamlReader::string(const YAML::Node& node, const std::string& path,
                                               bool required) {

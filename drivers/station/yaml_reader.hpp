@@ -30,6 +30,10 @@ public:
     static std::string describe(const YAML::Node& node);
 };
 
+// The YAML document of a config file's text, which must be a mapping at the top level;
+// ConfigError (station_config.hpp) naming `source_name` otherwise.
+YAML::Node load_config_document(const std::string& yaml_text, const std::string& source_name);
+
 // Stores a value that was read (and is valid) into the config field it belongs to.
 template <typename T, typename U>
 void set_if(const std::optional<U>& value, T* target) {
