@@ -17,7 +17,10 @@
 //         peak), tried (1: every candidate of register_pair that reached G-ICP, with the
 //         check that dropped it), truth_shift_s (truth taken this long after the scan's
 //         timestamp; 0.025 = mid-sweep at 20 Hz, see calibrate_command_test),
-//         min_bridge_info (EdgeConsensusParams::min_bridge_information_per_inlier)
+//         min_bridge_info (EdgeConsensusParams::min_bridge_information_per_inlier),
+//         gicp_voxel (SensorFeatureParams::gicp_voxel_size_m), gicp_fine (the last G-ICP
+//         correspondence bound, m), polish (EdgePolishParams bounds, m, comma-separated;
+//         0: no polish), polish_voxel (SensorFeatureParams::polish_voxel_size_m)
 // Prints `name value unit` lines (totals over all dirs) on stdout, details on stderr.
 
 #include <algorithm>
@@ -97,6 +100,22 @@ double option(const std::map<std::string, std::string>& opts, const std::string&
     return it == opts.end() ? fallback : std::atof(it->second.c_str());
 }
 
+// "0.3,0.2" -> {0.3, 0.2}; "0" -> {} (values <= 0 are left out).
+std::vector<double> list_option(const std::map<std::string, std::string>& opts, const std::string& key,
+                                const std::vector<double>& fallback) {
+    const auto it = opts.find(key);
+    if (it == opts.end()) return fallback;
+    std::vector<double> out;
+    std::size_t begin = 0;
+    while (begin <= it->second.size()) {
+        const std::size_t end = std::min(it->second.find(',', begin), it->second.size());
+        const double v = std::atof(it->second.substr(begin, end - begin).c_str());
+        if (v > 0.0) out.push_back(v);
+        begin = end + 1;
+    }
+    return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -131,6 +150,12 @@ int main(int argc, char** argv) {
     params.consensus.min_bridge_information_per_inlier =
         option(opts, "min_bridge_info", params.consensus.min_bridge_information_per_inlier);
     p.max_free_space_violation_share = option(opts, "max_free_space", p.max_free_space_violation_share);
+    f.gicp_voxel_size_m = option(opts, "gicp_voxel", f.gicp_voxel_size_m);
+    p.gicp_max_correspondence_m.back() =
+        option(opts, "gicp_fine", p.gicp_max_correspondence_m.back());
+    f.polish_voxel_size_m = option(opts, "polish_voxel", f.polish_voxel_size_m);
+    params.polish.max_correspondence_m =
+        list_option(opts, "polish", params.polish.max_correspondence_m);
     const bool quiet = option(opts, "quiet", 0) != 0;
     const bool show_tried = option(opts, "tried", 0) != 0;
     const bool match_only = option(opts, "match_only", 0) != 0;

@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "core/edge_consensus.hpp"
+#include "core/edge_polish.hpp"
 #include "core/pair_registration.hpp"
 #include "core/point_cloud.hpp"
 #include "core/pose_graph.hpp"
@@ -64,6 +65,9 @@ struct InitialRegistrationParams {
         c.min_bridge_information_per_inlier = 2.2;
         return c;
     }();
+    // The last, tighter G-ICP run on the pairs the consensus kept (edge_polish.hpp).
+    // register_initial sets its G-ICP settings and r_c from `pair`.
+    EdgePolishParams polish{};
     int num_threads = 1;
     // Optional stop request, read between sensors and between pairs (a worker thread's
     // job is cancelled when the daemon stops): once set, the remaining work is skipped
@@ -107,6 +111,7 @@ struct SensorRegistration {
 struct InitialRegistrationTimings {
     double features_s = 0.0;
     double pairs_s = 0.0;
+    double polish_s = 0.0;
     double pose_graph_s = 0.0;
     double total_s = 0.0;
 };
@@ -114,6 +119,7 @@ struct InitialRegistrationTimings {
 struct InitialRegistrationResult {
     std::vector<SensorRegistration> sensors;
     std::vector<PairResult> pairs;  // every pair i > j, in order (1,0), (2,0), (2,1), ...
+    EdgePolishSummary polish;
     PoseGraphSummary pose_graph;
     InitialRegistrationTimings timings;
     std::size_t num_registered() const;

@@ -200,6 +200,9 @@ struct PairResult {
     double min_translation_hessian_eigenvalue = 0.0;  // of its translation block
     double free_space_violation_share = 0.0;          // the worse of the two directions
     double worst_rejected_violation_share = 0.0;      // largest among dropped candidates
+    // True when edge_polish.hpp replaced the transform and the figures above with its
+    // tighter G-ICP run (after the consensus; alternatives keep register_pair's figures).
+    bool polished = false;
     // The other candidates that passed every check (kOk pairs only), lowest p2p error
     // first.
     std::vector<PairAlternative> alternatives;

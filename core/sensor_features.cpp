@@ -86,16 +86,20 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     // The G-ICP / p2p cloud (also built for failed sensors: cheap, and keeps the result
     // uniform).
     start = Clock::now();
-    VoxelGridParams voxel;
-    voxel.voxel_size_m = params.gicp_voxel_size_m;
-    PointCloud gicp_cloud = voxel_downsample(clean.points, voxel);
-    NormalParams cov_params;
-    cov_params.k_neighbors = params.gicp_k_neighbors;
-    cov_params.compute_normals = false;
-    cov_params.compute_covariances = true;
-    cov_params.num_threads = threads;
-    if (gicp_cloud.size() >= 3) estimate_normals_covariances(&gicp_cloud, cov_params);
-    out.gicp = GicpTarget(std::move(gicp_cloud));
+    auto covariance_cloud = [&](double voxel_size_m) {
+        VoxelGridParams voxel;
+        voxel.voxel_size_m = voxel_size_m;
+        PointCloud voxels = voxel_downsample(clean.points, voxel);
+        NormalParams cov_params;
+        cov_params.k_neighbors = params.gicp_k_neighbors;
+        cov_params.compute_normals = false;
+        cov_params.compute_covariances = true;
+        cov_params.num_threads = threads;
+        if (voxels.size() >= 3) estimate_normals_covariances(&voxels, cov_params);
+        return GicpTarget(std::move(voxels));
+    };
+    out.gicp = covariance_cloud(params.gicp_voxel_size_m);
+    if (params.polish_voxel_size_m > 0.0) out.polish = covariance_cloud(params.polish_voxel_size_m);
     out.timings.gicp_cloud_s = seconds_since(start);
 
     if (out.octree.cloud.size() < 3) return out;  // kEmptyCloud

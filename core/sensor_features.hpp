@@ -44,6 +44,9 @@ struct SensorFeatureParams {
     // G-ICP / p2p cloud: voxel size (m) and the k of its covariances.
     double gicp_voxel_size_m = 0.5;
     int gicp_k_neighbors = 20;
+    // The finer cloud of the last G-ICP run on chosen pairs (edge_polish.hpp has the
+    // measurements; same k); 0: that run uses the G-ICP cloud above.
+    double polish_voxel_size_m = 0.25;
     // The octree cloud is "plane only" when the second largest eigenvalue of its normals'
     // scatter matrix (1/N sum n n^T) is below this: every normal (nearly) parallel.
     double min_normal_spread = 0.02;
@@ -66,7 +69,7 @@ struct SensorFeatureTimings {
     double keypoints_s = 0.0;
     double fpfh_s = 0.0;
     double ground_s = 0.0;
-    double gicp_cloud_s = 0.0;
+    double gicp_cloud_s = 0.0;  // the G-ICP and the polish clouds
 };
 
 struct SensorFeatures {
@@ -79,6 +82,7 @@ struct SensorFeatures {
     std::vector<Eigen::Vector3d> keypoint_normals;// their unit normals (sensor frame)
     std::vector<FpfhDescriptor> descriptors;      // one per keypoint
     GicpTarget gicp;                              // voxel cloud with covariances + k-d tree
+    GicpTarget polish;                            // the finer one (empty when off)
     GroundPlane ground;                           // found = false when no road plane
     double normal_spread = 0.0;                   // see min_normal_spread
     SensorFeatureTimings timings;

@@ -158,6 +158,9 @@ int run_calibrate(int argc, char** argv) {
     std::printf("\ncalibrate_decode_time %.1f ms\n", 1e3 * decode_s);
     std::printf("calibrate_features_time %.1f ms\n", 1e3 * result.timings.features_s);
     std::printf("calibrate_pairs_time %.1f ms\n", 1e3 * result.timings.pairs_s);
+    std::printf("calibrate_polish_time %.1f ms\n", 1e3 * result.timings.polish_s);
+    std::printf("calibrate_polished_pairs %zu of %zu pairs\n", result.polish.polished,
+                result.polish.polished + result.polish.kept);
     std::printf("calibrate_pose_graph_time %.1f ms\n", 1e3 * result.timings.pose_graph_s);
     // Time inside each stage summed over sensors / pairs (they run in parallel, so these
     // add up to more than the wall-clock stages above).
