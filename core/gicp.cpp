@@ -116,6 +116,8 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
     const Eigen::Vector3d t = T.translation();
     const auto& target_points = target.cloud().points;
     const auto& target_covs = target.cloud().covariances;
+    const std::vector<double>* gaps =
+        target.cloud().has_nearest_other_d2() ? &target.cloud().nearest_other_d2 : nullptr;
     const long long count = static_cast<long long>(n);
 
 #pragma omp parallel num_threads(threads) if (threads > 1)
@@ -128,14 +130,24 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
             // Search bound: the correspondence limit, tightened to the previous neighbour's
             // distance (slightly inflated so that neighbour itself is still found).
             double bound = max_d2;
-            if (reuse_correspondences && target_index_[i] >= 0) {
-                const double d2_prev =
-                    (target_points[static_cast<std::size_t>(target_index_[i])] - Ta).squaredNorm();
-                bound = std::min(bound, d2_prev * (1.0 + 1e-9) + 1e-12);
-            }
             std::uint32_t j = 0;
             double d2 = 0.0;
-            if (!target.tree().nearest_within(Ta, bound, &j, &d2) || d2 > max_d2) {
+            bool certified = false;
+            if (reuse_correspondences && target_index_[i] >= 0) {
+                const auto prev = static_cast<std::size_t>(target_index_[i]);
+                const double d2_prev = (target_points[prev] - Ta).squaredNorm();
+                // Within half the gap to the previous neighbour's nearest other point,
+                // that neighbour is the nearest (every other point is farther by the
+                // triangle inequality): no search. The factor keeps rounding on the safe side.
+                if (gaps != nullptr && 4.0 * d2_prev < (*gaps)[prev] * (1.0 - 1e-9)) {
+                    j = static_cast<std::uint32_t>(prev);
+                    d2 = d2_prev;
+                    certified = true;
+                } else {
+                    bound = std::min(bound, d2_prev * (1.0 + 1e-9) + 1e-12);
+                }
+            }
+            if ((!certified && !target.tree().nearest_within(Ta, bound, &j, &d2)) || d2 > max_d2) {
                 target_index_[i] = -1;
                 continue;
             }

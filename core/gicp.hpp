@@ -22,6 +22,14 @@
 // inlier count come from the last linearisation: at the returned T, or (when converged)
 // at most one sub-threshold step before it, which saves a k-d tree pass per call.
 //
+// Correspondence search, exact and cheaper than a fresh k-d tree search per point: from the
+// second linearisation on, a source point whose previous neighbour j is still within half
+// the gap from j to j's nearest other target point (PointCloud::nearest_other_d2, filled by
+// the covariances' k-NN) keeps j without a search, since every other target point is
+// farther by the triangle inequality; otherwise the search is bounded by the distance to j.
+// Measured on simulated OS1-64 pairs at 1 m / 0.5 m voxels: 58-65 % of those searches are
+// skipped, alignment 25 % faster (gicp_pcl_bench).
+//
 // Threading: the per-iteration reduction runs with `num_threads` OpenMP threads, each with
 // its own H, b and error sums, added at the end in a fixed order (results do not depend on
 // scheduling beyond floating-point summation order per thread block, which is static).

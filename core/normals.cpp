@@ -21,6 +21,14 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
     stats.num_points = n;
     if (params.compute_normals) cloud->normals.resize(n);
     if (params.compute_covariances) cloud->covariances.resize(n);
+    // The nearest other point's distance comes with the k-NN when the tree is over this
+    // cloud (each point finds itself first, at distance 0).
+    const bool self_tree = params.compute_covariances && tree.size() == n;
+    if (self_tree) {
+        cloud->nearest_other_d2.assign(n, 0.0);
+    } else {
+        cloud->nearest_other_d2.clear();
+    }
     if (curvature) curvature->resize(n);
     if (n == 0) return stats;
 
@@ -37,6 +45,8 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
         for (long long i = 0; i < count; ++i) {
             const Eigen::Vector3d& p = cloud->points[i];
             const std::size_t found = tree.knn(p, k, idx.data(), d2.data());
+            // Duplicates give 0 (no certificate); a tree over other points is not used.
+            if (self_tree && found >= 2 && d2[0] == 0.0) cloud->nearest_other_d2[i] = d2[1];
             if (found < 3) {
                 ++degenerate;
                 if (params.compute_normals) cloud->normals[i].setZero();

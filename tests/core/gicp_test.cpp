@@ -167,6 +167,36 @@ TEST_F(GicpScene, NestedInAParallelRegionGivesTheSameResult) {
     EXPECT_LT((outside.H - inside.H).norm(), 1e-6 * outside.H.norm());
 }
 
+// The search shortcut (a correspondence within half the gap to its neighbour's nearest
+// other point needs no search) is exact: without the gaps every correspondence is searched,
+// and the result is the same.
+TEST_F(GicpScene, NearestOtherGapsChangeNothingButTheSearches) {
+    std::mt19937 rng(13);
+    const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
+    std::vector<Eigen::Vector3d> world = test::make_structured_scene(rng);
+    test::add_gaussian_noise(rng, 0.02, &world);
+    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), world));
+    ASSERT_TRUE(target_.cloud().has_nearest_other_d2());
+    PointCloud searched_cloud = target_.cloud();
+    searched_cloud.nearest_other_d2.clear();
+    const GicpTarget searched(std::move(searched_cloud));
+    GicpParams params;
+    params.max_correspondence_distance_m = 3.0;
+    params.max_iterations = 60;
+    for (const GicpSolver solver : {GicpSolver::kLevenbergMarquardt, GicpSolver::kGaussNewton}) {
+        params.solver = solver;
+        const GicpResult a = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
+        const GicpResult b = align_gicp(searched, source, Eigen::Isometry3d::Identity(), params);
+        ASSERT_TRUE(a.converged) << to_string(a.status);
+        EXPECT_EQ(a.iterations, b.iterations);
+        EXPECT_EQ(a.num_inliers, b.num_inliers);
+        EXPECT_TRUE(a.T_target_source.matrix().isApprox(b.T_target_source.matrix(), 1e-12));
+        EXPECT_TRUE(a.H.isApprox(b.H, 1e-12));
+        EXPECT_NEAR(a.rmse_m, b.rmse_m, 1e-12);
+        EXPECT_LT(translation_error_m(a.T_target_source, T_true), 0.01);
+    }
+}
+
 TEST_F(GicpScene, OneTargetServesSeveralSourcesAndRegistrationIsReusable) {
     std::mt19937 rng(17);
     GicpParams params;

@@ -4,6 +4,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <limits>
 #include <random>
 
 #include "tests/core/synthetic_scene.hpp"
@@ -74,6 +75,35 @@ TEST(Normals, ThreadCountDoesNotChangeTheResult) {
         EXPECT_EQ(a.normals[i], b.normals[i]);
         EXPECT_EQ(a.covariances[i], b.covariances[i]);
     }
+}
+
+// The k-NN pass records each point's squared distance to its nearest other point (for
+// G-ICP's search shortcut): the brute-force value, 0 on duplicates, absent without
+// covariances.
+TEST(Normals, NearestOtherDistanceComesWithTheCovariances) {
+    std::mt19937 rng(11);
+    PointCloud cloud;
+    cloud.points = test::make_structured_scene(rng, 1.0);
+    cloud.points.push_back(cloud.points[7]);  // a duplicate of point 7
+    NormalParams params;
+    params.num_threads = 2;
+    estimate_normals_covariances(&cloud, params);
+    ASSERT_TRUE(cloud.has_nearest_other_d2());
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+        double best = std::numeric_limits<double>::infinity();
+        for (std::size_t j = 0; j < cloud.size(); ++j) {
+            if (j != i) best = std::min(best, (cloud.points[j] - cloud.points[i]).squaredNorm());
+        }
+        ASSERT_DOUBLE_EQ(cloud.nearest_other_d2[i], best) << "point " << i;
+    }
+    EXPECT_EQ(cloud.nearest_other_d2[7], 0.0);
+    EXPECT_EQ(cloud.nearest_other_d2.back(), 0.0);
+
+    PointCloud normals_only;
+    normals_only.points = cloud.points;
+    params.compute_covariances = false;
+    estimate_normals_covariances(&normals_only, params);
+    EXPECT_FALSE(normals_only.has_nearest_other_d2());
 }
 
 TEST(Normals, TinyCloudsAreDegenerateButFinite) {
