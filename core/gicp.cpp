@@ -114,6 +114,7 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
         params_.max_correspondence_distance_m * params_.max_correspondence_distance_m;
     const Eigen::Matrix3d R = T.linear();
     const Eigen::Vector3d t = T.translation();
+    linearized_rotation_ = R;
     const auto& target_points = target.cloud().points;
     const auto& target_covs = target.cloud().covariances;
     const std::vector<double>* gaps =
@@ -151,26 +152,26 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
                 target_index_[i] = -1;
                 continue;
             }
-            // M = (C_B + R C_A R^T)^-1; skip a correspondence whose combined covariance is
-            // singular (only possible with unregularised, degenerate covariances).
-            const Eigen::Matrix3d RCR = target_covs[j] + R * source.covariances[i] * R.transpose();
-            Eigen::Matrix3d M;
+            // N = R^T M R = (R^T C_B R + C_A)^-1: M in the source frame, formed directly
+            // (one congruence instead of two). Skip a correspondence whose combined
+            // covariance is singular (only with unregularised, degenerate covariances).
+            const Eigen::Matrix3d RCR = R.transpose() * target_covs[j] * R + source.covariances[i];
+            Eigen::Matrix3d N;
             bool invertible = false;
-            RCR.computeInverseWithCheck(M, invertible, 1e-12);
+            RCR.computeInverseWithCheck(N, invertible, 1e-12);
             if (!invertible) {
                 target_index_[i] = -1;
                 continue;
             }
             target_index_[i] = static_cast<std::int32_t>(j);
-            mahalanobis_[i] = M;
+            mahalanobis_[i] = N;
 
             // J = [R [a]x, -R] = R [A, -I] with A = [a]x (see the header), so with
-            // N = R^T M R and d' = R^T d:
+            // d' = R^T d:
             //   J^T M J = [[-A N A, A N], [(A N)^T, N]],  J^T M d = [u x a, -u], u = N d'.
             // Cheaper than forming the 3x6 J (about half the multiply-adds), and the same
             // numbers up to rounding.
             const Eigen::Vector3d d = target_points[j] - Ta;
-            const Eigen::Matrix3d N = R.transpose() * M * R;
             const Eigen::Vector3d d_s = R.transpose() * d;
             const Eigen::Vector3d u = N * d_s;
             const double s = d_s.dot(u);
@@ -202,6 +203,7 @@ double GicpRegistration::evaluate(const GicpTarget& target, const PointCloud& so
     partial_error_.assign(static_cast<std::size_t>(threads), 0.0);
     const Kernel kernel = make_kernel(params_);
     const auto& target_points = target.cloud().points;
+    const Eigen::Matrix3d R_lin_t = linearized_rotation_.transpose();
     const long long count = static_cast<long long>(source.size());
 #pragma omp parallel num_threads(threads) if (threads > 1)
     {
@@ -210,8 +212,9 @@ double GicpRegistration::evaluate(const GicpTarget& target, const PointCloud& so
         for (long long i = 0; i < count; ++i) {
             const std::int32_t j = target_index_[i];
             if (j < 0) continue;
-            const Eigen::Vector3d d = target_points[j] - T * source.points[i];
-            local += kernel.rho(d.dot(mahalanobis_[i] * d));
+            // M held at the linearisation's rotation: d^T M d = d'^T N d', d' = R_lin^T d.
+            const Eigen::Vector3d d_s = R_lin_t * (target_points[j] - T * source.points[i]);
+            local += kernel.rho(d_s.dot(mahalanobis_[i] * d_s));
         }
         partial_error_[static_cast<std::size_t>(omp_get_thread_num())] = local;
     }
