@@ -117,8 +117,9 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
     linearized_rotation_ = R;
     const auto& target_points = target.cloud().points;
     const auto& target_covs = target.cloud().covariances;
-    const std::vector<double>* gaps =
-        target.cloud().has_nearest_other_d2() ? &target.cloud().nearest_other_d2 : nullptr;
+    const bool lists = target.cloud().has_neighbor_lists();
+    const auto& neighbor_list = target.cloud().neighbor_list;
+    const auto& neighbor_reach_d2 = target.cloud().neighbor_reach_d2;
     const long long count = static_cast<long long>(n);
 
 #pragma omp parallel num_threads(threads) if (threads > 1)
@@ -137,16 +138,25 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
             if (reuse_correspondences && target_index_[i] >= 0) {
                 const auto prev = static_cast<std::size_t>(target_index_[i]);
                 const double d2_prev = (target_points[prev] - Ta).squaredNorm();
-                // Within half the gap to the previous neighbour's nearest other point,
-                // that neighbour is the nearest (every other point is farther by the
-                // triangle inequality): no search. The factor keeps rounding on the safe side.
-                if (gaps != nullptr && 4.0 * d2_prev < (*gaps)[prev] * (1.0 - 1e-9)) {
-                    j = static_cast<std::uint32_t>(prev);
-                    d2 = d2_prev;
-                    certified = true;
-                } else {
-                    bound = std::min(bound, d2_prev * (1.0 + 1e-9) + 1e-12);
+                j = static_cast<std::uint32_t>(prev);
+                d2 = d2_prev;
+                if (lists) {
+                    // The nearest of the previous neighbour and its listed neighbours is
+                    // the nearest of all when it is closer than reach - |Ta - prev|: every
+                    // unlisted point is at least that far (triangle inequality). The
+                    // factor keeps rounding on the safe side.
+                    const std::uint32_t* list = &neighbor_list[prev * PointCloud::kNeighborListSize];
+                    for (std::size_t r = 0; r < PointCloud::kNeighborListSize; ++r) {
+                        const double d2_r = (target_points[list[r]] - Ta).squaredNorm();
+                        if (d2_r < d2) {
+                            d2 = d2_r;
+                            j = list[r];
+                        }
+                    }
+                    const double margin = std::sqrt(neighbor_reach_d2[prev]) - std::sqrt(d2_prev);
+                    certified = margin > 0.0 && d2 < margin * margin * (1.0 - 1e-9);
                 }
+                if (!certified) bound = std::min(bound, d2 * (1.0 + 1e-9) + 1e-12);
             }
             if ((!certified && !target.tree().nearest_within(Ta, bound, &j, &d2)) || d2 > max_d2) {
                 target_index_[i] = -1;

@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <limits>
 
 namespace lidarfuse::core {
 
@@ -13,6 +14,35 @@ Eigen::Matrix3d regularize_plane_covariance(const Eigen::Matrix3d& covariance, d
     return U * d.asDiagonal() * U.transpose();
 }
 
+namespace {
+
+// Point i's list from its k-NN result (sorted, i itself among them): the nearest others
+// first; the reach is the distance of the first other point not listed, or of the last one
+// found when the k-NN stopped short of the list (every unlisted point is at least that
+// far), or infinity when the k-NN found the whole cloud.
+void record_neighbor_list(std::uint32_t i, const std::uint32_t* idx, const double* d2, std::size_t found,
+                          std::size_t cloud_size, PointCloud* cloud) {
+    constexpr std::size_t kList = PointCloud::kNeighborListSize;
+    std::uint32_t* list = cloud->neighbor_list.data() + static_cast<std::size_t>(i) * kList;
+    std::size_t listed = 0;
+    double reach = std::numeric_limits<double>::infinity();
+    bool reach_set = false;
+    for (std::size_t r = 0; r < found; ++r) {
+        if (idx[r] == i) continue;
+        if (listed == kList) {
+            reach = d2[r];
+            reach_set = true;
+            break;
+        }
+        list[listed++] = idx[r];
+    }
+    for (std::size_t r = listed; r < kList; ++r) list[r] = i;
+    if (!reach_set && found < cloud_size && found > 0) reach = d2[found - 1];
+    cloud->neighbor_reach_d2[i] = reach;
+}
+
+}  // namespace
+
 NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
                                          const NormalParams& params,
                                          std::vector<double>* curvature) {
@@ -21,13 +51,15 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
     stats.num_points = n;
     if (params.compute_normals) cloud->normals.resize(n);
     if (params.compute_covariances) cloud->covariances.resize(n);
-    // The nearest other point's distance comes with the k-NN when the tree is over this
-    // cloud (each point finds itself first, at distance 0).
-    const bool self_tree = params.compute_covariances && tree.size() == n;
-    if (self_tree) {
-        cloud->nearest_other_d2.assign(n, 0.0);
+    // The neighbour lists come with the k-NN when the tree is over this cloud.
+    constexpr std::size_t kList = PointCloud::kNeighborListSize;
+    const bool lists = params.compute_covariances && tree.size() == n;
+    if (lists) {
+        cloud->neighbor_list.resize(n * kList);
+        cloud->neighbor_reach_d2.resize(n);
     } else {
-        cloud->nearest_other_d2.clear();
+        cloud->neighbor_list.clear();
+        cloud->neighbor_reach_d2.clear();
     }
     if (curvature) curvature->resize(n);
     if (n == 0) return stats;
@@ -45,8 +77,7 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
         for (long long i = 0; i < count; ++i) {
             const Eigen::Vector3d& p = cloud->points[i];
             const std::size_t found = tree.knn(p, k, idx.data(), d2.data());
-            // Duplicates give 0 (no certificate); a tree over other points is not used.
-            if (self_tree && found >= 2 && d2[0] == 0.0) cloud->nearest_other_d2[i] = d2[1];
+            if (lists) record_neighbor_list(static_cast<std::uint32_t>(i), idx.data(), d2.data(), found, n, cloud);
             if (found < 3) {
                 ++degenerate;
                 if (params.compute_normals) cloud->normals[i].setZero();

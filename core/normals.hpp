@@ -12,9 +12,10 @@
 // i.e. unit variance in the local surface and `epsilon` along the normal. The covariances
 // are unitless shapes; the Mahalanobis distances built from them are relative, not metric.
 //
-// With the covariances, cloud->nearest_other_d2 gets each point's squared distance to its
-// nearest other point (the second of its k neighbours; 0 where a duplicate sits on it),
-// which G-ICP uses to skip searches (gicp.hpp). It costs nothing: the k-NN has it.
+// With the covariances, cloud->neighbor_list and neighbor_reach_d2 get each point's nearest
+// other points and the distance within which they are all listed (point_cloud.hpp), which
+// G-ICP uses to skip searches (gicp.hpp). They cost nothing: the k-NN has them. Their reach
+// is limited by k: with k <= kNeighborListSize the list holds all k - 1 others found.
 //
 // Points with fewer than 3 neighbours (tiny clouds) get normal (0,0,0), curvature 1/3 and
 // the identity covariance (point-to-point behaviour in G-ICP).

@@ -17,11 +17,16 @@ struct PointCloud {
     std::vector<Eigen::Vector3d> normals;
     // 3x3 position covariances (G-ICP), same size as points when computed (else empty).
     std::vector<Eigen::Matrix3d> covariances;
-    // Squared distance (m^2) from each point to the nearest other point of this cloud,
-    // same size as points when computed (else empty). The covariances' k-NN pass fills it
-    // for free (normals.hpp); G-ICP uses it to certify a correspondence without a search
-    // (gicp.hpp). Filters do not copy it: a merged or re-sampled cloud has other gaps.
-    std::vector<double> nearest_other_d2;
+    // Each point's kNeighborListSize nearest other points of this cloud (indices, nearest
+    // first; n * kNeighborListSize entries, padded with the point's own index where the
+    // cloud has fewer points) and the squared distance (m^2) within which every other point
+    // is listed (infinity when all are). Empty when not computed. The covariances' k-NN
+    // pass fills both for free (normals.hpp); G-ICP uses them to find a correspondence
+    // without a k-d tree search (gicp.hpp). Filters do not copy them: a merged or
+    // re-sampled cloud has other neighbours.
+    static constexpr std::size_t kNeighborListSize = 8;
+    std::vector<std::uint32_t> neighbor_list;
+    std::vector<double> neighbor_reach_d2;
 
     std::size_t size() const { return points.size(); }
     bool empty() const { return points.empty(); }
@@ -29,14 +34,16 @@ struct PointCloud {
     bool has_covariances() const {
         return !points.empty() && covariances.size() == points.size();
     }
-    bool has_nearest_other_d2() const {
-        return !points.empty() && nearest_other_d2.size() == points.size();
+    bool has_neighbor_lists() const {
+        return !points.empty() && neighbor_reach_d2.size() == points.size() &&
+               neighbor_list.size() == points.size() * kNeighborListSize;
     }
     void clear() {
         points.clear();
         normals.clear();
         covariances.clear();
-        nearest_other_d2.clear();
+        neighbor_list.clear();
+        neighbor_reach_d2.clear();
     }
 };
 

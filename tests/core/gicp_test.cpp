@@ -167,18 +167,19 @@ TEST_F(GicpScene, NestedInAParallelRegionGivesTheSameResult) {
     EXPECT_LT((outside.H - inside.H).norm(), 1e-6 * outside.H.norm());
 }
 
-// The search shortcut (a correspondence within half the gap to its neighbour's nearest
-// other point needs no search) is exact: without the gaps every correspondence is searched,
-// and the result is the same.
-TEST_F(GicpScene, NearestOtherGapsChangeNothingButTheSearches) {
+// The search shortcut (the previous neighbour and its listed neighbours, certified by the
+// list's reach) is exact: without the lists every correspondence is searched, and the
+// result is the same.
+TEST_F(GicpScene, NeighbourListsChangeNothingButTheSearches) {
     std::mt19937 rng(13);
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
     std::vector<Eigen::Vector3d> world = test::make_structured_scene(rng);
     test::add_gaussian_noise(rng, 0.02, &world);
     const PointCloud source = with_covariances(test::transformed(T_true.inverse(), world));
-    ASSERT_TRUE(target_.cloud().has_nearest_other_d2());
+    ASSERT_TRUE(target_.cloud().has_neighbor_lists());
     PointCloud searched_cloud = target_.cloud();
-    searched_cloud.nearest_other_d2.clear();
+    searched_cloud.neighbor_list.clear();
+    searched_cloud.neighbor_reach_d2.clear();
     const GicpTarget searched(std::move(searched_cloud));
     GicpParams params;
     params.max_correspondence_distance_m = 3.0;

@@ -77,10 +77,12 @@ TEST(Normals, ThreadCountDoesNotChangeTheResult) {
     }
 }
 
-// The k-NN pass records each point's squared distance to its nearest other point (for
-// G-ICP's search shortcut): the brute-force value, 0 on duplicates, absent without
+// The k-NN pass records each point's nearest other points (for G-ICP's search shortcut):
+// the brute-force order, duplicates included, every unlisted point at least `reach` away,
+// the whole cloud listed (reach infinite) when it is that small; absent without
 // covariances.
-TEST(Normals, NearestOtherDistanceComesWithTheCovariances) {
+TEST(Normals, NeighbourListsComeWithTheCovariances) {
+    constexpr std::size_t kList = PointCloud::kNeighborListSize;
     std::mt19937 rng(11);
     PointCloud cloud;
     cloud.points = test::make_structured_scene(rng, 1.0);
@@ -88,22 +90,39 @@ TEST(Normals, NearestOtherDistanceComesWithTheCovariances) {
     NormalParams params;
     params.num_threads = 2;
     estimate_normals_covariances(&cloud, params);
-    ASSERT_TRUE(cloud.has_nearest_other_d2());
-    for (std::size_t i = 0; i < cloud.size(); ++i) {
-        double best = std::numeric_limits<double>::infinity();
-        for (std::size_t j = 0; j < cloud.size(); ++j) {
-            if (j != i) best = std::min(best, (cloud.points[j] - cloud.points[i]).squaredNorm());
+    ASSERT_TRUE(cloud.has_neighbor_lists());
+    const std::size_t n = cloud.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        std::vector<std::pair<double, std::size_t>> others;
+        for (std::size_t j = 0; j < n; ++j) {
+            if (j != i) others.emplace_back((cloud.points[j] - cloud.points[i]).squaredNorm(), j);
         }
-        ASSERT_DOUBLE_EQ(cloud.nearest_other_d2[i], best) << "point " << i;
+        std::sort(others.begin(), others.end());
+        const std::uint32_t* list = &cloud.neighbor_list[i * kList];
+        for (std::size_t r = 0; r < kList; ++r) {
+            ASSERT_DOUBLE_EQ((cloud.points[list[r]] - cloud.points[i]).squaredNorm(), others[r].first)
+                << "point " << i << " rank " << r;
+        }
+        ASSERT_DOUBLE_EQ(cloud.neighbor_reach_d2[i], others[kList].first) << "point " << i;
     }
-    EXPECT_EQ(cloud.nearest_other_d2[7], 0.0);
-    EXPECT_EQ(cloud.nearest_other_d2.back(), 0.0);
+    EXPECT_EQ(cloud.neighbor_list[7 * kList], n - 1);  // the duplicate is 7's nearest
+    EXPECT_EQ(cloud.neighbor_list[(n - 1) * kList], 7u);
+
+    PointCloud tiny;
+    tiny.points = {{0, 0, 0}, {1, 0, 0}, {0, 2, 0}, {0, 0, 3}};
+    estimate_normals_covariances(&tiny, params);
+    ASSERT_TRUE(tiny.has_neighbor_lists());
+    EXPECT_EQ(tiny.neighbor_list[0], 1u);
+    EXPECT_EQ(tiny.neighbor_list[1], 2u);
+    EXPECT_EQ(tiny.neighbor_list[2], 3u);
+    EXPECT_EQ(tiny.neighbor_list[3], 0u);  // padded with the point itself
+    EXPECT_TRUE(std::isinf(tiny.neighbor_reach_d2[0]));
 
     PointCloud normals_only;
     normals_only.points = cloud.points;
     params.compute_covariances = false;
     estimate_normals_covariances(&normals_only, params);
-    EXPECT_FALSE(normals_only.has_nearest_other_d2());
+    EXPECT_FALSE(normals_only.has_neighbor_lists());
 }
 
 TEST(Normals, TinyCloudsAreDegenerateButFinite) {
