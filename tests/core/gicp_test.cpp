@@ -22,6 +22,13 @@ PointCloud with_covariances(std::vector<Eigen::Vector3d> points) {
     return cloud;
 }
 
+// An independent, noisy sampling of the scene seen from T_true^-1 (2 cm range-like noise).
+PointCloud noisy_resampled_source(std::mt19937& rng, const Eigen::Isometry3d& T_true) {
+    std::vector<Eigen::Vector3d> world = test::make_structured_scene(rng);
+    test::add_gaussian_noise(rng, 0.02, &world);
+    return with_covariances(test::transformed(T_true.inverse(), world));
+}
+
 void expect_finite(const GicpResult& r) {
     EXPECT_TRUE(r.T_target_source.matrix().allFinite());
     EXPECT_TRUE(r.H.allFinite());
@@ -89,9 +96,7 @@ TEST_F(GicpScene, RecoversKnownTransformsWithoutNoise) {
 TEST_F(GicpScene, RecoversTransformWithIndependentSamplingAndNoise) {
     std::mt19937 rng(5);
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.8, 8.0 * M_PI / 180);
-    std::vector<Eigen::Vector3d> world = test::make_structured_scene(rng);
-    test::add_gaussian_noise(rng, 0.02, &world);
-    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), world));
+    const PointCloud source = noisy_resampled_source(rng, T_true);
     GicpParams params;
     params.max_correspondence_distance_m = 3.0;
     params.max_iterations = 60;
@@ -173,9 +178,7 @@ TEST_F(GicpScene, NestedInAParallelRegionGivesTheSameResult) {
 TEST_F(GicpScene, NeighbourListsChangeNothingButTheSearches) {
     std::mt19937 rng(13);
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
-    std::vector<Eigen::Vector3d> world = test::make_structured_scene(rng);
-    test::add_gaussian_noise(rng, 0.02, &world);
-    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), world));
+    const PointCloud source = noisy_resampled_source(rng, T_true);
     ASSERT_TRUE(target_.cloud().has_neighbor_lists());
     PointCloud searched_cloud = target_.cloud();
     searched_cloud.neighbor_list.clear();
