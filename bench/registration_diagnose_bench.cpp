@@ -101,8 +101,8 @@ double option(const std::map<std::string, std::string>& opts, const std::string&
 }
 
 // "0.3,0.2" -> {0.3, 0.2}; "0" -> {} (values <= 0 are left out).
-std::vector<double> list_option(const std::map<std::string, std::string>& opts, const std::string& key,
-                                const std::vector<double>& fallback) {
+std::vector<double> list_option(const std::map<std::string, std::string>& opts,
+                                const std::string& key, const std::vector<double>& fallback) {
     const auto it = opts.find(key);
     if (it == opts.end()) return fallback;
     std::vector<double> out;

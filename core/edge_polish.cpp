@@ -13,10 +13,11 @@ namespace lidarfuse::core {
 namespace {
 
 // The tight runs from the chosen transform; false when any run fails or a limit is broken.
-bool polish_one(const SensorFeatures& source, const SensorFeatures& target, const EdgePolishParams& params,
-                PairResult* pair) {
+bool polish_one(const SensorFeatures& source, const SensorFeatures& target,
+                const EdgePolishParams& params, PairResult* pair) {
     const GicpTarget& target_cloud = target.polish.empty() ? target.gicp : target.polish;
-    const PointCloud& source_cloud = source.polish.empty() ? source.gicp.cloud() : source.polish.cloud();
+    const PointCloud& source_cloud =
+        source.polish.empty() ? source.gicp.cloud() : source.polish.cloud();
     GicpParams gicp_params = params.gicp;
     gicp_params.num_threads = 1;
     GicpRegistration gicp(gicp_params);
@@ -38,7 +39,8 @@ bool polish_one(const SensorFeatures& source, const SensorFeatures& target, cons
     if (llt.info() != Eigen::Success || !run.H.allFinite()) return false;
     P2pErrorParams p2p_params;
     p2p_params.cutoff_radius_m = params.p2p_cutoff_m;
-    const P2pErrorResult p2p = p2p_error(source.gicp.cloud().points, target.gicp.tree(), T, p2p_params);
+    const P2pErrorResult p2p =
+        p2p_error(source.gicp.cloud().points, target.gicp.tree(), T, p2p_params);
     if (!p2p.valid) return false;
 
     pair->T_target_source = T;
@@ -55,8 +57,9 @@ bool polish_one(const SensorFeatures& source, const SensorFeatures& target, cons
 
 }  // namespace
 
-EdgePolishSummary polish_edges(const std::vector<SensorFeatures>& features, const std::vector<bool>& edge_ok,
-                               const EdgePolishParams& params, std::vector<PairResult>* pairs) {
+EdgePolishSummary polish_edges(const std::vector<SensorFeatures>& features,
+                               const std::vector<bool>& edge_ok, const EdgePolishParams& params,
+                               std::vector<PairResult>* pairs) {
     EdgePolishSummary summary;
     if (params.max_correspondence_m.empty()) return summary;
     std::vector<std::size_t> edges;
@@ -69,7 +72,8 @@ EdgePolishSummary polish_edges(const std::vector<SensorFeatures>& features, cons
     schedule(dynamic, 1)
     for (std::int64_t k = 0; k < count; ++k) {
         PairResult& pair = (*pairs)[edges[k]];
-        polished[k] = polish_one(features[pair.source], features[pair.target], params, &pair) ? 1 : 0;
+        polished[k] =
+            polish_one(features[pair.source], features[pair.target], params, &pair) ? 1 : 0;
     }
     for (const char p : polished) {
         if (p) {

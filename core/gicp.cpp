@@ -145,7 +145,8 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
                     // the nearest of all when it is closer than reach - |Ta - prev|: every
                     // unlisted point is at least that far (triangle inequality). The
                     // factor keeps rounding on the safe side.
-                    const std::uint32_t* list = &neighbor_list[prev * PointCloud::kNeighborListSize];
+                    const std::uint32_t* list =
+                        &neighbor_list[prev * PointCloud::kNeighborListSize];
                     for (std::size_t r = 0; r < PointCloud::kNeighborListSize; ++r) {
                         const double d2_r = (target_points[list[r]] - Ta).squaredNorm();
                         if (d2_r < d2) {

@@ -173,13 +173,13 @@ private:
     int num_threads() const;
 
     GicpParams params_;
-    std::vector<std::int32_t> target_index_;    // per source point, -1 = no correspondence
+    std::vector<std::int32_t> target_index_;  // per source point, -1 = no correspondence
     // Per source point, M_i at the last linearisation in the source frame at its rotation:
     // N_i = R^T M_i R (evaluate() rotates the residuals back with linearized_rotation_).
     std::vector<Eigen::Matrix3d> mahalanobis_;
     Eigen::Matrix3d linearized_rotation_ = Eigen::Matrix3d::Identity();
-    std::vector<Linearization> partial_;        // per thread
-    std::vector<double> partial_error_;         // per thread
+    std::vector<Linearization> partial_;  // per thread
+    std::vector<double> partial_error_;   // per thread
 };
 
 // One-off convenience wrapper (allocates its buffers).

@@ -20,8 +20,8 @@ namespace {
 // first; the reach is the distance of the first other point not listed, or of the last one
 // found when the k-NN stopped short of the list (every unlisted point is at least that
 // far), or infinity when the k-NN found the whole cloud.
-void record_neighbor_list(std::uint32_t i, const std::uint32_t* idx, const double* d2, std::size_t found,
-                          std::size_t cloud_size, PointCloud* cloud) {
+void record_neighbor_list(std::uint32_t i, const std::uint32_t* idx, const double* d2,
+                          std::size_t found, std::size_t cloud_size, PointCloud* cloud) {
     constexpr std::size_t kList = PointCloud::kNeighborListSize;
     std::uint32_t* list = cloud->neighbor_list.data() + static_cast<std::size_t>(i) * kList;
     std::size_t listed = 0;
@@ -77,7 +77,9 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
         for (long long i = 0; i < count; ++i) {
             const Eigen::Vector3d& p = cloud->points[i];
             const std::size_t found = tree.knn(p, k, idx.data(), d2.data());
-            if (lists) record_neighbor_list(static_cast<std::uint32_t>(i), idx.data(), d2.data(), found, n, cloud);
+            if (lists)
+                record_neighbor_list(static_cast<std::uint32_t>(i), idx.data(), d2.data(), found, n,
+                                     cloud);
             if (found < 3) {
                 ++degenerate;
                 if (params.compute_normals) cloud->normals[i].setZero();

@@ -47,7 +47,8 @@ TEST(EdgePolish, MovesAChosenPairTowardsTheTruth) {
     const double before_m = translation_error_m(s.pairs[0].T_target_source, s.truth);
     const double before_deg = rotation_error_deg(s.pairs[0].T_target_source, s.truth);
 
-    const EdgePolishSummary summary = polish_edges(s.features, {true}, EdgePolishParams{}, &s.pairs);
+    const EdgePolishSummary summary =
+        polish_edges(s.features, {true}, EdgePolishParams{}, &s.pairs);
     EXPECT_EQ(summary.polished, 1u);
     EXPECT_EQ(summary.kept, 0u);
     const PairResult& p = s.pairs[0];
@@ -104,7 +105,8 @@ TEST(EdgePolish, FallsBackToTheGicpCloudsWithoutPolishClouds) {
     StreetPair s = street_pair(nudge);
     for (SensorFeatures& f : s.features) f.polish = GicpTarget();
     const double before_m = translation_error_m(s.pairs[0].T_target_source, s.truth);
-    const EdgePolishSummary summary = polish_edges(s.features, {true}, EdgePolishParams{}, &s.pairs);
+    const EdgePolishSummary summary =
+        polish_edges(s.features, {true}, EdgePolishParams{}, &s.pairs);
     EXPECT_EQ(summary.polished, 1u);
     EXPECT_LT(translation_error_m(s.pairs[0].T_target_source, s.truth), 0.5 * before_m);
 }

@@ -100,7 +100,8 @@ TEST(Normals, NeighbourListsComeWithTheCovariances) {
         std::sort(others.begin(), others.end());
         const std::uint32_t* list = &cloud.neighbor_list[i * kList];
         for (std::size_t r = 0; r < kList; ++r) {
-            ASSERT_DOUBLE_EQ((cloud.points[list[r]] - cloud.points[i]).squaredNorm(), others[r].first)
+            ASSERT_DOUBLE_EQ((cloud.points[list[r]] - cloud.points[i]).squaredNorm(),
+                             others[r].first)
                 << "point " << i << " rank " << r;
         }
         ASSERT_DOUBLE_EQ(cloud.neighbor_reach_d2[i], others[kList].first) << "point " << i;
