@@ -1,5 +1,6 @@
 // Pipeline's output thread (poses.csv, extrinsics.yaml, fused clouds, DDS) and the stats
 // every thread reports into.
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -154,7 +155,10 @@ PipelineStats Pipeline::Impl::collect_stats() const {
         ss.scans_rejected = s.scans_rejected.load();
         ss.last_completeness = s.last_completeness.load();
         const std::int64_t last = s.last_scan_steady_ns.load();
-        ss.ms_since_last_scan = last > 0 ? static_cast<double>(now - last) * 1e-6 : -1.0;
+        // `now` was read before the loop: a scan completed since then is 0 ms old, not a
+        // negative age (which would read as the "never" sentinel, -1).
+        ss.ms_since_last_scan =
+            last > 0 ? std::max(0.0, static_cast<double>(now - last) * 1e-6) : -1.0;
         ss.clock_offset_ms = static_cast<double>(s.clock_offset_ns.load()) * 1e-6;
         ss.offset_to_root_ms = m.offset_to_root_ms[i];
         if (!m.config.station.sensors[i].enabled) {
