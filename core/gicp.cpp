@@ -37,6 +37,12 @@ GicpTarget::GicpTarget(PointCloud cloud, int leaf_max_size)
     : cloud_(std::make_unique<PointCloud>(std::move(cloud))),
       tree_(std::make_unique<KdTree>(cloud_->points, leaf_max_size)) {}
 
+GicpTarget::GicpTarget(PointCloud cloud, const NormalParams& covariances, int leaf_max_size)
+    : GicpTarget(std::move(cloud), leaf_max_size) {
+    // Only the covariances and lists change, never the points the tree refers to.
+    estimate_normals_covariances(cloud_.get(), *tree_, covariances);
+}
+
 GicpTarget::GicpTarget(GicpTarget&&) noexcept = default;
 GicpTarget& GicpTarget::operator=(GicpTarget&&) noexcept = default;
 GicpTarget::~GicpTarget() = default;

@@ -48,6 +48,7 @@
 #include <vector>
 
 #include "core/kdtree.hpp"
+#include "core/normals.hpp"
 #include "core/point_cloud.hpp"
 #include "core/se3.hpp"
 
@@ -125,6 +126,10 @@ public:
     GicpTarget();
     // Takes the cloud (move it in to avoid a copy). Needs covariances for registration.
     explicit GicpTarget(PointCloud cloud, int leaf_max_size = 10);
+    // Takes the cloud and computes its covariances (and neighbour lists) as `covariances`
+    // asks, on this target's own k-d tree: the same numbers as estimate_normals_covariances
+    // followed by the constructor above, with one tree per cloud instead of two.
+    GicpTarget(PointCloud cloud, const NormalParams& covariances, int leaf_max_size = 10);
     GicpTarget(GicpTarget&&) noexcept;
     GicpTarget& operator=(GicpTarget&&) noexcept;
     ~GicpTarget();

@@ -95,8 +95,8 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
         cov_params.compute_normals = false;
         cov_params.compute_covariances = true;
         cov_params.num_threads = threads;
-        if (voxels.size() >= 3) estimate_normals_covariances(&voxels, cov_params);
-        return GicpTarget(std::move(voxels));
+        if (voxels.size() < 3) return GicpTarget(std::move(voxels));
+        return GicpTarget(std::move(voxels), cov_params);
     };
     out.gicp = covariance_cloud(params.gicp_voxel_size_m);
     if (params.polish_voxel_size_m > 0.0) out.polish = covariance_cloud(params.polish_voxel_size_m);

@@ -107,11 +107,12 @@ Outcome run_ours(const PointCloud& target_in, const PointCloud& source_in, const
 
     PointCloud target = target_in, source = source_in;
     const double start = cpu_ms();
-    if (!shared_covariances) {
-        lidarfuse::core::estimate_normals_covariances(&target, covariance_params());
+    if (!shared_covariances)
         lidarfuse::core::estimate_normals_covariances(&source, covariance_params());
-    }
-    const lidarfuse::core::GicpTarget gicp_target(std::move(target));
+    // The target's covariances on its own k-d tree (as the daemon and calibrate do).
+    const lidarfuse::core::GicpTarget gicp_target =
+        shared_covariances ? lidarfuse::core::GicpTarget(std::move(target))
+                           : lidarfuse::core::GicpTarget(std::move(target), covariance_params());
     const lidarfuse::core::GicpResult r =
         lidarfuse::core::align_gicp(gicp_target, source, pair.T_init, gp);
     Outcome o;

@@ -116,8 +116,7 @@ GicpTarget SensorTrack::reference_target_at(double voxel_size_m) const {
     normals.k_neighbors = covariance_neighbors_for(params_, voxel_size_m);
     normals.compute_normals = false;
     normals.num_threads = 1;
-    estimate_normals_covariances(&cloud, normals);
-    return GicpTarget(std::move(cloud));
+    return GicpTarget(std::move(cloud), normals);
 }
 
 void SensorTrack::reanchor(const Eigen::Isometry3d& left, const Eigen::Isometry3d& right_reference) {
@@ -156,14 +155,15 @@ void SensorTrack::build_current_target(bool static_only, const Eigen::Isometry3d
     PointCloud cloud;
     downsample_in_grid(&voxel_grid_, &static_points_, params_.voxel_size_m,
                        params_.voxel_grid_in_root_frame ? &T_root_sensor : nullptr, &cloud);
-    if (cloud.size() >= 3) {
-        NormalParams normals;
-        normals.k_neighbors = covariance_neighbors_for(params_, params_.voxel_size_m);
-        normals.compute_normals = false;
-        normals.num_threads = 1;  // tracks already run in parallel
-        estimate_normals_covariances(&cloud, normals);
+    if (cloud.size() < 3) {
+        current_target_ = GicpTarget(std::move(cloud));
+        return;
     }
-    current_target_ = GicpTarget(std::move(cloud));
+    NormalParams normals;
+    normals.k_neighbors = covariance_neighbors_for(params_, params_.voxel_size_m);
+    normals.compute_normals = false;
+    normals.num_threads = 1;  // tracks already run in parallel
+    current_target_ = GicpTarget(std::move(cloud), normals);
 }
 
 void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,

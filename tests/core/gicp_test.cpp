@@ -201,6 +201,34 @@ TEST_F(GicpScene, NeighbourListsChangeNothingButTheSearches) {
     }
 }
 
+// Covariances computed on the target's own tree are the ones the two-step path gives.
+TEST_F(GicpScene, TargetComputesTheSameCovariancesOnItsOwnTree) {
+    NormalParams params;
+    params.k_neighbors = 12;
+    params.compute_normals = false;
+    params.gicp_epsilon = 1e-2;
+    PointCloud two_step;
+    two_step.points = target_points_;
+    estimate_normals_covariances(&two_step, params);
+    PointCloud bare;
+    bare.points = target_points_;
+    const GicpTarget target(std::move(bare), params);
+    ASSERT_TRUE(target.cloud().has_covariances());
+    ASSERT_TRUE(target.cloud().has_neighbor_lists());
+    EXPECT_TRUE(target.cloud().normals.empty());
+    EXPECT_EQ(target.cloud().points, target_points_);
+    EXPECT_EQ(target.cloud().neighbor_list, two_step.neighbor_list);
+    EXPECT_EQ(target.cloud().neighbor_reach_d2, two_step.neighbor_reach_d2);
+    for (std::size_t i = 0; i < target_points_.size(); ++i) {
+        ASSERT_EQ(target.cloud().covariances[i], two_step.covariances[i]) << "point " << i;
+    }
+    // And the tree is the one registration searches: a source registers onto it.
+    const PointCloud source = with_covariances(target_points_);
+    const GicpResult r = align_gicp(target, source, Eigen::Isometry3d::Identity());
+    EXPECT_TRUE(r.converged) << to_string(r.status);
+    EXPECT_EQ(r.num_inliers, source.size());
+}
+
 TEST_F(GicpScene, OneTargetServesSeveralSourcesAndRegistrationIsReusable) {
     std::mt19937 rng(17);
     GicpParams params;
