@@ -16,12 +16,17 @@
 //
 // Times are CPU time (ms), the fastest of 3 runs per pair, then the median over pairs.
 //
+// Also, per cloud, the covariance step alone (k-d tree, k nearest of every point,
+// covariances), ours and PCL's, in us per point, and the per-point budget that a 5x
+// "with covariances" would leave for it after our alignment (gicp_covariance_budget_*).
+//
 // Usage: gicp_pcl_bench [CAPTURE_DIR [FRAMES]]   (no CAPTURE_DIR: simulates the curve scene,
 // seed 1, 4 sensors, into a temporary folder). Output: `name value unit` lines.
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/registration/gicp.h>
+#include <pcl/search/kdtree.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -34,6 +39,7 @@
 #include <vector>
 
 #include "core/gicp.hpp"
+#include "core/kdtree.hpp"
 #include "core/normals.hpp"
 #include "core/se3.hpp"
 #include "core/voxel_grid.hpp"
@@ -133,11 +139,65 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr to_pcl(const PointCloud& cloud) {
     return out;
 }
 
-// PCL 1.13 keeps the iteration count in a protected member with no getter.
+// PCL 1.13 keeps the iteration count in a protected member with no getter, and its
+// covariance step in a protected method.
 class CountingGicp : public pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> {
 public:
     int iterations() const { return nr_iterations_; }
+    void covariances(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud,
+                     const pcl::search::KdTree<pcl::PointXYZ>::Ptr& tree, MatricesVector* out) {
+        computeCovariances<pcl::PointXYZ>(cloud, tree, *out);
+    }
 };
+
+// Per-point CPU time (us) of the covariance step alone, on one cloud, fastest of
+// kRepetitions: the k-d tree, then the k nearest of every point, then (`with_covariances`)
+// the covariances. This step is what a pair "with covariances" adds to the alignment.
+struct CovarianceCost {
+    double ours_knn_us = 0.0, ours_us = 0.0, pcl_knn_us = 0.0, pcl_us = 0.0;
+};
+
+CovarianceCost covariance_cost(const PointCloud& cloud) {
+    CovarianceCost c{1e300, 1e300, 1e300, 1e300};
+    const double n = static_cast<double>(cloud.size());
+    const auto pcl_cloud = to_pcl(cloud);
+    std::vector<std::uint32_t> idx(kCovarianceNeighbours);
+    std::vector<double> d2(kCovarianceNeighbours);
+    pcl::Indices pcl_idx;
+    std::vector<float> pcl_d2;
+    for (int r = 0; r < kRepetitions; ++r) {
+        double start = cpu_ms();
+        {
+            const lidarfuse::core::KdTree tree(cloud.points);
+            for (const Eigen::Vector3d& p : cloud.points)
+                tree.knn(p, kCovarianceNeighbours, idx.data(), d2.data());
+        }
+        c.ours_knn_us = std::min(c.ours_knn_us, (cpu_ms() - start) * 1e3 / n);
+        PointCloud copy = cloud;
+        start = cpu_ms();
+        lidarfuse::core::estimate_normals_covariances(&copy, covariance_params());
+        c.ours_us = std::min(c.ours_us, (cpu_ms() - start) * 1e3 / n);
+        start = cpu_ms();
+        {
+            auto tree = pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>();
+            tree->setInputCloud(pcl_cloud);
+            for (const pcl::PointXYZ& p : pcl_cloud->points)
+                tree->nearestKSearch(p, kCovarianceNeighbours, pcl_idx, pcl_d2);
+        }
+        c.pcl_knn_us = std::min(c.pcl_knn_us, (cpu_ms() - start) * 1e3 / n);
+        CountingGicp gicp;
+        gicp.setCorrespondenceRandomness(kCovarianceNeighbours);
+        CountingGicp::MatricesVector covariances;
+        start = cpu_ms();
+        {
+            auto tree = pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>();
+            tree->setInputCloud(pcl_cloud);
+            gicp.covariances(pcl_cloud, tree, &covariances);
+        }
+        c.pcl_us = std::min(c.pcl_us, (cpu_ms() - start) * 1e3 / n);
+    }
+    return c;
+}
 
 CountingGicp::MatricesVectorPtr to_pcl_covariances(const PointCloud& cloud) {
     auto out = pcl::make_shared<CountingGicp::MatricesVector>(cloud.covariances.begin(),
@@ -246,7 +306,29 @@ int main(int argc, char** argv) {
 
     for (const double voxel_m : {1.0, 0.5}) {
         const double max_corr_m = 2.0 * voxel_m;
-        for (const bool shared : {false, true}) {
+        char voxel_tag[24];
+        std::snprintf(voxel_tag, sizeof(voxel_tag), "voxel%gm", voxel_m);
+        // The covariance step per cloud, on every scan the pairs use.
+        std::vector<double> knn_ours, cov_ours, knn_pcl, cov_pcl, points;
+        for (const auto& sensor_scans : scans) {
+            for (const auto& scan : sensor_scans) {
+                const PointCloud cloud = downsample(scan, voxel_m);
+                const CovarianceCost c = covariance_cost(cloud);
+                knn_ours.push_back(c.ours_knn_us);
+                cov_ours.push_back(c.ours_us);
+                knn_pcl.push_back(c.pcl_knn_us);
+                cov_pcl.push_back(c.pcl_us);
+                points.push_back(static_cast<double>(cloud.size()));
+            }
+        }
+        const std::string cost = std::string("gicp_covariance_") + voxel_tag;
+        print(cost + "_median_points", median(points), "points");
+        print(cost + "_ours_knn_median_per_point", median(knn_ours), "us");
+        print(cost + "_pcl_knn_median_per_point", median(knn_pcl), "us");
+        print(cost + "_ours_median_per_point", median(cov_ours), "us");
+        print(cost + "_pcl_median_per_point", median(cov_pcl), "us");
+        std::map<std::string, double> align_ms;  // ours, alignment alone, per kind
+        for (const bool shared : {true, false}) {
             std::map<std::string, std::vector<Outcome>> ours, theirs;
             for (const Pair& p : pairs) {
                 PointCloud target = downsample(*p.target, voxel_m);
@@ -290,6 +372,16 @@ int main(int argc, char** argv) {
                 const double ours_ms = figures("ours", ours[kind]);
                 const double pcl_ms = figures("pcl", theirs[kind]);
                 print(std::string("gicp_speedup_") + tag + "_" + kind, pcl_ms / ours_ms, "x");
+                if (shared) {
+                    align_ms[kind] = ours_ms;
+                } else {
+                    // What 5x with covariances leaves for the covariance step of the two
+                    // clouds, per point, after our alignment alone (the shared run).
+                    const double budget_us =
+                        (pcl_ms / 5.0 - align_ms[kind]) * 1e3 / (2.0 * median(points));
+                    print(std::string("gicp_covariance_budget_for_5x_") + voxel_tag + "_" + kind,
+                          budget_us, "us");
+                }
             }
         }
     }
