@@ -32,6 +32,10 @@
 // together with forming M in the source frame; a list of 8 beat 4 and 12, and a gap-only
 // certificate (the nearest other point) skipped 58-65 % of the searches.
 //
+// M_i in closed form: when both clouds carry plane covariances (covariance_axes,
+// point_cloud.hpp), C = I - beta a a^T, and the inverse of the pair's sum is a rank-2
+// Woodbury update of I / 2 (gicp.cpp), instead of two congruences and a 3x3 inverse.
+//
 // Threading: the per-iteration reduction runs with `num_threads` OpenMP threads, each with
 // its own H, b and error sums, added at the end in a fixed order (results do not depend on
 // scheduling beyond floating-point summation order per thread block, which is static).

@@ -51,6 +51,16 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
     stats.num_points = n;
     if (params.compute_normals) cloud->normals.resize(n);
     if (params.compute_covariances) cloud->covariances.resize(n);
+    // The plane covariances' axes (point_cloud.hpp) come with the regularisation.
+    const bool axes = params.compute_covariances && params.regularize_covariances &&
+                      params.gicp_epsilon > 0.0 && params.gicp_epsilon < 1.0;
+    if (axes) {
+        cloud->covariance_axes.resize(n);
+        cloud->covariance_epsilon = params.gicp_epsilon;
+    } else if (params.compute_covariances) {
+        cloud->covariance_axes.clear();
+        cloud->covariance_epsilon = 0.0;
+    }
     // The neighbour lists come with the k-NN when the tree is over this cloud.
     constexpr std::size_t kList = PointCloud::kNeighborListSize;
     const bool lists = params.compute_covariances && tree.size() == n;
@@ -84,6 +94,7 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
                 ++degenerate;
                 if (params.compute_normals) cloud->normals[i].setZero();
                 if (params.compute_covariances) cloud->covariances[i].setIdentity();
+                if (axes) cloud->covariance_axes[i].setZero();
                 if (curvature) (*curvature)[i] = 1.0 / 3.0;
                 continue;
             }
@@ -111,6 +122,7 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
                 if (params.regularize_covariances) {
                     const Eigen::Vector3d d(params.gicp_epsilon, 1.0, 1.0);
                     cloud->covariances[i] = U * d.asDiagonal() * U.transpose();
+                    if (axes) cloud->covariance_axes[i] = U.col(0);
                 } else {
                     cloud->covariances[i] = C;
                 }

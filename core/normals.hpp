@@ -11,6 +11,8 @@
 //   C_i' = U diag(epsilon, 1, 1) U^T  (U = eigenvectors, smallest first),
 // i.e. unit variance in the local surface and `epsilon` along the normal. The covariances
 // are unitless shapes; the Mahalanobis distances built from them are relative, not metric.
+// As C_i' = I - (1 - epsilon) u0 u0^T, cloud->covariance_axes keeps u0 (and
+// covariance_epsilon the epsilon), from which G-ICP inverts a pair in closed form.
 //
 // With the covariances, cloud->neighbor_list and neighbor_reach_d2 get each point's nearest
 // other points and the distance within which they are all listed (point_cloud.hpp), which

@@ -27,6 +27,12 @@ struct PointCloud {
     static constexpr std::size_t kNeighborListSize = 8;
     std::vector<std::uint32_t> neighbor_list;
     std::vector<double> neighbor_reach_d2;
+    // When the covariances are G-ICP plane covariances (normals.hpp), their axes: unit
+    // vectors with covariances[i] = I - (1 - covariance_epsilon) a a^T (a zero axis for the
+    // identity of a degenerate point). G-ICP inverts pairs of them in closed form. Empty
+    // otherwise; filters do not copy them (G-ICP then uses the matrices alone).
+    std::vector<Eigen::Vector3d> covariance_axes;
+    double covariance_epsilon = 0.0;
 
     std::size_t size() const { return points.size(); }
     bool empty() const { return points.empty(); }
@@ -38,12 +44,18 @@ struct PointCloud {
         return !points.empty() && neighbor_reach_d2.size() == points.size() &&
                neighbor_list.size() == points.size() * kNeighborListSize;
     }
+    bool has_plane_covariances() const {
+        return has_covariances() && covariance_axes.size() == points.size() &&
+               covariance_epsilon > 0.0 && covariance_epsilon < 1.0;
+    }
     void clear() {
         points.clear();
         normals.clear();
         covariances.clear();
         neighbor_list.clear();
         neighbor_reach_d2.clear();
+        covariance_axes.clear();
+        covariance_epsilon = 0.0;
     }
 };
 

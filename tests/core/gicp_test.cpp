@@ -201,6 +201,35 @@ TEST_F(GicpScene, NeighbourListsChangeNothingButTheSearches) {
     }
 }
 
+// The closed-form inverse of plane covariance pairs gives the matrices' result: without
+// the axes (the 3x3 inverse), the same iterations, inliers, T and H up to rounding.
+TEST_F(GicpScene, PlaneCovarianceAxesChangeNothingButTheInverse) {
+    std::mt19937 rng(19);
+    const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
+    const PointCloud source = noisy_resampled_source(rng, T_true);
+    ASSERT_TRUE(source.has_plane_covariances());
+    ASSERT_TRUE(target_.cloud().has_plane_covariances());
+    PointCloud matrices_only = source;
+    matrices_only.covariance_axes.clear();
+    ASSERT_FALSE(matrices_only.has_plane_covariances());
+    GicpParams params;
+    params.max_correspondence_distance_m = 3.0;
+    params.max_iterations = 60;
+    for (const GicpSolver solver : {GicpSolver::kLevenbergMarquardt, GicpSolver::kGaussNewton}) {
+        params.solver = solver;
+        const GicpResult a = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
+        const GicpResult b =
+            align_gicp(target_, matrices_only, Eigen::Isometry3d::Identity(), params);
+        ASSERT_TRUE(a.converged) << to_string(a.status);
+        EXPECT_EQ(a.iterations, b.iterations);
+        EXPECT_EQ(a.num_inliers, b.num_inliers);
+        EXPECT_TRUE(a.T_target_source.matrix().isApprox(b.T_target_source.matrix(), 1e-9));
+        EXPECT_TRUE(a.H.isApprox(b.H, 1e-9));
+        EXPECT_NEAR(a.error, b.error, 1e-9 * b.error);
+        EXPECT_LT(translation_error_m(a.T_target_source, T_true), 0.01);
+    }
+}
+
 // Covariances computed on the target's own tree are the ones the two-step path gives.
 TEST_F(GicpScene, TargetComputesTheSameCovariancesOnItsOwnTree) {
     NormalParams params;

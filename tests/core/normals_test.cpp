@@ -139,6 +139,38 @@ TEST(Normals, TinyCloudsAreDegenerateButFinite) {
     EXPECT_EQ(estimate_normals_covariances(&empty, NormalParams{}).num_points, 0u);
 }
 
+// The regularised covariances come with their axes: C = I - (1 - epsilon) a a^T, a unit
+// (zero for a degenerate point's identity); raw covariances come without.
+TEST(Normals, PlaneCovariancesComeWithTheirAxes) {
+    std::mt19937 rng(5);
+    PointCloud cloud;
+    cloud.points = test::make_structured_scene(rng, 1.0);
+    NormalParams params;
+    params.gicp_epsilon = 0.02;
+    estimate_normals_covariances(&cloud, params);
+    ASSERT_TRUE(cloud.has_plane_covariances());
+    EXPECT_DOUBLE_EQ(cloud.covariance_epsilon, 0.02);
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+        const Eigen::Vector3d& a = cloud.covariance_axes[i];
+        ASSERT_NEAR(a.norm(), 1.0, 1e-12) << "point " << i;
+        const Eigen::Matrix3d C = Eigen::Matrix3d::Identity() - 0.98 * a * a.transpose();
+        ASSERT_TRUE(C.isApprox(cloud.covariances[i], 1e-12)) << "point " << i;
+        ASSERT_NEAR(std::abs(a.dot(cloud.normals[i])), 1.0, 1e-12) << "point " << i;
+    }
+
+    PointCloud tiny;
+    tiny.points = {{0, 0, 0}, {1, 0, 0}};
+    estimate_normals_covariances(&tiny, params);
+    ASSERT_TRUE(tiny.has_plane_covariances());
+    EXPECT_EQ(tiny.covariance_axes[0], Eigen::Vector3d::Zero());
+
+    params.regularize_covariances = false;
+    estimate_normals_covariances(&cloud, params);
+    EXPECT_TRUE(cloud.has_covariances());
+    EXPECT_FALSE(cloud.has_plane_covariances());
+    EXPECT_TRUE(cloud.covariance_axes.empty());
+}
+
 TEST(Normals, RegularizePlaneCovariance) {
     Eigen::Matrix3d C = Eigen::Vector3d(4.0, 0.01, 2.0).asDiagonal();
     const Eigen::Matrix3d R = regularize_plane_covariance(C, 1e-3);
