@@ -175,6 +175,29 @@ TEST_F(GicpScene, NestedInAParallelRegionGivesTheSameResult) {
 // The search shortcut (the previous neighbour and its listed neighbours, certified by the
 // list's reach) is exact: without the lists every correspondence is searched, and the
 // result is the same.
+// Both solvers register `source` onto `target` and `other_source` onto `other_target` alike:
+// the same iterations and inliers, T and H within `tolerance`, and near the truth.
+void expect_same_registrations(const GicpTarget& target, const PointCloud& source,
+                               const GicpTarget& other_target, const PointCloud& other_source,
+                               double tolerance, const Eigen::Isometry3d& T_true) {
+    GicpParams params;
+    params.max_correspondence_distance_m = 3.0;
+    params.max_iterations = 60;
+    for (const GicpSolver solver : {GicpSolver::kLevenbergMarquardt, GicpSolver::kGaussNewton}) {
+        params.solver = solver;
+        const GicpResult a = align_gicp(target, source, Eigen::Isometry3d::Identity(), params);
+        const GicpResult b =
+            align_gicp(other_target, other_source, Eigen::Isometry3d::Identity(), params);
+        ASSERT_TRUE(a.converged) << to_string(a.status);
+        EXPECT_EQ(a.iterations, b.iterations);
+        EXPECT_EQ(a.num_inliers, b.num_inliers);
+        EXPECT_TRUE(a.T_target_source.matrix().isApprox(b.T_target_source.matrix(), tolerance));
+        EXPECT_TRUE(a.H.isApprox(b.H, tolerance));
+        EXPECT_NEAR(a.rmse_m, b.rmse_m, tolerance);
+        EXPECT_LT(translation_error_m(a.T_target_source, T_true), 0.01);
+    }
+}
+
 TEST_F(GicpScene, NeighbourListsChangeNothingButTheSearches) {
     std::mt19937 rng(13);
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
@@ -184,21 +207,7 @@ TEST_F(GicpScene, NeighbourListsChangeNothingButTheSearches) {
     searched_cloud.neighbor_list.clear();
     searched_cloud.neighbor_reach_d2.clear();
     const GicpTarget searched(std::move(searched_cloud));
-    GicpParams params;
-    params.max_correspondence_distance_m = 3.0;
-    params.max_iterations = 60;
-    for (const GicpSolver solver : {GicpSolver::kLevenbergMarquardt, GicpSolver::kGaussNewton}) {
-        params.solver = solver;
-        const GicpResult a = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
-        const GicpResult b = align_gicp(searched, source, Eigen::Isometry3d::Identity(), params);
-        ASSERT_TRUE(a.converged) << to_string(a.status);
-        EXPECT_EQ(a.iterations, b.iterations);
-        EXPECT_EQ(a.num_inliers, b.num_inliers);
-        EXPECT_TRUE(a.T_target_source.matrix().isApprox(b.T_target_source.matrix(), 1e-12));
-        EXPECT_TRUE(a.H.isApprox(b.H, 1e-12));
-        EXPECT_NEAR(a.rmse_m, b.rmse_m, 1e-12);
-        EXPECT_LT(translation_error_m(a.T_target_source, T_true), 0.01);
-    }
+    expect_same_registrations(target_, source, searched, source, 1e-12, T_true);
 }
 
 // The closed-form inverse of plane covariance pairs gives the matrices' result: without
@@ -212,22 +221,7 @@ TEST_F(GicpScene, PlaneCovarianceAxesChangeNothingButTheInverse) {
     PointCloud matrices_only = source;
     matrices_only.covariance_axes.clear();
     ASSERT_FALSE(matrices_only.has_plane_covariances());
-    GicpParams params;
-    params.max_correspondence_distance_m = 3.0;
-    params.max_iterations = 60;
-    for (const GicpSolver solver : {GicpSolver::kLevenbergMarquardt, GicpSolver::kGaussNewton}) {
-        params.solver = solver;
-        const GicpResult a = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
-        const GicpResult b =
-            align_gicp(target_, matrices_only, Eigen::Isometry3d::Identity(), params);
-        ASSERT_TRUE(a.converged) << to_string(a.status);
-        EXPECT_EQ(a.iterations, b.iterations);
-        EXPECT_EQ(a.num_inliers, b.num_inliers);
-        EXPECT_TRUE(a.T_target_source.matrix().isApprox(b.T_target_source.matrix(), 1e-9));
-        EXPECT_TRUE(a.H.isApprox(b.H, 1e-9));
-        EXPECT_NEAR(a.error, b.error, 1e-9 * b.error);
-        EXPECT_LT(translation_error_m(a.T_target_source, T_true), 0.01);
-    }
+    expect_same_registrations(target_, source, target_, matrices_only, 1e-9, T_true);
 }
 
 // Covariances computed on the target's own tree are the ones the two-step path gives.
