@@ -150,52 +150,54 @@ public:
     }
 };
 
-// Per-point CPU time (us) of the covariance step alone, on one cloud, fastest of
-// kRepetitions: the k-d tree, then the k nearest of every point, then (`with_covariances`)
-// the covariances. This step is what a pair "with covariances" adds to the alignment.
+// Per-point CPU time (us) of the covariance step alone on one cloud, ours and PCL's, each
+// the fastest of kRepetitions: the k-d tree and the k nearest of every point (`knn`), and
+// the whole step, tree to covariances. It is what a pair "with covariances" adds to the
+// alignment, once per cloud.
 struct CovarianceCost {
     double ours_knn_us = 0.0, ours_us = 0.0, pcl_knn_us = 0.0, pcl_us = 0.0;
 };
 
 CovarianceCost covariance_cost(const PointCloud& cloud) {
-    CovarianceCost c{1e300, 1e300, 1e300, 1e300};
     const double n = static_cast<double>(cloud.size());
+    const auto fastest_us_per_point = [n](const auto& step) {
+        double fastest = 1e300;
+        for (int r = 0; r < kRepetitions; ++r) {
+            const double start = cpu_ms();
+            step();
+            fastest = std::min(fastest, (cpu_ms() - start) * 1e3 / n);
+        }
+        return fastest;
+    };
     const auto pcl_cloud = to_pcl(cloud);
-    std::vector<std::uint32_t> idx(kCovarianceNeighbours);
-    std::vector<double> d2(kCovarianceNeighbours);
-    pcl::Indices pcl_idx;
-    std::vector<float> pcl_d2;
-    for (int r = 0; r < kRepetitions; ++r) {
-        double start = cpu_ms();
-        {
-            const lidarfuse::core::KdTree tree(cloud.points);
-            for (const Eigen::Vector3d& p : cloud.points)
-                tree.knn(p, kCovarianceNeighbours, idx.data(), d2.data());
-        }
-        c.ours_knn_us = std::min(c.ours_knn_us, (cpu_ms() - start) * 1e3 / n);
-        PointCloud copy = cloud;
-        start = cpu_ms();
-        lidarfuse::core::estimate_normals_covariances(&copy, covariance_params());
-        c.ours_us = std::min(c.ours_us, (cpu_ms() - start) * 1e3 / n);
-        start = cpu_ms();
-        {
-            auto tree = pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>();
-            tree->setInputCloud(pcl_cloud);
-            for (const pcl::PointXYZ& p : pcl_cloud->points)
-                tree->nearestKSearch(p, kCovarianceNeighbours, pcl_idx, pcl_d2);
-        }
-        c.pcl_knn_us = std::min(c.pcl_knn_us, (cpu_ms() - start) * 1e3 / n);
-        CountingGicp gicp;
-        gicp.setCorrespondenceRandomness(kCovarianceNeighbours);
-        CountingGicp::MatricesVector covariances;
-        start = cpu_ms();
-        {
-            auto tree = pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>();
-            tree->setInputCloud(pcl_cloud);
-            gicp.covariances(pcl_cloud, tree, &covariances);
-        }
-        c.pcl_us = std::min(c.pcl_us, (cpu_ms() - start) * 1e3 / n);
-    }
+    CovarianceCost c;
+    c.ours_knn_us = fastest_us_per_point([&] {
+        std::uint32_t idx[kCovarianceNeighbours];
+        double d2[kCovarianceNeighbours];
+        const lidarfuse::core::KdTree tree(cloud.points);
+        for (const Eigen::Vector3d& p : cloud.points) tree.knn(p, kCovarianceNeighbours, idx, d2);
+    });
+    std::vector<PointCloud> copies(kRepetitions, cloud);  // a fresh cloud for every run
+    std::size_t run = 0;
+    c.ours_us = fastest_us_per_point([&] {
+        lidarfuse::core::estimate_normals_covariances(&copies[run++], covariance_params());
+    });
+    pcl::Indices idx;
+    std::vector<float> d2;
+    c.pcl_knn_us = fastest_us_per_point([&] {
+        auto tree = pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>();
+        tree->setInputCloud(pcl_cloud);
+        for (const pcl::PointXYZ& p : pcl_cloud->points)
+            tree->nearestKSearch(p, kCovarianceNeighbours, idx, d2);
+    });
+    CountingGicp gicp;
+    gicp.setCorrespondenceRandomness(kCovarianceNeighbours);
+    CountingGicp::MatricesVector covariances;
+    c.pcl_us = fastest_us_per_point([&] {
+        auto tree = pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>();
+        tree->setInputCloud(pcl_cloud);
+        gicp.covariances(pcl_cloud, tree, &covariances);
+    });
     return c;
 }
 
