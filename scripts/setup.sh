@@ -8,7 +8,7 @@ set -euo pipefail
 packages=(
     build-essential cmake ninja-build ccache pkg-config git clang libclang-rt-dev
     libeigen3-dev libnanoflann-dev libceres-dev
-    libpcap-dev nlohmann-json3-dev libembree-dev libssl-dev
+    libpcap-dev nlohmann-json3-dev libembree-dev libssl-dev liblzf-dev
     libspdlog-dev libyaml-cpp-dev
     cyclonedds-dev cyclonedds-tools libsystemd-dev systemd
     libgtest-dev libgmock-dev libbenchmark-dev
