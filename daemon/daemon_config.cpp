@@ -49,12 +49,23 @@ bool valid_ros_namespace(const std::string& ns) {
     return true;
 }
 
+// A tf2 frame id: no leading '/' (tf2 refuses it), no spaces or control characters.
+bool valid_frame_id(const std::string& frame) {
+    if (frame.empty() || frame.size() > 128 || frame.front() == '/') return false;
+    for (const char c : frame) {
+        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                        c == '_' || c == '.' || c == '/' || c == '-';
+        if (!ok) return false;
+    }
+    return true;
+}
+
 void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
     if (!n || !r.optional_map(n, "output.dds")) return;
     const std::string p = "output.dds.";
     r.only_keys(n, "output.dds",
                 {"enabled", "domain_id", "namespace", "frame_id", "depth", "max_blocking_ms", "publish_points",
-                 "diagnostics_period_ms", "static_update_m", "static_update_deg"});
+                 "diagnostics_period_ms"});
     set_if(r.boolean(n["enabled"], p + "enabled"), &c->enabled);
     // Cyclone maps domain d to UDP ports 7400 + 250 d + ..., so 232 is the largest id.
     set_if(r.integer(n["domain_id"], p + "domain_id", -1, 232, false), &c->domain_id);
@@ -69,21 +80,26 @@ void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
                                  "'/', without leading or trailing '/', got \"" + *ns + "\"");
         }
     }
-    set_if(r.string(n["frame_id"], p + "frame_id", false), &c->frame_id);
+    if (auto frame = r.string(n["frame_id"], p + "frame_id", false)) {
+        if (valid_frame_id(*frame)) {
+            c->frame_id = *frame;
+        } else {
+            r.problems.push_back(p + "frame_id: expected 1..128 characters of [A-Za-z0-9_./-], not starting "
+                                 "with '/' (tf2 refuses a leading slash), got \"" + *frame + "\"");
+        }
+    }
     set_if(r.integer(n["depth"], p + "depth", 1, 100, false), &c->depth);
     set_if(r.number(n["max_blocking_ms"], p + "max_blocking_ms", 0, 1000, false), &c->max_blocking_ms);
     set_if(r.boolean(n["publish_points"], p + "publish_points"), &c->publish_points);
     set_if(r.number(n["diagnostics_period_ms"], p + "diagnostics_period_ms", 10, 60000, false),
            &c->diagnostics_period_ms);
-    set_if(r.number(n["static_update_m"], p + "static_update_m", 0, 100, false), &c->static_update_m);
-    set_if(r.number(n["static_update_deg"], p + "static_update_deg", 0, 180, false), &c->static_update_deg);
 }
 
 void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path& base, OutputConfig* c) {
     if (!n || !r.optional_map(n, "output")) return;
     r.only_keys(n, "output",
                 {"directory", "poses_csv", "extrinsics_yaml", "extrinsics_interval_frames",
-                 "record_clouds_every", "dds"});
+                 "record_clouds_every", "stamp", "dds"});
     if (auto d = r.string(n["directory"], "output.directory", false)) {
         const std::filesystem::path dir = *d;
         c->directory = dir.is_absolute() ? dir : (base / dir).lexically_normal();
@@ -94,7 +110,26 @@ void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path
            &c->extrinsics_interval_frames);
     set_if(r.integer(n["record_clouds_every"], "output.record_clouds_every", 0, 1000000, false),
            &c->record_clouds_every);
+    if (auto stamp = r.string(n["stamp"], "output.stamp", false)) {
+        if (*stamp == "sensor" || *stamp == "host") {
+            c->stamp = *stamp == "sensor" ? StampSource::kSensor : StampSource::kHost;
+        } else {
+            r.problems.push_back("output.stamp: expected sensor or host, got \"" + *stamp + "\"");
+        }
+    }
     read_dds(r, n["dds"], &c->dds);
+}
+
+// tf2 keeps one parent per frame: the fused frame must not be a sensor's frame too, or that
+// sensor would be its own parent (and dropped from tf).
+void check_frame_names(const station::StationConfig& station, const DdsConfig& dds,
+                       std::vector<std::string>* problems) {
+    for (std::size_t i = 0; i < station.sensors.size(); ++i) {
+        if (station.sensors[i].name != dds.frame_id) continue;
+        problems->push_back("output.dds.frame_id: \"" + dds.frame_id + "\" is also the name of sensors[" +
+                            std::to_string(i) + "], whose tf frame it is; pick a name no sensor has "
+                            "(the default, lidarfuse/fused, cannot collide)");
+    }
 }
 
 void read_health(YamlReader& r, const YAML::Node& n, HealthConfig* c) {
@@ -145,9 +180,9 @@ DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string
         }
     }
     problems.insert(problems.end(), r.problems.begin(), r.problems.end());
+    check_frame_names(config.station, config.output.dds, &problems);
     if (!problems.empty()) throw station::ConfigError(source_name, problems);
     config.fusion.root_sensor = config.station.root_index();
-    if (config.output.dds.frame_id.empty()) config.output.dds.frame_id = config.station.root;
     return config;
 }
 

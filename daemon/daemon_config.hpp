@@ -36,15 +36,21 @@ struct DdsConfig {
     bool enabled = true;
     int domain_id = -1;                  // 0..232; -1: $ROS_DOMAIN_ID, or 0 when unset
     std::string topic_namespace = "lidarfuse";  // rt/<ns>/points, rt/<ns>/poses ("" = rt/points)
-    std::string frame_id;                // fused frame's name; "" = the root sensor's name
+    // The fused frame's tf name (header.frame_id of clouds, rt/tf and poses; the sensors are
+    // its children, named after them). The default has a '/', which sensor names cannot
+    // have, so it never names a sensor's own frame; a config naming it after a sensor is
+    // refused.
+    std::string frame_id = "lidarfuse/fused";
     int depth = 2;                       // keep-last history of every writer
     double max_blocking_ms = 5.0;        // longest a write may wait for a slow reader
     bool publish_points = true;          // rt/<ns>/points (the poses, tf and diagnostics always)
     double diagnostics_period_ms = 1000.0;
-    // rt/tf_static is re-published when a sensor's pose moved this far from the last one sent.
-    double static_update_m = 0.05;
-    double static_update_deg = 0.5;
 };
+
+// The clock of every published stamp (daemon/frame_stamps.hpp): the sensors' own (kSensor,
+// PTP-synchronised stations) or the host's CLOCK_REALTIME when a scan's last packet arrived
+// (kHost, sensors not synchronised with the host).
+enum class StampSource { kSensor, kHost };
 
 struct OutputConfig {
     std::filesystem::path directory = "/var/lib/lidarfuse";
@@ -52,6 +58,7 @@ struct OutputConfig {
     bool extrinsics_yaml = true;    // DIRECTORY/extrinsics.yaml, rewritten atomically
     int extrinsics_interval_frames = 20;
     int record_clouds_every = 0;    // every Nth fused cloud as PLY; 0 = none
+    StampSource stamp = StampSource::kSensor;  // clouds, tf, poses and diagnostics on DDS
     DdsConfig dds;
 };
 

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <cstring>
+#include <stdexcept>
 
 namespace lidarfuse::daemon {
 
@@ -54,6 +55,10 @@ Eigen::Isometry3d from_ros_transform(const geometry_msgs_msg_dds__Transform_& t)
 }
 
 FrameMessageBuilder::FrameMessageBuilder(StationFrames frames) : frames_(std::move(frames)) {
+    for (const auto& name : frames_.sensor_names) {
+        if (name == frames_.fused_frame)
+            throw std::invalid_argument("fused frame \"" + name + "\" is also a sensor's name");
+    }
     static const char* const kNames[6] = {"x", "y", "z", "intensity", "sensor_id", "dynamic"};
     const std::uint32_t offsets[6] = {kOffsetX,         kOffsetY,        kOffsetZ,
                                       kOffsetIntensity, kOffsetSensorId, kOffsetDynamic};
@@ -80,20 +85,8 @@ FrameMessageBuilder::FrameMessageBuilder(StationFrames frames) : frames_(std::mo
     sensor_poses_.resize(frames_.sensor_names.size());
 }
 
-std::int64_t FrameMessageBuilder::frame_stamp_ns(const core::FrameOutput& frame) const {
-    const std::size_t root = frames_.root;
-    if (root < frame.health.size() && frame.health[root].included) return frame.t_ns[root];
-    std::int64_t earliest = 0;
-    bool any = false;
-    for (std::size_t s = 0; s < frame.health.size(); ++s) {
-        if (frame.health[s].included && (!any || frame.t_ns[s] < earliest))
-            earliest = frame.t_ns[s], any = true;
-    }
-    return any ? earliest : (root < frame.t_ns.size() ? frame.t_ns[root] : 0);
-}
-
-const sensor_msgs_msg_dds__PointCloud2_& FrameMessageBuilder::cloud(
-    const core::FrameOutput& frame) {
+const sensor_msgs_msg_dds__PointCloud2_& FrameMessageBuilder::cloud(const core::FrameOutput& frame,
+                                                                    const FrameStamps& stamps) {
     const auto& c = frame.cloud;
     const std::size_t n = c.points.size();
     cloud_data_.resize(n * kPointStep);  // grows to the largest cloud, then stays
@@ -107,30 +100,26 @@ const sensor_msgs_msg_dds__PointCloud2_& FrameMessageBuilder::cloud(
         out[kOffsetDynamic] = i < c.dynamic.size() ? c.dynamic[i] : 0;
         out[18] = out[19] = 0;
     }
-    cloud_.header.stamp = to_ros_time(frame_stamp_ns(frame));
+    cloud_.header.stamp = to_ros_time(stamps.frame_ns);
     cloud_.width = static_cast<std::uint32_t>(n);
     cloud_.row_step = static_cast<std::uint32_t>(n * kPointStep);
     point_sequence(&cloud_.data, cloud_data_);
     return cloud_;
 }
 
-const tf2_msgs_msg_dds__TFMessage_& FrameMessageBuilder::tf(const core::FrameOutput& frame) {
-    std::vector<bool> valid(frame.health.size());
-    for (std::size_t s = 0; s < valid.size(); ++s) valid[s] = frame.health[s].pose_valid;
-    return tf(frame.T_root_sensor, frame.t_ns, valid);
-}
-
-const tf2_msgs_msg_dds__TFMessage_& FrameMessageBuilder::tf(
-    const std::vector<Eigen::Isometry3d>& T_root_sensor, const std::vector<std::int64_t>& t_ns,
-    const std::vector<bool>& valid) {
+const tf2_msgs_msg_dds__TFMessage_& FrameMessageBuilder::tf(const core::FrameOutput& frame,
+                                                            const FrameStamps& stamps) {
     transforms_.clear();
-    for (std::size_t s = 0; s < frames_.sensor_names.size() && s < T_root_sensor.size(); ++s) {
-        if (!valid[s] || frames_.sensor_names[s] == frames_.fused_frame) continue;
+    for (std::size_t s = 0; s < frames_.sensor_names.size() && s < frame.health.size(); ++s) {
+        if (!frame.health[s].pose_valid || s >= stamps.sensor_ns.size() ||
+            stamps.sensor_ns[s] <= 0) {
+            continue;
+        }
         geometry_msgs_msg_dds__TransformStamped_ t{};
-        t.header.stamp = to_ros_time(t_ns[s]);
+        t.header.stamp = to_ros_time(stamps.sensor_ns[s]);
         t.header.frame_id = c_str(frames_.fused_frame);
         t.child_frame_id = c_str(frames_.sensor_names[s]);
-        t.transform = to_ros_transform(T_root_sensor[s]);
+        t.transform = to_ros_transform(frame.T_root_sensor[s]);
         transforms_.push_back(t);
     }
     point_sequence(&tf_.transforms, transforms_);
@@ -138,15 +127,16 @@ const tf2_msgs_msg_dds__TFMessage_& FrameMessageBuilder::tf(
 }
 
 const lidarfuse_msgs_msg_dds__FramePoses_& FrameMessageBuilder::poses(
-    const core::FrameOutput& frame) {
-    poses_.header.stamp = to_ros_time(frame_stamp_ns(frame));
+    const core::FrameOutput& frame, const FrameStamps& stamps) {
+    poses_.header.stamp = to_ros_time(stamps.frame_ns);
     poses_.frame_index = frame.frame_index;
     const std::size_t n = std::min(sensor_poses_.size(), frame.health.size());
     for (std::size_t s = 0; s < n; ++s) {
         auto& p = sensor_poses_[s];
         const auto& h = frame.health[s];
         p.name = c_str(frames_.sensor_names[s]);
-        p.stamp = to_ros_time(frame.t_ns[s]);
+        const bool stamped = s < stamps.sensor_ns.size() && stamps.sensor_ns[s] > 0;
+        p.stamp = to_ros_time(stamped ? stamps.sensor_ns[s] : stamps.frame_ns);
         p.transform = to_ros_transform(frame.T_root_sensor[s]);
         p.included = h.included;
         p.pose_valid = h.pose_valid;

@@ -5,7 +5,7 @@
 // next call, and the steady state allocates nothing per frame. Not thread safe: one
 // builder per thread (the output thread).
 //
-// Conventions (ROS 2): stamps are the sensors' clock split into sec/nanosec; a transform
+// Conventions (ROS 2): stamps are ns split into sec/nanosec; a transform
 // T_parent_child has header.frame_id = parent, child_frame_id = child; PointCloud2 is
 // little endian, one row (height 1), fields x, y, z, intensity (float32), sensor_id and
 // dynamic (uint8), point_step 20 (two bytes of padding keep every float 4-byte aligned).
@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/pipeline/fusion_types.hpp"
+#include "daemon/frame_stamps.hpp"
 #include "daemon/pipeline.hpp"
 #include "diagnostic_msgs.h"
 #include "lidarfuse_msgs.h"
@@ -41,24 +42,25 @@ struct StationFrames {
     std::size_t root = 0;
 };
 
+// Messages of one fused frame, every stamp from daemon/frame_stamps.hpp.
 class FrameMessageBuilder {
 public:
+    // Throws std::invalid_argument when the fused frame is also a sensor's name (tf2 would
+    // see that sensor as its own parent; the config check refuses such a config first).
     explicit FrameMessageBuilder(StationFrames frames);
 
-    // The fused cloud in the fused frame, stamped with the root sensor's scan time (the
-    // frame's earliest included scan when the root is missing).
-    const sensor_msgs_msg_dds__PointCloud2_& cloud(const core::FrameOutput& frame);
-    // One TransformStamped per sensor with a valid pose, stamped with that sensor's scan
-    // time. A sensor whose name is the fused frame itself (the default: the root sensor's
-    // name) is left out: tf2 rejects a transform from a frame to itself.
-    const tf2_msgs_msg_dds__TFMessage_& tf(const core::FrameOutput& frame);
-    // The same transforms from explicit poses (rt/tf_static: the latest calibration).
-    const tf2_msgs_msg_dds__TFMessage_& tf(const std::vector<Eigen::Isometry3d>& T_root_sensor,
-                                           const std::vector<std::int64_t>& t_ns,
-                                           const std::vector<bool>& valid);
-    const lidarfuse_msgs_msg_dds__FramePoses_& poses(const core::FrameOutput& frame);
-
-    std::int64_t frame_stamp_ns(const core::FrameOutput& frame) const;
+    // The fused cloud in the fused frame, stamped with the frame's stamp.
+    const sensor_msgs_msg_dds__PointCloud2_& cloud(const core::FrameOutput& frame,
+                                                   const FrameStamps& stamps);
+    // rt/tf: T_fused_sensor of every sensor, the root included, that has a valid pose and a
+    // scan in this frame, stamped with that scan's stamp. The others are left out (never a
+    // stamp 0); the message may hold no transform, which the publisher does not send.
+    const tf2_msgs_msg_dds__TFMessage_& tf(const core::FrameOutput& frame,
+                                           const FrameStamps& stamps);
+    // rt/<ns>/poses: every sensor; one not in this frame (a predicted pose) carries the
+    // frame's stamp.
+    const lidarfuse_msgs_msg_dds__FramePoses_& poses(const core::FrameOutput& frame,
+                                                     const FrameStamps& stamps);
 
 private:
     StationFrames frames_;

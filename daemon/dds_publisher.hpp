@@ -4,16 +4,18 @@
 //
 //   rt/<ns>/points   sensor_msgs::msg::dds_::PointCloud2_        one per fused frame
 //   rt/<ns>/poses    lidarfuse_msgs::msg::dds_::FramePoses_      one per fused frame
-//   rt/tf            tf2_msgs::msg::dds_::TFMessage_             one per fused frame, every
-//                    registered sensor's T_fused_sensor stamped with its scan time
-//   rt/tf_static     tf2_msgs::msg::dds_::TFMessage_             transient-local, depth 1:
-//                    once every sensor present is registered, again when a pose moved more
-//                    than static_update_m / static_update_deg, or a sensor got registered
+//   rt/tf            tf2_msgs::msg::dds_::TFMessage_             one per fused frame with a
+//                    registered sensor in it: T_fused_sensor of each such sensor (the root
+//                    included), stamped with its scan's stamp (daemon/frame_stamps.hpp)
 //   rt/diagnostics   diagnostic_msgs::msg::dds_::DiagnosticArray_
+//
+// The sensors move (the poles sway), so their transforms go on rt/tf only: tf2 drops a
+// frame's history whenever it switches between rt/tf and rt/tf_static.
 //
 // QoS: keyless topics, XCDR1 (classic CDR, what ROS 2 uses), reliable with keep-last
 // `depth` and a max_blocking_time of `max_blocking_ms`, so a subscriber that stops
-// acknowledging costs at most that per write, never a stalled pipeline. Writes never
+// acknowledging costs at most that per write, never a stalled pipeline. USER_DATA holds
+// the type hash as rmw_cyclonedds writes it (daemon/ros_type_hash.hpp). Writes never
 // throw: failures (and timeouts among them) are counted.
 //
 // Threads: construct and destroy on one thread; publish_* from one thread at a time (the
@@ -37,8 +39,8 @@ struct DdsCounters {
     std::uint64_t written = 0;   // samples accepted by dds_write
     std::uint64_t failures = 0;  // dds_write errors (timeouts included)
     std::uint64_t timeouts = 0;  // ... of which a reader held the writer past max_blocking_ms
-    std::uint64_t clouds = 0, tf = 0, tf_static = 0, poses = 0,
-                  diagnostics = 0;  // written per topic
+    std::uint64_t clouds = 0, tf = 0, poses = 0, diagnostics = 0;  // written per topic
+    std::uint64_t unstamped_frames = 0;  // frames without a stamped sensor: nothing sent
 };
 
 // The domain the publisher joins: the configured one, else $ROS_DOMAIN_ID, else 0. Throws
@@ -57,7 +59,7 @@ public:
     DdsPublisher(const DdsPublisher&) = delete;
     DdsPublisher& operator=(const DdsPublisher&) = delete;
 
-    void publish_frame(const core::FrameOutput& frame);
+    void publish_frame(const core::FrameOutput& frame, const FrameStamps& stamps);
     void publish_diagnostics(const PipelineStats& stats, std::int64_t stamp_ns);
 
     DdsCounters counters() const;
@@ -68,22 +70,15 @@ private:
         std::atomic<std::uint64_t> value{0};
     };
     bool write(dds_entity_t writer, const void* sample, Counter* topic_counter);
-    bool static_transforms_changed(const core::FrameOutput& frame) const;
 
     DdsConfig config_;
     StationFrames frames_;
     int domain_id_ = 0;
     dds_entity_t participant_ = 0;
-    dds_entity_t points_writer_ = 0, poses_writer_ = 0, tf_writer_ = 0, tf_static_writer_ = 0,
-                 diagnostics_writer_ = 0;
+    dds_entity_t points_writer_ = 0, poses_writer_ = 0, tf_writer_ = 0, diagnostics_writer_ = 0;
     FrameMessageBuilder frame_builder_;
-    FrameMessageBuilder static_builder_;
     DiagnosticsBuilder diagnostics_builder_;
-    // The poses last sent on rt/tf_static (output thread only).
-    std::vector<Eigen::Isometry3d> static_T_;
-    std::vector<bool> static_valid_;
-    bool static_pending_ = false;
-    Counter written_, failures_, timeouts_, clouds_, tf_, tf_static_, poses_, diagnostics_;
+    Counter written_, failures_, timeouts_, clouds_, tf_, poses_, diagnostics_, unstamped_;
 };
 
 }  // namespace lidarfuse::daemon

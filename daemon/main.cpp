@@ -106,8 +106,10 @@ int main(int argc, char** argv) {
     log->info("station {}: {} sensors, listening on UDP {}, output to {}", config.station.station,
               config.station.sensors.size(), ports, config.output.directory.string());
     if (pipeline->dds_domain_id() >= 0) {
-        log->info("publishing on DDS domain {}: rt/tf, rt/tf_static, rt/diagnostics, rt/{}/{{points,poses}}",
-                  pipeline->dds_domain_id(), config.output.dds.topic_namespace);
+        log->info("publishing on DDS domain {}: rt/tf, rt/diagnostics, rt/{}/{{points,poses}} in frame {}, "
+                  "stamped on the {} clock",
+                  pipeline->dds_domain_id(), config.output.dds.topic_namespace, config.output.dds.frame_id,
+                  config.output.stamp == lidarfuse::daemon::StampSource::kHost ? "host's" : "sensors'");
     }
     notifier.ready("listening on UDP " + ports);
 

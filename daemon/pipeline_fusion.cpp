@@ -45,16 +45,17 @@ void Pipeline::Impl::record_frame_time(const core::SyncedFrame<ScanMessage>& fra
     std::lock_guard<std::mutex> lock(frame_times_mutex);
     FrameTime& ft = frame_times[frame_times_next++ % kFrameTimes];
     ft.t_ns.assign(sensors.size(), 0);
+    ft.realtime_ns.assign(sensors.size(), 0);
     ft.last_scan_steady_ns = 0;
     for (std::size_t s = 0; s < frame.members.size() && s < sensors.size(); ++s) {
         if (!frame.members[s]) continue;
         ft.t_ns[s] = frame.members[s]->t_ns;
+        ft.realtime_ns[s] = frame.members[s]->complete_realtime_ns;
         ft.last_scan_steady_ns = std::max(ft.last_scan_steady_ns, frame.members[s]->complete_steady_ns);
     }
 }
 
-// The steady time the frame's last scan completed, or 0 when it is no longer known.
-std::int64_t Pipeline::Impl::frame_time(const core::FrameOutput& out) {
+Pipeline::Impl::FrameTime Pipeline::Impl::frame_time(const core::FrameOutput& out) {
     std::lock_guard<std::mutex> lock(frame_times_mutex);
     for (const auto& ft : frame_times) {
         bool match = !ft.t_ns.empty();
@@ -64,9 +65,9 @@ std::int64_t Pipeline::Impl::frame_time(const core::FrameOutput& out) {
             any = true;
             match = ft.t_ns[s] == out.t_ns[s];
         }
-        if (match && any) return ft.last_scan_steady_ns;
+        if (match && any) return ft;
     }
-    return 0;
+    return {};
 }
 
 void Pipeline::Impl::fusion_loop() {

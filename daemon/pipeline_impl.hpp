@@ -16,6 +16,7 @@
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/fusion_engine.hpp"
 #include "daemon/dds_publisher.hpp"
+#include "daemon/frame_stamps.hpp"
 #include "daemon/pipeline.hpp"
 #include "daemon/sensor_ingest.hpp"
 
@@ -36,11 +37,13 @@ struct Pipeline::Impl {
 
     std::unique_ptr<DdsPublisher> dds;  // null when output.dds.enabled is false
 
-    // When each synchronised frame's last scan completed, for the output thread's latency
-    // figure: written by the sync thread, looked up by the members' timestamps (the
-    // FusionEngine passes them through), a ring of the last kFrameTimes frames.
+    // When each synchronised frame's scans completed, for the output thread's latency
+    // figure and host stamps: written by the sync thread, looked up by the members'
+    // timestamps (the FusionEngine passes them through), a ring of the last kFrameTimes
+    // frames.
     struct FrameTime {
-        std::vector<std::int64_t> t_ns;  // per sensor, 0 = not included
+        std::vector<std::int64_t> t_ns;         // per sensor, 0 = not included
+        std::vector<std::int64_t> realtime_ns;  // per sensor: CLOCK_REALTIME at its last packet
         std::int64_t last_scan_steady_ns = 0;
     };
     static constexpr std::size_t kFrameTimes = 64;
@@ -63,14 +66,20 @@ struct Pipeline::Impl {
     // pipeline_fusion.cpp
     void sync_loop();
     void record_frame_time(const core::SyncedFrame<ScanMessage>& frame);
-    // The steady time the frame's last scan completed, or 0 when it is no longer known.
-    std::int64_t frame_time(const core::FrameOutput& out);
+    // The frame's entry of the ring; empty t_ns when it is no longer known.
+    FrameTime frame_time(const core::FrameOutput& out);
     void fusion_loop();
 
     // pipeline_output.cpp
     void output_loop();
     // Output thread, after a frame went to DDS: its latency and the members' offsets to the root.
-    void note_published(const core::FrameOutput& out);
+    void note_published(const core::FrameOutput& out, const FrameTime& times);
+    // The stamps of a fused frame's messages in output.stamp's clock (host: the scans'
+    // receive times, estimated from the sensor's clock offset when no longer known).
+    FrameStamps frame_stamps_of(const core::FrameOutput& out, const FrameTime& times) const;
+    // "Now" in output.stamp's clock, for diagnostics: CLOCK_REALTIME, plus (sensor) the
+    // root's clock offset, or the first sensor's with a scan when the root has none yet.
+    std::int64_t diagnostics_stamp_ns() const;
     PipelineStats collect_stats() const;
 };
 

@@ -51,14 +51,15 @@ void Pipeline::Impl::output_loop() {
         }
         if (dds && steady_ns() >= next_diagnostics_ns) {
             next_diagnostics_ns = steady_ns() + diagnostics_period_ns;
-            dds->publish_diagnostics(collect_stats(), realtime_ns());
+            dds->publish_diagnostics(collect_stats(), diagnostics_stamp_ns());
         }
         if (!result) {
             if (results.closed()) break;
             continue;
         }
-        if (dds) dds->publish_frame(*result);
-        note_published(*result);
+        const FrameTime times = frame_time(*result);
+        if (dds) dds->publish_frame(*result, frame_stamps_of(*result, times));
+        note_published(*result, times);
         for (std::size_t s = 0; s < sensors.size(); ++s) {
             const auto& h = result->health[s];
             if (!h.pose_valid) continue;
@@ -85,12 +86,34 @@ void Pipeline::Impl::output_loop() {
     }
     write_extrinsics();
     // The final counters, so a subscriber sees how the run ended.
-    if (dds) dds->publish_diagnostics(collect_stats(), realtime_ns());
+    if (dds) dds->publish_diagnostics(collect_stats(), diagnostics_stamp_ns());
+}
+
+FrameStamps Pipeline::Impl::frame_stamps_of(const core::FrameOutput& out, const FrameTime& times) const {
+    std::vector<std::int64_t> host_ns(sensors.size(), 0);
+    if (config.output.stamp == StampSource::kHost) {
+        for (std::size_t s = 0; s < sensors.size() && s < out.t_ns.size(); ++s) {
+            const bool known = s < times.realtime_ns.size() && times.realtime_ns[s] > 0;
+            host_ns[s] = known ? times.realtime_ns[s] : out.t_ns[s] - sensors[s]->clock_offset_ns.load();
+        }
+    }
+    return frame_stamps(out, config.output.stamp, host_ns);
+}
+
+std::int64_t Pipeline::Impl::diagnostics_stamp_ns() const {
+    const std::int64_t now = realtime_ns();
+    if (config.output.stamp == StampSource::kHost) return now;
+    const auto& root = *sensors[config.fusion.root_sensor];
+    if (root.last_scan_steady_ns.load() > 0) return now + root.clock_offset_ns.load();
+    for (const auto& s : sensors) {
+        if (s->last_scan_steady_ns.load() > 0) return now + s->clock_offset_ns.load();
+    }
+    return now;
 }
 
 // Output thread, after a frame went to DDS: its latency and the members' offsets to the root.
-void Pipeline::Impl::note_published(const core::FrameOutput& out) {
-    const std::int64_t last_scan = frame_time(out);
+void Pipeline::Impl::note_published(const core::FrameOutput& out, const FrameTime& times) {
+    const std::int64_t last_scan = times.last_scan_steady_ns;
     const double latency_ms = last_scan > 0 ? static_cast<double>(steady_ns() - last_scan) * 1e-6 : 0.0;
     const std::size_t root = config.fusion.root_sensor;
     std::lock_guard<std::mutex> lock(stats_mutex);

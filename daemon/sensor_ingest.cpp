@@ -49,8 +49,9 @@ void attach_assembler(SensorIngest* s, double min_completeness,
             ouster::point_times_s(s->cloud, t, &m.point_dt_s);
             ouster::point_intensity(scan, s->cloud, &m.intensity);
             m.complete_steady_ns = steady_ns();
+            m.complete_realtime_ns = realtime_ns();
             s->last_scan_steady_ns.store(m.complete_steady_ns, std::memory_order_relaxed);
-            s->clock_offset_ns.store(m.t_ns - realtime_ns(), std::memory_order_relaxed);
+            s->clock_offset_ns.store(m.t_ns - m.complete_realtime_ns, std::memory_order_relaxed);
             queue->push(std::move(m));
         });
 }

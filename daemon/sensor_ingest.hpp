@@ -27,15 +27,16 @@
 
 namespace lidarfuse::daemon {
 
-// Host clocks, ns: steady for time-outs and latency, real time only for the sensors'
-// clock offset (a diagnostic).
+// Host clocks, ns: steady for time-outs and latency, real time for the sensors' clock
+// offset (a diagnostic) and for the stamps of `output.stamp: host`.
 std::int64_t steady_ns();
 std::int64_t realtime_ns();
 
 struct ScanMessage {
     std::size_t sensor = 0;
     std::int64_t t_ns = 0;
-    std::int64_t complete_steady_ns = 0;  // when the scan's last packet had been assembled
+    std::int64_t complete_steady_ns = 0;    // when the scan's last packet had been assembled
+    std::int64_t complete_realtime_ns = 0;  // the same moment on CLOCK_REALTIME
     std::vector<Eigen::Vector3d> points;
     std::vector<float> point_dt_s;
     std::vector<float> intensity;

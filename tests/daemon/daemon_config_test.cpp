@@ -94,15 +94,16 @@ TEST_F(DaemonConfigTest, DdsDefaultsAndKeys) {
     EXPECT_TRUE(defaults.output.dds.enabled);
     EXPECT_EQ(defaults.output.dds.domain_id, -1);  // ROS_DOMAIN_ID, else 0
     EXPECT_EQ(defaults.output.dds.topic_namespace, "lidarfuse");
-    EXPECT_EQ(defaults.output.dds.frame_id, "a");  // the root sensor's name
+    EXPECT_EQ(defaults.output.dds.frame_id, "lidarfuse/fused");  // no sensor name has a '/'
+    EXPECT_EQ(defaults.output.stamp, StampSource::kSensor);
     EXPECT_EQ(defaults.output.dds.depth, 2);
     EXPECT_TRUE(defaults.output.dds.publish_points);
 
     const auto c = parse_daemon_config(sensors_ + R"(
 output:
+  stamp: host
   dds: {enabled: false, domain_id: 42, namespace: site_7/fusion, frame_id: map, depth: 5,
-        max_blocking_ms: 2, publish_points: false, diagnostics_period_ms: 500,
-        static_update_m: 0.1, static_update_deg: 1}
+        max_blocking_ms: 2, publish_points: false, diagnostics_period_ms: 500}
 )",
                                        "s.yaml", dir_.path());
     EXPECT_FALSE(c.output.dds.enabled);
@@ -113,8 +114,28 @@ output:
     EXPECT_DOUBLE_EQ(c.output.dds.max_blocking_ms, 2.0);
     EXPECT_FALSE(c.output.dds.publish_points);
     EXPECT_DOUBLE_EQ(c.output.dds.diagnostics_period_ms, 500.0);
-    EXPECT_DOUBLE_EQ(c.output.dds.static_update_m, 0.1);
-    EXPECT_DOUBLE_EQ(c.output.dds.static_update_deg, 1.0);
+    EXPECT_EQ(c.output.stamp, StampSource::kHost);
+}
+
+// tf2 gives a frame one parent: a fused frame named after a sensor would make that sensor
+// its own parent and drop it from tf. Refused, naming the key and the sensor.
+TEST_F(DaemonConfigTest, FrameNamesThatCollideOrTf2RefusesAreRefused) {
+    try {
+        parse_daemon_config(sensors_ + "output: {stamp: gps, dds: {frame_id: a}}\n", "s.yaml", dir_.path());
+        FAIL();
+    } catch (const station::ConfigError& error) {
+        const std::string text = error.what();
+        EXPECT_THAT(text, HasSubstr("output.dds.frame_id: \"a\" is also the name of sensors[0]"));
+        EXPECT_THAT(text, HasSubstr("output.stamp: expected sensor or host, got \"gps\""));
+        EXPECT_EQ(error.problems().size(), 2u);
+    }
+    for (const char* bad : {"/map", "a b", ""}) {
+        EXPECT_THROW(parse_daemon_config(sensors_ + "output: {dds: {frame_id: \"" + bad + "\"}}\n", "s.yaml",
+                                         dir_.path()),
+                     station::ConfigError)
+            << bad;
+    }
+    EXPECT_NO_THROW(parse_daemon_config(sensors_ + "output: {dds: {frame_id: site_7/fused}}\n", "s.yaml", dir_.path()));
 }
 
 TEST_F(DaemonConfigTest, EveryDdsProblemIsListed) {

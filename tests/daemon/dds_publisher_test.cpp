@@ -1,6 +1,6 @@
 // DdsPublisher against plain Cyclone readers in this process: ROS 2 type and topic names,
-// the writers' QoS as discovered, message contents round trip, rt/tf_static for a late
-// joiner, and a reader that stops taking never holding the writer.
+// the writers' QoS and type hash as discovered, message contents round trip, tf without
+// stamp 0 or empty messages, and a reader that stops taking never holding the writer.
 #include "daemon/dds_publisher.hpp"
 
 #include <gtest/gtest.h>
@@ -9,6 +9,7 @@
 #include <cstring>
 #include <map>
 
+#include "daemon/ros_type_hash.hpp"
 #include "tests/daemon/dds_test_support.hpp"
 
 namespace lidarfuse::daemon {
@@ -19,6 +20,10 @@ using test::DdsReader;
 constexpr double kPi = 3.14159265358979323846;
 
 StationFrames frames3() { return {"test", "station", {"north", "east", "south"}, 0}; }
+
+FrameStamps sensor_stamps(const core::FrameOutput& f) {
+    return frame_stamps(f, StampSource::kSensor, {});
+}
 
 Eigen::Isometry3d pose(double x, double y, double z, double yaw_deg) {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -51,6 +56,23 @@ core::FrameOutput frame(std::int64_t index, std::size_t points) {
         f.cloud.dynamic.push_back(static_cast<std::uint8_t>(i % 7 == 0));
     }
     return f;
+}
+
+// USER_DATA of the one writer matched with `reader`, and its type's name.
+std::pair<std::string, std::string> matched_writer_user_data(dds_entity_t reader) {
+    dds_instance_handle_t writer = 0;
+    if (dds_get_matched_publications(reader, &writer, 1) != 1) return {};
+    dds_builtintopic_endpoint_t* w = dds_get_matched_publication_data(reader, writer);
+    if (!w) return {};
+    void* data = nullptr;
+    size_t size = 0;
+    std::string user_data;
+    if (dds_qget_userdata(w->qos, &data, &size))
+        user_data.assign(static_cast<const char*>(data), size);
+    dds_free(data);
+    const std::string type = w->type_name;
+    dds_builtintopic_free_endpoint(w);
+    return {type, user_data};
 }
 
 class DdsPublisherTest : public ::testing::Test {
@@ -140,10 +162,26 @@ TEST_F(DdsPublisherTest, MessagesRoundTripWithRosQos) {
     ASSERT_EQ(n_repr, 1u);
     EXPECT_EQ(repr[0], DDS_DATA_REPRESENTATION_XCDR1);
     dds_free(repr);
+    // USER_DATA as rmw_cyclonedds_cpp writes it: what ROS 2 Jazzy parses for the type hash.
+    void* user_data = nullptr;
+    size_t user_data_size = 0;
+    ASSERT_TRUE(dds_qget_userdata(w->qos, &user_data, &user_data_size));
+    EXPECT_EQ(std::string(static_cast<const char*>(user_data), user_data_size),
+              "typehash=RIHS01_9198cabf7da3796ae6fe19c4cb3bdd3525492988c70522628af5daa124bae2b5;");
+    EXPECT_EQ(user_data_size, 81u);
+    dds_free(user_data);
     dds_builtintopic_free_endpoint(w);
 
+    // Every writer announces its own type's hash.
+    for (const dds_entity_t reader : {tf.reader(), poses.reader()}) {
+        const auto [type, announced] = matched_writer_user_data(reader);
+        EXPECT_EQ(announced, ros_type_hash_user_data(type)) << type;
+    }
+    EXPECT_EQ(matched_writer_user_data(poses.reader()).second,
+              "typehash=" + ros_type_hash("lidarfuse_msgs/msg/FramePoses") + ";");
+
     const auto f = frame(5, 1000);
-    publisher.publish_frame(f);
+    publisher.publish_frame(f, sensor_stamps(f));
 
     int clouds = 0;
     ASSERT_TRUE(test::eventually([&] {
@@ -186,9 +224,9 @@ TEST_F(DdsPublisherTest, MessagesRoundTripWithRosQos) {
     int tfs = 0;
     ASSERT_TRUE(test::eventually([&] {
         tfs += tf.take([&](const tf2_msgs_msg_dds__TFMessage_& m) {
-            // The root is named "north", not the fused frame: all three sensors are there.
-            ASSERT_EQ(m.transforms._length, 3u);
-            for (std::size_t s = 0; s < 3; ++s) {
+            // The root included; "south" has no scan in this frame, so it is left out.
+            ASSERT_EQ(m.transforms._length, 2u);
+            for (std::size_t s = 0; s < 2; ++s) {
                 const auto& t = m.transforms._buffer[s];
                 EXPECT_STREQ(t.header.frame_id, "station");
                 EXPECT_STREQ(t.child_frame_id, frames3().sensor_names[s].c_str());
@@ -209,6 +247,9 @@ TEST_F(DdsPublisherTest, MessagesRoundTripWithRosQos) {
             EXPECT_TRUE(m.sensors._buffer[1].included);
             EXPECT_FALSE(m.sensors._buffer[2].included);
             EXPECT_STREQ(m.sensors._buffer[2].track_state, "missing");
+            EXPECT_EQ(from_ros_time(m.header.stamp), f.t_ns[0]);  // the earliest scan
+            EXPECT_EQ(from_ros_time(m.sensors._buffer[1].stamp), f.t_ns[1]);
+            EXPECT_EQ(from_ros_time(m.sensors._buffer[2].stamp), f.t_ns[0]);  // not in the frame
             EXPECT_DOUBLE_EQ(m.sensors._buffer[1].fitness, 0.75);
             EXPECT_TRUE(from_ros_transform(m.sensors._buffer[2].transform)
                             .isApprox(f.T_root_sensor[2], 1e-12));
@@ -222,50 +263,42 @@ TEST_F(DdsPublisherTest, MessagesRoundTripWithRosQos) {
     EXPECT_EQ(c.failures, 0u);
 }
 
-TEST_F(DdsPublisherTest, RootNamedAsTheFusedFrameIsLeftOutOfTf) {
+TEST(FrameMessageBuilder, FusedFrameNamedAsASensorIsRefused) {
     auto names = frames3();
-    names.fused_frame = "north";  // the default: the root sensor's name
-    FrameMessageBuilder builder(names);
-    const auto& m = builder.tf(frame(0, 0));
-    ASSERT_EQ(m.transforms._length, 2u);
-    EXPECT_STREQ(m.transforms._buffer[0].child_frame_id, "east");
-    EXPECT_STREQ(m.transforms._buffer[0].header.frame_id, "north");
+    names.fused_frame = "north";  // tf2 would see north as its own parent
+    EXPECT_THROW(FrameMessageBuilder builder(names), std::invalid_argument);
 }
 
-TEST_F(DdsPublisherTest, LateJoinerGetsTheLatestStaticTransforms) {
+// Every stamp on rt/tf is a scan's: a sensor without a scan in the frame, or without a
+// registered pose, is left out, never sent with stamp 0.
+TEST(FrameMessageBuilder, TfHoldsOnlyRegisteredSensorsWithAScanInTheFrame) {
+    FrameMessageBuilder builder(frames3());
+    auto f = frame(0, 0);
+    f.health[1].pose_valid = false;
+    const auto& m = builder.tf(f, sensor_stamps(f));
+    ASSERT_EQ(m.transforms._length, 1u);  // east unregistered, south not in the frame
+    EXPECT_STREQ(m.transforms._buffer[0].child_frame_id, "north");
+    EXPECT_STREQ(m.transforms._buffer[0].header.frame_id, "station");
+    EXPECT_EQ(from_ros_time(m.transforms._buffer[0].header.stamp), f.t_ns[0]);
+    f.health[0].included = false;
+    EXPECT_EQ(builder.tf(f, sensor_stamps(f)).transforms._length, 0u);
+}
+
+TEST_F(DdsPublisherTest, NoEmptyTfAndNothingWithoutAStamp) {
     DdsPublisher publisher(config_, frames3());
     auto f = frame(0, 10);
-    for (int i = 0; i < 5; ++i) {
-        f.frame_index = i;
-        publisher.publish_frame(f);  // the same poses: tf_static goes out once
-    }
-    EXPECT_EQ(publisher.counters().tf_static, 1u);
-    f.T_root_sensor[1].translation().x() += 0.01;  // below static_update_m (5 cm)
-    publisher.publish_frame(f);
-    EXPECT_EQ(publisher.counters().tf_static, 1u);
-    f.T_root_sensor[1].translation().x() += 0.10;  // the extrinsics changed
-    publisher.publish_frame(f);
-    EXPECT_EQ(publisher.counters().tf_static, 2u);
-
-    // A subscriber that starts now, transient-local like tf2's static listener.
-    DdsReader<tf2_msgs_msg_dds__TFMessage_> late(participant_, &tf2_msgs_msg_dds__TFMessage__desc,
-                                                 "rt/tf_static", test::reader_qos(1, true));
-    int received = 0;
-    ASSERT_TRUE(test::eventually([&] {
-        received += late.take([&](const tf2_msgs_msg_dds__TFMessage_& m) {
-            ASSERT_EQ(m.transforms._length, 3u);
-            EXPECT_STREQ(m.transforms._buffer[1].child_frame_id, "east");
-            EXPECT_TRUE(from_ros_transform(m.transforms._buffer[1].transform)
-                            .isApprox(f.T_root_sensor[1], 1e-12));
-        });
-        return received >= 1;
-    }));
-    EXPECT_EQ(received, 1);  // depth 1: only the latest set, not its history
-    // And a late volatile reader of rt/tf gets nothing old.
-    DdsReader<tf2_msgs_msg_dds__TFMessage_> late_tf(
-        participant_, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", test::reader_qos(10));
-    ASSERT_TRUE(late_tf.wait_matched());
-    EXPECT_EQ(late_tf.take([](const tf2_msgs_msg_dds__TFMessage_&) {}), 0);
+    f.health[0].pose_valid = f.health[1].pose_valid = false;  // only south is registered...
+    publisher.publish_frame(f, sensor_stamps(f));             // ... and has no scan here
+    auto c = publisher.counters();
+    EXPECT_EQ(c.tf, 0u);
+    EXPECT_EQ(c.clouds, 1u);
+    EXPECT_EQ(c.poses, 1u);
+    for (auto& h : f.health) h.included = false;  // no scan at all: no stamp for anything
+    publisher.publish_frame(f, sensor_stamps(f));
+    c = publisher.counters();
+    EXPECT_EQ(c.unstamped_frames, 1u);
+    EXPECT_EQ(c.clouds, 1u);
+    EXPECT_EQ(c.poses, 1u);
 }
 
 // A reliable reader whose history is full and which never takes cannot accept more; the
@@ -281,7 +314,10 @@ TEST_F(DdsPublisherTest, StalledReaderCostsCountedTimeoutsNotAStall) {
         participant_, &lidarfuse_msgs_msg_dds__FramePoses__desc, "rt/lidarfuse/poses", qos);
     ASSERT_TRUE(stalled.wait_matched());
     constexpr int kFrames = 12;
-    for (int i = 0; i < kFrames; ++i) publisher.publish_frame(frame(i, 100));
+    for (int i = 0; i < kFrames; ++i) {
+        const auto f = frame(i, 100);
+        publisher.publish_frame(f, sensor_stamps(f));
+    }
     auto c = publisher.counters();
     // Every poses write either went through (the first two fill the reader) or timed out.
     EXPECT_EQ(c.poses, 2u);
@@ -292,7 +328,8 @@ TEST_F(DdsPublisherTest, StalledReaderCostsCountedTimeoutsNotAStall) {
     EXPECT_EQ(c.tf, static_cast<std::uint64_t>(kFrames));
     // Once the reader takes again, writes go through again.
     EXPECT_EQ(stalled.take([](const lidarfuse_msgs_msg_dds__FramePoses_&) {}), 2);
-    publisher.publish_frame(frame(kFrames, 100));
+    const auto last = frame(kFrames, 100);
+    publisher.publish_frame(last, sensor_stamps(last));
     c = publisher.counters();
     EXPECT_EQ(c.poses, 3u);
     EXPECT_EQ(c.timeouts, static_cast<std::uint64_t>(kFrames - 2));

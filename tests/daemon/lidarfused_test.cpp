@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstring>
@@ -17,9 +18,11 @@
 #include <thread>
 
 #include "daemon/dds_messages.hpp"
+#include "daemon/sensor_ingest.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "tests/daemon/dds_test_support.hpp"
+#include "tests/daemon/tf2_model.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace lidarfuse {
@@ -68,6 +71,12 @@ struct ChildGuard {
     }
 };
 
+// One rt/<ns>/poses message: the frame's stamp and the sensors with a scan and a pose in it.
+struct PosesSeen {
+    std::int64_t stamp_ns = 0;
+    std::vector<std::string> stamped;  // included and pose_valid
+};
+
 // What the test's DDS readers saw of one run.
 struct DdsSeen {
     std::set<std::int64_t> cloud_stamps, pose_frames;
@@ -78,6 +87,16 @@ struct DdsSeen {
     bool all_ok_seen = false;          // a diagnostics message with every sensor's state OK
     std::set<std::string> registered;  // sensors some diagnostics message called registered
     std::map<std::string, std::string> last_pipeline;  // the last pipeline status values
+    test::Tf2Model tf2;                                // rt/tf and rt/tf_static, in arrival order
+    std::vector<PosesSeen> frames;                     // rt/<ns>/poses in arrival order
+    std::size_t zero_stamps = 0;                       // messages or transforms stamped 0
+    std::int64_t min_stamp = 0, max_stamp = 0;         // over every stamp seen
+    void note_stamp(std::int64_t t) {
+        zero_stamps += t == 0;
+        if (t == 0) return;
+        min_stamp = min_stamp == 0 ? t : std::min(min_stamp, t);
+        max_stamp = std::max(max_stamp, t);
+    }
 };
 
 struct DaemonReaders {
@@ -89,6 +108,8 @@ struct DaemonReaders {
           poses(participant, &lidarfuse_msgs_msg_dds__FramePoses__desc, "rt/lidarfuse/poses",
                 test::reader_qos(50)),
           tf(participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", test::reader_qos(50)),
+          tf_static(participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf_static",
+                    test::reader_qos(1, true)),
           diagnostics(participant, &diagnostic_msgs_msg_dds__DiagnosticArray__desc,
                       "rt/diagnostics", test::reader_qos(50)) {}
     ~DaemonReaders() { dds_delete(participant); }
@@ -97,12 +118,14 @@ struct DaemonReaders {
         points.take([&](const sensor_msgs_msg_dds__PointCloud2_& m) {
             ++seen->clouds;
             seen->cloud_stamps.insert(daemon::from_ros_time(m.header.stamp));
+            seen->note_stamp(daemon::from_ros_time(m.header.stamp));
             seen->points += m.width;
             for (std::uint32_t i = 0; i < m.width; i += 97) {
                 seen->cloud_sensor_ids.insert(
                     m.data._buffer[i * m.point_step + daemon::kOffsetSensorId]);
                 float intensity = 0.0f;
-                std::memcpy(&intensity, m.data._buffer + i * m.point_step + daemon::kOffsetIntensity,
+                std::memcpy(&intensity,
+                            m.data._buffer + i * m.point_step + daemon::kOffsetIntensity,
                             sizeof intensity);
                 ++seen->sampled_points;
                 seen->sampled_with_intensity += intensity > 0.0f;
@@ -111,17 +134,37 @@ struct DaemonReaders {
         poses.take([&](const lidarfuse_msgs_msg_dds__FramePoses_& m) {
             ++seen->poses;
             seen->pose_frames.insert(m.frame_index);
+            PosesSeen p{daemon::from_ros_time(m.header.stamp), {}};
+            seen->note_stamp(p.stamp_ns);
+            for (std::uint32_t i = 0; i < m.sensors._length; ++i) {
+                const auto& s = m.sensors._buffer[i];
+                seen->note_stamp(daemon::from_ros_time(s.stamp));
+                if (s.included && s.pose_valid) p.stamped.push_back(s.name);
+            }
+            seen->frames.push_back(std::move(p));
+        });
+        tf_static.take([&](const tf2_msgs_msg_dds__TFMessage_& m) {
+            for (std::uint32_t i = 0; i < m.transforms._length; ++i) {
+                const auto& t = m.transforms._buffer[i];
+                seen->tf2.add(t.header.frame_id, t.child_frame_id,
+                              daemon::from_ros_time(t.header.stamp), true);
+            }
         });
         tf.take([&](const tf2_msgs_msg_dds__TFMessage_& m) {
             const auto number = static_cast<std::int64_t>(seen->tf_messages++);
+            EXPECT_GT(m.transforms._length, 0u) << "an empty tf message";
             for (std::uint32_t i = 0; i < m.transforms._length; ++i) {
                 const auto& t = m.transforms._buffer[i];
                 EXPECT_STREQ(t.header.frame_id, "station_world");
+                seen->note_stamp(daemon::from_ros_time(t.header.stamp));
+                seen->tf2.add(t.header.frame_id, t.child_frame_id,
+                              daemon::from_ros_time(t.header.stamp), false);
                 seen->tf.push_back({number, t.child_frame_id, daemon::from_ros_time(t.header.stamp),
                                     daemon::from_ros_transform(t.transform)});
             }
         });
         diagnostics.take([&](const diagnostic_msgs_msg_dds__DiagnosticArray_& m) {
+            seen->note_stamp(daemon::from_ros_time(m.header.stamp));
             bool all_ok = m.status._length == 3;  // two sensors and the pipeline
             for (std::uint32_t i = 0; i < m.status._length; ++i) {
                 const auto& st = m.status._buffer[i];
@@ -145,8 +188,42 @@ struct DaemonReaders {
     test::DdsReader<sensor_msgs_msg_dds__PointCloud2_> points;
     test::DdsReader<lidarfuse_msgs_msg_dds__FramePoses_> poses;
     test::DdsReader<tf2_msgs_msg_dds__TFMessage_> tf;
+    test::DdsReader<tf2_msgs_msg_dds__TFMessage_> tf_static;
     test::DdsReader<diagnostic_msgs_msg_dds__DiagnosticArray_> diagnostics;
 };
+
+// Frames with a sensor that has a scan and a pose: exactly those get an rt/tf message.
+std::size_t frames_with_tf(const DdsSeen& seen) {
+    std::size_t n = 0;
+    for (const auto& f : seen.frames) n += !f.stamped.empty();
+    return n;
+}
+
+// tf2's view of a run: nothing it would warn about, nothing stamped 0, and every cloud's
+// stamp resolves for every sensor with a scan and a pose in it. The one lookup tf2 cannot
+// make is in a sensor's first frame on tf, when its scan is later than the frame's stamp
+// (no earlier sample to interpolate from); returns how many of those there were.
+std::size_t expect_every_cloud_resolves(const DdsSeen& seen) {
+    EXPECT_TRUE(seen.tf2.warnings.empty()) << seen.tf2.warnings.front();
+    EXPECT_EQ(seen.zero_stamps, 0u);
+    std::size_t first_frame_misses = 0;
+    std::set<std::string> on_tf_before;
+    for (const auto& frame : seen.frames) {
+        EXPECT_TRUE(seen.cloud_stamps.count(frame.stamp_ns)) << "a poses stamp without a cloud";
+        for (const auto& sensor : frame.stamped) {
+            std::string why;
+            const bool first = on_tf_before.insert(sensor).second;
+            if (seen.tf2.resolves(sensor, frame.stamp_ns, &why)) continue;
+            if (first && why == "extrapolation into the past" &&
+                seen.tf2.first_stamp(sensor) > frame.stamp_ns) {
+                ++first_frame_misses;
+                continue;
+            }
+            ADD_FAILURE() << sensor << " at the cloud stamp " << frame.stamp_ns << ": " << why;
+        }
+    }
+    return first_frame_misses;
+}
 
 TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     test::TempDir dir("lfd-run");
@@ -217,22 +294,6 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
             return false;
         },
         200);
-    // A late joiner of rt/tf_static (transient-local, as tf2's static listener) gets the
-    // calibration from the running daemon.
-    std::set<std::string> static_transforms;
-    {
-        test::DdsReader<tf2_msgs_msg_dds__TFMessage_> tf_static(
-            readers.participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf_static",
-            test::reader_qos(1, true));
-        test::eventually([&] {
-            tf_static.take([&](const tf2_msgs_msg_dds__TFMessage_& m) {
-                for (std::uint32_t i = 0; i < m.transforms._length; ++i) {
-                    static_transforms.insert(m.transforms._buffer[i].child_frame_id);
-                }
-            });
-            return !static_transforms.empty();
-        });
-    }
     ASSERT_EQ(::kill(pid, SIGTERM), 0);
     int status = 0;
     ASSERT_EQ(::waitpid(pid, &status, 0), pid);
@@ -265,7 +326,7 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     EXPECT_EQ(seen.cloud_stamps.size(), frames_fused);
     EXPECT_EQ(seen.poses, frames_fused);
     EXPECT_EQ(seen.pose_frames.size(), frames_fused);
-    EXPECT_EQ(seen.tf_messages, frames_fused);
+    EXPECT_EQ(seen.tf_messages, frames_with_tf(seen));
     EXPECT_GT(seen.points, 1000u * frames_fused);
     EXPECT_TRUE(seen.cloud_sensor_ids.count(0));  // the root's points, at least, are in the clouds
     // Intensity is the sensors' signal: most returns of the simulated street have some.
@@ -279,12 +340,13 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     for (const auto& name : seen.registered) registered_names += " " + name;
     std::printf("lidarfused over DDS: %zu frames fused, %zu clouds, %zu points, registered:%s\n",
                 frames_fused, seen.clouds, seen.points, registered_names.c_str());
-    // Every sensor the daemon registered is on rt/tf_static, on rt/tf, and in the clouds.
+    // Every sensor the daemon registered, the root included, is on rt/tf and in the clouds;
+    // none is on rt/tf_static (they move), and tf2 resolves every cloud's stamp.
     std::set<std::string> on_tf;
     for (const auto& r : seen.tf) on_tf.insert(r.sensor);
     EXPECT_TRUE(seen.registered.count("lidar0"));
-    EXPECT_EQ(static_transforms, seen.registered);
     EXPECT_EQ(on_tf, seen.registered);
+    EXPECT_LE(expect_every_cloud_resolves(seen), 1u);  // at most lidar1's first frame on tf
     if (seen.registered.count("lidar1")) {
         EXPECT_TRUE(seen.cloud_sensor_ids.count(1));
     }
@@ -408,7 +470,7 @@ TEST(Lidarfused, FusesALiveSimulatedStationOntoDds) {
     EXPECT_GE(frames_fused, 1u) << text;
     EXPECT_EQ(seen.clouds, frames_fused) << text;
     EXPECT_EQ(seen.poses, frames_fused);
-    EXPECT_EQ(seen.tf_messages, frames_fused);
+    EXPECT_EQ(seen.tf_messages, frames_with_tf(seen));
     EXPECT_TRUE(seen.all_ok_seen);
     EXPECT_EQ(seen.last_pipeline["dds_write_failures"], "0");
     io::write_pose_csv(d / "tf.csv", seen.tf);
@@ -423,6 +485,97 @@ TEST(Lidarfused, FusesALiveSimulatedStationOntoDds) {
     std::printf("live: %zu frames fused, registered %zu sensors, rt/tf strict RMSE %s\n",
                 frames_fused, seen.registered.size(),
                 test::line_after(tf_eval, "eval_mean_strict_rmse_trans ").value_or("?").c_str());
+}
+
+// A sensor silenced for 1 s of a replay, stamps on the host's clock: tf2 resolves every
+// cloud's stamp for every sensor in it (the silenced one is left out of the frames it
+// misses, never sent with stamp 0), and every stamp is CLOCK_REALTIME of this run.
+TEST(Lidarfused, TfResolvesEveryCloudWithASensorSilencedAndHostStamps) {
+    test::use_loopback_dds();
+    test::TempDir dir("lfd-tf2");
+    const auto d = dir.path();
+    std::string out;
+    ASSERT_EQ(test::run_command(test::tool_path() +
+                                    " sim --scenario curve --sensors 2 --seconds 5 "
+                                    "--fault silence:lidar1:3:1 --out " +
+                                    (d / "sim").string(),
+                                &out),
+              0)
+        << out;
+    // A port range of its own (the other tests use 30000+ and 42000+).
+    const auto p0 = static_cast<std::uint16_t>(10000 + (::getpid() % 4000) * 4);
+    const int domain = test::unique_domain_id();
+    std::ofstream(d / "sim" / "daemon.yaml")
+        << "station: tf2\nsensors:\n"
+        << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"
+        << "  - {name: lidar1, udp_port: " << p0 + 2 << ", metadata: lidar1.json}\n"
+        << "network: {bind_address: 127.0.0.1}\noutput:\n  directory: " << (d / "out").string()
+        << "\n  stamp: host\n"
+        << "  dds: {domain_id: " << domain
+        << ", frame_id: station_world, diagnostics_period_ms: 200}\n";
+    DaemonReaders readers(domain);
+    DdsSeen seen;
+    const std::int64_t started_ns = daemon::realtime_ns();
+    ChildGuard guard{start_daemon(d / "sim" / "daemon.yaml", d / "daemon.log")};
+    ASSERT_TRUE(test::eventually(
+        [&] { return read_text(d / "daemon.log").find("listening on UDP") != std::string::npos; },
+        1000));
+    ASSERT_TRUE(readers.points.wait_matched());
+    std::atomic<int> replay_status{-1};
+    std::thread replay([&] {
+        replay_status = test::run_command(test::tool_path() + " replay " +
+                                              (d / "sim" / "capture.pcap").string() +
+                                              " --port-map 7502:" + std::to_string(p0) +
+                                              " --port-map 7504:" + std::to_string(p0 + 2),
+                                          &out);
+    });
+    test::eventually(
+        [&] {
+            readers.take(&seen);
+            return replay_status >= 0;
+        },
+        12000);
+    replay.join();
+    EXPECT_EQ(replay_status.load(), 0) << out;
+    test::eventually(
+        [&] {
+            readers.take(&seen);
+            return false;
+        },
+        200);
+    ASSERT_EQ(::kill(guard.pid, SIGTERM), 0);
+    int status = 0;
+    ASSERT_EQ(::waitpid(guard.pid, &status, 0), guard.pid);
+    guard.pid = 0;
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+    test::eventually(
+        [&] {
+            readers.take(&seen);
+            return false;
+        },
+        30);
+    const std::int64_t stopped_ns = daemon::realtime_ns();
+    const std::string text = read_text(d / "daemon.log");
+    ASSERT_FALSE(seen.frames.empty()) << text;
+    const std::size_t misses = expect_every_cloud_resolves(seen);
+    EXPECT_LE(misses, 1u);  // at most lidar1's first frame on tf (the root's is its own stamp)
+    EXPECT_EQ(seen.tf_messages, frames_with_tf(seen));
+    // The host's clock: every stamp within this run (the simulated sensors' clock is not).
+    EXPECT_GE(seen.min_stamp, started_ns);
+    EXPECT_LE(seen.max_stamp, stopped_ns);
+    // The silence is covered: frames with lidar1, then without it, then with it again.
+    std::vector<bool> has1;
+    for (const auto& f : seen.frames) {
+        has1.push_back(std::find(f.stamped.begin(), f.stamped.end(), "lidar1") != f.stamped.end());
+    }
+    const auto first_with = std::find(has1.begin(), has1.end(), true);
+    const auto gap = std::find(first_with, has1.end(), false);
+    const auto back = std::find(gap, has1.end(), true);
+    std::printf("tf2 model: %zu frames, lidar1 in %td, tf2 misses in a first frame %zu\n",
+                seen.frames.size(), std::count(has1.begin(), has1.end(), true), misses);
+    if (first_with == has1.end()) GTEST_SKIP() << "lidar1 was not registered before the silence";
+    EXPECT_NE(gap, has1.end()) << "no frame without lidar1 during its silence";
+    EXPECT_NE(back, has1.end()) << "lidar1 did not come back after its silence";
 }
 
 // The daemon speaks systemd's notify protocol: READY=1 once bound, WATCHDOG=1 while the
