@@ -63,26 +63,46 @@ std::uint64_t data_bytes(const PcdHeader& header, const std::string& name) {
     return checked_product(header.points, header.point_size, name, "POINTS x point size");
 }
 
+std::string size_text(const PcdHeader& header, std::uint64_t needed) {
+    return "POINTS x point size = " + std::to_string(header.points) + " x " +
+           std::to_string(header.point_size) + " = " + std::to_string(needed);
+}
+
 CloudFile read_binary(const PcdHeader& header, const std::string& bytes, const std::string& name) {
     const std::uint64_t available = bytes.size() - header.data_offset;
     const std::uint64_t needed = data_bytes(header, name);
-    const std::string expected = "POINTS x point size = " + std::to_string(header.points) + " x " +
-                                 std::to_string(header.point_size) + " = " +
-                                 std::to_string(needed) + " bytes";
     if (available < needed) {
-        cloud_error(name, "truncated: DATA binary needs " + expected +
-                              " after the header, the "
-                              "file has " +
-                              std::to_string(available));
+        cloud_error(name, "truncated: DATA binary needs " + size_text(header, needed) +
+                              " bytes after the header, the file has " + std::to_string(available));
     }
     if (available > needed) {
-        cloud_error(name, std::to_string(available - needed) +
-                              " bytes after the last point "
-                              "(DATA binary expects exactly " +
-                              expected + ")");
+        cloud_error(name, std::to_string(available - needed) + " bytes after the last point " +
+                              "(DATA binary expects exactly " + size_text(header, needed) +
+                              " bytes)");
     }
     const auto* data = reinterpret_cast<const unsigned char*>(bytes.data()) + header.data_offset;
     return decode_points(header, locate_columns(header, data, false));
+}
+
+// The sizes in front of the LZF data against the bytes after them and against the header,
+// before anything is allocated.
+void check_lzf_sizes(std::uint64_t compressed, std::uint64_t uncompressed, std::uint64_t available,
+                     const PcdHeader& header, const std::string& name) {
+    const std::uint64_t needed = data_bytes(header, name);
+    if (compressed != available) {
+        cloud_error(name, "compressed size " + std::to_string(compressed) + " does not match the " +
+                              std::to_string(available) +
+                              " bytes after the two sizes (truncated file or trailing data)");
+    }
+    if (uncompressed != needed) {
+        cloud_error(name, "uncompressed size " + std::to_string(uncompressed) + " does not match " +
+                              size_text(header, needed));
+    }
+    if (needed > compressed * kLzfMaxExpansion) {
+        cloud_error(name, "uncompressed size " + std::to_string(needed) + " cannot come from " +
+                              std::to_string(compressed) + " LZF bytes (LZF expands at most " +
+                              std::to_string(kLzfMaxExpansion) + "-fold)");
+    }
 }
 
 CloudFile read_compressed(const PcdHeader& header, const std::string& bytes,
@@ -90,35 +110,18 @@ CloudFile read_compressed(const PcdHeader& header, const std::string& bytes,
     const std::uint64_t available = bytes.size() - header.data_offset;
     if (available < 8) {
         cloud_error(name,
-                    "truncated: DATA binary_compressed needs two uint32 sizes "
-                    "(compressed, uncompressed) after the header, the file has " +
+                    "truncated: DATA binary_compressed needs two uint32 sizes (compressed, "
+                    "uncompressed) after the header, the file has " +
                         std::to_string(available) + " bytes");
     }
     const auto* sizes = reinterpret_cast<const unsigned char*>(bytes.data()) + header.data_offset;
-    const auto compressed =
-        static_cast<std::uint64_t>(decode_scalar(sizes, {ScalarKind::kUnsigned, 4}, false));
-    const auto uncompressed =
-        static_cast<std::uint64_t>(decode_scalar(sizes + 4, {ScalarKind::kUnsigned, 4}, false));
-    const std::uint64_t needed = data_bytes(header, name);
-    if (compressed != available - 8) {
-        cloud_error(name, "compressed size " + std::to_string(compressed) + " does not match the " +
-                              std::to_string(available - 8) +
-                              " bytes after the two sizes (truncated file or trailing data)");
-    }
-    if (uncompressed != needed) {
-        cloud_error(name,
-                    "uncompressed size " + std::to_string(uncompressed) +
-                        " does not match POINTS x point size = " + std::to_string(header.points) +
-                        " x " + std::to_string(header.point_size) + " = " + std::to_string(needed));
-    }
-    if (needed > compressed * kLzfMaxExpansion) {
-        cloud_error(name, "uncompressed size " + std::to_string(needed) + " cannot come from " +
-                              std::to_string(compressed) + " LZF bytes (LZF expands at most " +
-                              std::to_string(kLzfMaxExpansion) + "-fold)");
-    }
-    const std::string soa =
-        lzf_decompress_exact(bytes.data() + header.data_offset + 8, compressed, needed, name);
-    const auto* data = reinterpret_cast<const unsigned char*>(soa.data());
+    constexpr ScalarType kUint32{ScalarKind::kUnsigned, 4};
+    const auto compressed = static_cast<std::uint64_t>(decode_scalar(sizes, kUint32, false));
+    const auto uncompressed = static_cast<std::uint64_t>(decode_scalar(sizes + 4, kUint32, false));
+    check_lzf_sizes(compressed, uncompressed, available - 8, header, name);
+    const std::string columns =
+        lzf_decompress_exact(bytes.data() + header.data_offset + 8, compressed, uncompressed, name);
+    const auto* data = reinterpret_cast<const unsigned char*>(columns.data());
     return decode_points(header, locate_columns(header, data, true));
 }
 
