@@ -10,11 +10,19 @@
 //   ipv4_reassembler  the first 24 records' IPv4 fragments in fuzz_ipv4_reassembler's form
 //   station_config    REPO_DIR/config/station.example.yaml and a station naming every
 //                     metadata file of DATA_DIR (read with LIDARFUSE_FUZZ_BASE_DIR=DATA_DIR)
+//   pcd_reader        every PCD under DATA_DIR/../real as is (libFuzzer reads the first
+//                     -max_len bytes of the large ones), and each cut to 200 points from
+//                     its middle: ascii ones as ascii, binary_compressed ones as
+//                     binary_compressed and as binary, their fields and types kept
+//   ply_reader        the first cut cloud written by io::write_ply in its three formats, and
+//                     the ascii and little-endian ones with a face element (lists) after
+//                     the vertices
 // Prints one line per corpus with its number of files.
 #include <pcap/pcap.h>
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -22,16 +30,20 @@
 #include <string>
 #include <vector>
 
+#include "drivers/io/cloud_file.hpp"
+#include "drivers/io/cloud_lzf.hpp"
+#include "drivers/io/cloud_pcd_header.hpp"
 #include "drivers/ouster/metadata.hpp"
-#include "fuzz/packet_shapes.hpp"
 #include "drivers/pcap/frame_decoder.hpp"
 #include "drivers/pcap/pcap_reader.hpp"
 #include "fuzz/fuzz_input.hpp"
+#include "fuzz/packet_shapes.hpp"
 
 namespace fs = std::filesystem;
 namespace lf = lidarfuse;
 namespace ouster = lidarfuse::ouster;
 namespace fuzz = lidarfuse::fuzz;
+namespace io = lidarfuse::io;
 
 namespace {
 
@@ -221,6 +233,135 @@ int metadata_seeds(const fs::path& data_dir, const fs::path& out) {
     return written;
 }
 
+// A PCD header's text with WIDTH, HEIGHT, POINTS and DATA rewritten for n unorganised points.
+std::string resized_pcd_header(const std::string& header, std::size_t n, const std::string& data) {
+    std::istringstream in(header);
+    std::string line, out;
+    while (std::getline(in, line)) {
+        const std::string key = line.substr(0, line.find(' '));
+        if (key == "WIDTH" || key == "POINTS") line = key + " " + std::to_string(n);
+        if (key == "HEIGHT") line = "HEIGHT 1";
+        if (key == "DATA") line = "DATA " + data;
+        out += line + "\n";
+    }
+    return out;
+}
+
+// Rows [first, first + n) of an ascii PCD's data.
+std::string ascii_rows(const std::string& bytes, const io::PcdHeader& h, std::size_t first,
+                       std::size_t n) {
+    std::size_t begin = h.data_offset;
+    for (std::size_t i = 0; i < first; ++i) {
+        const std::size_t newline = bytes.find('\n', begin);
+        if (newline == std::string::npos) return {};
+        begin = newline + 1;
+    }
+    std::size_t end = begin;
+    for (std::size_t i = 0; i < n && end < bytes.size(); ++i) {
+        const std::size_t newline = bytes.find('\n', end);
+        end = newline == std::string::npos ? bytes.size() : newline + 1;
+    }
+    return bytes.substr(begin, end - begin);
+}
+
+// Points [first, first + n) of a binary_compressed PCD as its struct-of-arrays block.
+std::string compressed_columns(const std::string& bytes, const io::PcdHeader& h, std::size_t first,
+                               std::size_t n) {
+    std::uint32_t sizes[2];
+    std::memcpy(sizes, bytes.data() + h.data_offset, sizeof(sizes));  // little-endian host
+    const std::string all =
+        io::lzf_decompress_exact(bytes.data() + h.data_offset + 8, sizes[0], sizes[1], "seed");
+    std::string out;
+    for (const auto& f : h.fields) {
+        const std::size_t width = f.type.size * f.count;
+        out.append(all, h.points * f.offset + first * width, n * width);
+    }
+    return out;
+}
+
+// The same n points one after another (DATA binary).
+std::string columns_to_records(const std::string& columns, const io::PcdHeader& h, std::size_t n) {
+    std::string out(n * h.point_size, '\0');
+    for (const auto& f : h.fields) {
+        const std::size_t width = f.type.size * f.count;
+        for (std::size_t i = 0; i < n; ++i) {
+            std::memcpy(&out[i * h.point_size + f.offset], &columns[n * f.offset + i * width],
+                        width);
+        }
+    }
+    return out;
+}
+
+std::vector<fs::path> pcd_files(const fs::path& dir) {
+    std::vector<fs::path> out;
+    for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+        if (entry.is_regular_file() && entry.path().extension() == ".pcd")
+            out.push_back(entry.path());
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+// Writes the pcd_reader seeds; `*small` gets the first cut file's bytes.
+int pcd_seeds(const fs::path& real_dir, const fs::path& out, std::string* small) {
+    int written = 0;
+    for (const auto& file : pcd_files(real_dir)) {
+        const std::string bytes = read_file(file);
+        const std::string stem =
+            file.parent_path().filename().string() + "_" + file.stem().string();
+        write_file(out / (stem + ".pcd"), bytes);
+        const io::PcdHeader h = io::parse_pcd_header(bytes, file.string());
+        // From the middle: organised Ouster clouds start with rows without a return.
+        const std::size_t n = std::min<std::size_t>(h.points, 200), first = h.points / 2;
+        const std::string header = bytes.substr(0, h.data_offset);
+        std::string cut;
+        if (h.data == io::PcdData::kAscii) {
+            cut = resized_pcd_header(header, n, "ascii") + ascii_rows(bytes, h, first, n);
+        } else if (h.data == io::PcdData::kBinaryCompressed) {
+            const std::string columns = compressed_columns(bytes, h, first, n);
+            const std::string lzf = io::lzf_compress_for_pcd(columns);
+            const std::uint32_t sizes[2] = {static_cast<std::uint32_t>(lzf.size()),
+                                            static_cast<std::uint32_t>(columns.size())};
+            cut = resized_pcd_header(header, n, "binary_compressed") +
+                  std::string(reinterpret_cast<const char*>(sizes), sizeof(sizes)) + lzf;
+            write_file(out / (stem + ".cut.binary.pcd"),
+                       resized_pcd_header(header, n, "binary") + columns_to_records(columns, h, n));
+            ++written;
+        }
+        if (cut.empty()) continue;
+        write_file(out / (stem + ".cut.pcd"), cut);
+        if (small->empty()) *small = cut;
+        written += 2;
+    }
+    return written;
+}
+
+// The cut cloud as PLY in every format, and two of them with a face element after the
+// vertices (list properties to read past).
+int ply_seeds(const std::string& small_pcd, const fs::path& out) {
+    if (small_pcd.empty()) return 0;
+    const io::CloudFile cloud = io::read_pcd(small_pcd, "seed.pcd");
+    const std::pair<const char*, io::PlyEncoding> encodings[] = {
+        {"ascii", io::PlyEncoding::kAscii},
+        {"le", io::PlyEncoding::kBinaryLittleEndian},
+        {"be", io::PlyEncoding::kBinaryBigEndian}};
+    for (const auto& [name, encoding] : encodings)
+        io::write_ply(out / (std::string(name) + ".ply"), cloud, encoding);
+    const std::string faces =
+        "element face 2\nproperty list uchar int vertex_indices\nend_header\n";
+    std::string ascii = read_file(out / "ascii.ply");
+    ascii.replace(ascii.find("end_header\n"), 11, faces);
+    write_file(out / "ascii_faces.ply", ascii + "3 0 1 2\n4 0 1 2 3\n");
+    std::string le = read_file(out / "le.ply");
+    le.replace(le.find("end_header\n"), 11, faces);
+    for (const std::vector<int>& face : {std::vector<int>{0, 1, 2}, std::vector<int>{0, 1, 2, 3}}) {
+        le.push_back(static_cast<char>(face.size()));
+        for (int v : face) le.append(std::string(reinterpret_cast<const char*>(&v), 4));
+    }
+    write_file(out / "le_faces.ply", le);
+    return 5;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -244,6 +385,13 @@ int main(int argc, char** argv) {
         std::printf("seeds pcap_reader %d\n", pcap_seeds(data_dir, dir("pcap_reader")));
         std::printf("seeds ipv4_reassembler %d\n", reassembler_seeds(data_dir, dir("ipv4_reassembler")));
         std::printf("seeds station_config %d\n", config_seeds(data_dir, repo_dir, dir("station_config")));
+        // The real point clouds sit beside the Ouster samples: DATA_DIR/../real.
+        const fs::path real_dir = data_dir / ".." / "real";
+        std::string small_pcd;
+        const int pcds =
+            fs::is_directory(real_dir) ? pcd_seeds(real_dir, dir("pcd_reader"), &small_pcd) : 0;
+        std::printf("seeds pcd_reader %d\n", pcds);
+        std::printf("seeds ply_reader %d\n", ply_seeds(small_pcd, dir("ply_reader")));
     } catch (const std::exception& error) {
         std::fprintf(stderr, "fuzz_seed_corpus: %s\n", error.what());
         return 1;
