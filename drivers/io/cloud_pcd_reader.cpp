@@ -63,6 +63,17 @@ std::uint64_t data_bytes(const PcdHeader& header, const std::string& name) {
     return checked_product(header.points, header.point_size, name, "POINTS x point size");
 }
 
+// PCL before 1.8 stretched a binary file to getpagesize() + its data bytes (lseek and a
+// one-byte write before mmap), so its files end in up to a page of zero bytes after the
+// data. Such padding is accepted; any other byte after the data is an error.
+constexpr std::uint64_t kMaxZeroPadding = 1 << 16;  // the largest page size in use
+
+bool is_zero_padding(const std::string& bytes, std::uint64_t from) {
+    if (from > bytes.size() || bytes.size() - from > kMaxZeroPadding) return false;
+    return std::all_of(bytes.begin() + static_cast<std::ptrdiff_t>(from), bytes.end(),
+                       [](char c) { return c == 0; });
+}
+
 std::string size_text(const PcdHeader& header, std::uint64_t needed) {
     return "POINTS x point size = " + std::to_string(header.points) + " x " +
            std::to_string(header.point_size) + " = " + std::to_string(needed);
@@ -75,7 +86,7 @@ CloudFile read_binary(const PcdHeader& header, const std::string& bytes, const s
         cloud_error(name, "truncated: DATA binary needs " + size_text(header, needed) +
                               " bytes after the header, the file has " + std::to_string(available));
     }
-    if (available > needed) {
+    if (available > needed && !is_zero_padding(bytes, header.data_offset + needed)) {
         cloud_error(name, std::to_string(available - needed) + " bytes after the last point " +
                               "(DATA binary expects exactly " + size_text(header, needed) +
                               " bytes)");
@@ -87,12 +98,13 @@ CloudFile read_binary(const PcdHeader& header, const std::string& bytes, const s
 // The sizes in front of the LZF data against the bytes after them and against the header,
 // before anything is allocated.
 void check_lzf_sizes(std::uint64_t compressed, std::uint64_t uncompressed, std::uint64_t available,
-                     const PcdHeader& header, const std::string& name) {
+                     bool padded, const PcdHeader& header, const std::string& name) {
     const std::uint64_t needed = data_bytes(header, name);
-    if (compressed != available) {
+    if (compressed > available || (compressed < available && !padded)) {
         cloud_error(name, "compressed size " + std::to_string(compressed) + " does not match the " +
                               std::to_string(available) +
-                              " bytes after the two sizes (truncated file or trailing data)");
+                              " bytes after the two sizes (truncated file, or trailing data that "
+                              "is not zero padding)");
     }
     if (uncompressed != needed) {
         cloud_error(name, "uncompressed size " + std::to_string(uncompressed) + " does not match " +
@@ -118,7 +130,9 @@ CloudFile read_compressed(const PcdHeader& header, const std::string& bytes,
     constexpr ScalarType kUint32{ScalarKind::kUnsigned, 4};
     const auto compressed = static_cast<std::uint64_t>(decode_scalar(sizes, kUint32, false));
     const auto uncompressed = static_cast<std::uint64_t>(decode_scalar(sizes + 4, kUint32, false));
-    check_lzf_sizes(compressed, uncompressed, available - 8, header, name);
+    const bool padded =
+        compressed < available - 8 && is_zero_padding(bytes, header.data_offset + 8 + compressed);
+    check_lzf_sizes(compressed, uncompressed, available - 8, padded, header, name);
     const std::string columns =
         lzf_decompress_exact(bytes.data() + header.data_offset + 8, compressed, uncompressed, name);
     const auto* data = reinterpret_cast<const unsigned char*>(columns.data());

@@ -479,6 +479,21 @@ void expect_pcd_error(const std::string& bytes, const std::string& expected) {
     EXPECT_THAT(message, HasSubstr(expected));
 }
 
+// PCL before 1.8 stretched binary files to a page plus the data; the zero bytes after the
+// data are no points and no error, any other trailing byte is.
+TEST(PcdReader, AcceptsTheZeroPagePaddingOfOlderPclWriters) {
+    const CloudFile expected = read_pcd(good_pcd(PcdEncoding::kBinary), "good.pcd");
+    const std::string padding(4096 - 180, '\0');
+    for (const PcdEncoding encoding : {PcdEncoding::kBinary, PcdEncoding::kBinaryCompressed}) {
+        const std::string good = good_pcd(encoding);
+        expect_same_cloud(read_pcd(good + padding, "padded.pcd"), expected);
+        expect_pcd_error(good + padding + "x", encoding == PcdEncoding::kBinary
+                                                   ? "bytes after the last point"
+                                                   : "trailing data that is not zero padding");
+        expect_pcd_error(good + std::string(70000, '\0'), "");
+    }
+}
+
 TEST(PcdMalformed, TruncatedData) {
     const std::string binary = good_pcd(PcdEncoding::kBinary);
     expect_pcd_error(binary.substr(0, binary.size() - 3),
