@@ -8,7 +8,13 @@
 //   register_pair's chosen result; the ground-aligned search's peaks (ground_aligned_search.hpp)
 //   with their errors. Then the full register_initial and its pose errors.
 //
-// Usage: registration_diagnose_bench SIM_DIR... [key=value...]
+// Inputs: a simulated capture folder (station.yaml, capture.pcap, ground_truth.csv), or a
+// real rig folder as in ../shared/data/real: one point-cloud file per sensor (NAME.pcd or
+// NAME.ply) and references T_ROOT_NAME.txt (4 x 4 row-major, p_root = T * p_name), the
+// root being the sensor every reference starts from. A real rig's reference is not ground
+// truth (its SOURCES.md says how far off it is): the errors printed are distances from it.
+//
+// Usage: registration_diagnose_bench DIR... [key=value...]
 //   keys: fpfh_radius, sift_scale, sift_contrast, sift_octaves, octree_max, octree_min,
 //         normals_k, ratio, mutual, candidates_per_source, ransac_iterations,
 //         ransac_threshold, rank_share, height_diff, min_height, peaks (ground-aligned
@@ -28,6 +34,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <string>
 #include <vector>
@@ -37,6 +45,7 @@
 #include "core/kdtree.hpp"
 #include "core/se3.hpp"
 #include "drivers/capture/station_capture.hpp"
+#include "drivers/io/cloud_file.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "drivers/station/station_config.hpp"
 
@@ -91,6 +100,50 @@ Frame load_frame(const std::string& dir, double truth_shift_s) {
         T.translation() = (1 - a) * before->pose.translation() + a * after->pose.translation();
         T.linear() = Eigen::Quaterniond(before->pose.linear()).slerp(a, Eigen::Quaterniond(after->pose.linear())).toRotationMatrix();
         frame.T_world_sensor.push_back(T);
+    }
+    return frame;
+}
+
+// A 4 x 4 row-major matrix from a text file.
+Eigen::Isometry3d read_reference(const std::filesystem::path& file) {
+    std::ifstream in(file);
+    Eigen::Matrix4d M;
+    for (int k = 0; k < 16; ++k) {
+        if (!(in >> M(k / 4, k % 4))) throw std::runtime_error(file.string() + ": expected 16 numbers (4 x 4, row-major)");
+    }
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.matrix() = M;
+    return T;
+}
+
+// A real rig folder: the root's cloud first, then every sensor it has a reference to.
+Frame load_rig(const std::string& dir) {
+    std::string root;
+    std::map<std::string, Eigen::Isometry3d> references;
+    for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+        const std::string name = entry.path().filename().string();
+        const auto sep = name.find('_', 2);
+        if (name.rfind("T_", 0) != 0 || entry.path().extension() != ".txt" || sep == std::string::npos) continue;
+        const std::string a = name.substr(2, sep - 2);
+        if (!root.empty() && a != root) throw std::runtime_error(dir + ": references from two roots, " + root + " and " + a);
+        root = a;
+        references[entry.path().stem().string().substr(sep + 1)] = read_reference(entry.path());
+    }
+    if (root.empty()) throw std::runtime_error(dir + ": no station.yaml and no T_ROOT_NAME.txt references");
+    auto cloud_of = [&](const std::string& name) {
+        for (const char* ext : {".pcd", ".ply"}) {
+            if (std::filesystem::exists(dir + "/" + name + ext)) return io::read_cloud_file(dir + "/" + name + ext).cloud;
+        }
+        throw std::runtime_error(dir + ": no " + name + ".pcd or " + name + ".ply");
+    };
+    Frame frame;
+    frame.clouds.push_back(cloud_of(root));
+    frame.names.push_back(root);
+    frame.T_world_sensor.push_back(Eigen::Isometry3d::Identity());
+    for (const auto& [name, T_root_name] : references) {
+        frame.clouds.push_back(cloud_of(name));
+        frame.names.push_back(name);
+        frame.T_world_sensor.push_back(T_root_name);
     }
     return frame;
 }
@@ -164,7 +217,9 @@ int main(int argc, char** argv) {
     int total_sensors = 0, total_registered = 0, total_wrong = 0;
     double worst_t = 0.0, worst_r = 0.0, total_s = 0.0;
     for (const std::string& dir : dirs) {
-        const Frame frame = load_frame(dir, option(opts, "truth_shift_s", 0.0));
+        const Frame frame = std::filesystem::exists(dir + "/station.yaml")
+                                ? load_frame(dir, option(opts, "truth_shift_s", 0.0))
+                                : load_rig(dir);
         const std::size_t n = frame.clouds.size();
         auto truth = [&](std::size_t target, std::size_t source) {
             return Eigen::Isometry3d(frame.T_world_sensor[target].inverse() * frame.T_world_sensor[source]);
@@ -240,6 +295,34 @@ int main(int argc, char** argv) {
                                  matches.size(), true_matches,
                                  matches.empty() ? 0.0 : static_cast<double>(true_matches) / matches.size());
                     {
+                        // The checks at the truth: what the free-space test and G-ICP say of
+                        // the right transform (a right pair refused by a check shows here).
+                        const auto a = core::free_space_violations(src.gicp.cloud().points, tgt.free_space, T);
+                        const auto b = core::free_space_violations(tgt.gicp.cloud().points, src.free_space, T.inverse());
+                        std::fprintf(stderr, "    truth free space: source->target %zu/%zu %.3f  target->source %zu/%zu %.3f\n",
+                                     a.num_violations, a.num_tested, a.violation_share, b.num_violations, b.num_tested,
+                                     b.violation_share);
+                        core::GicpParams gparams = p.gicp;
+                        core::GicpRegistration reg(gparams);
+                        Eigen::Isometry3d Tc = T;
+                        core::GicpResult gr;
+                        for (double md : p.gicp_max_correspondence_m) {
+                            gparams.max_correspondence_distance_m = md;
+                            reg.set_params(gparams);
+                            gr = reg.align(tgt.gicp, src.gicp.cloud(), Tc);
+                            Tc = gr.T_target_source;
+                        }
+                        core::P2pErrorParams pp;
+                        pp.cutoff_radius_m = p.p2p_cutoff_m;
+                        const auto pe = core::p2p_error(src.gicp.cloud().points, tgt.gicp.tree(), Tc, pp);
+                        std::fprintf(stderr,
+                                     "    G-ICP from the truth: moves %.3f m %.3f deg, converged %d in %d, inliers %.3f, "
+                                     "p2p %.3f m, overlap %.3f, info/inlier %.2f\n",
+                                     core::translation_error_m(Tc, T), core::rotation_error_deg(Tc, T), gr.converged ? 1 : 0,
+                                     gr.iterations, gr.inlier_ratio, pe.error_m, pe.overlap_share,
+                                     core::information_per_inlier(gr.H_eigenvalues(0), gr.num_inliers));
+                    }
+                    {
                         core::GroundAlignedKeypoints ks{&src.keypoint_points, &src.keypoint_normals, &src.descriptors, src.ground.T_ground_sensor};
                         core::GroundAlignedKeypoints kt{&tgt.keypoint_points, &tgt.keypoint_normals, &tgt.descriptors, tgt.ground.T_ground_sensor};
                         core::GroundAlignedSearchParams gp;
@@ -254,7 +337,7 @@ int main(int argc, char** argv) {
                             core::GicpParams gparams = p.gicp;
                             core::GicpRegistration reg(gparams);
                             for (const auto& c : cands) {
-                                const auto coarse = core::free_space_violations_both(src.gicp.cloud().points, tgt.gicp.cloud().points, c.T_target_source, p.free_space);
+                                const auto coarse = core::free_space_violations_both(src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points, tgt.free_space, c.T_target_source);
                                 if (coarse.violation_share > p.max_ground_coarse_free_space_violation_share) continue;
                                 Eigen::Isometry3d Tc = c.T_target_source;
                                 core::GicpResult gr;
@@ -264,7 +347,7 @@ int main(int argc, char** argv) {
                                     gr = reg.align(tgt.gicp, src.gicp.cloud(), Tc);
                                     Tc = gr.T_target_source;
                                 }
-                                const auto fs = core::free_space_violations_both(src.gicp.cloud().points, tgt.gicp.cloud().points, Tc, p.free_space);
+                                const auto fs = core::free_space_violations_both(src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points, tgt.free_space, Tc);
                                 core::P2pErrorParams pp; pp.cutoff_radius_m = p.p2p_cutoff_m;
                                 const auto pe = core::p2p_error(src.gicp.cloud().points, tgt.gicp.tree(), Tc, pp);
                                 std::fprintf(stderr, "    refined %zu->%zu: start %.2fm err %.3fm %.3fdeg fs %.4f coarse %.3f p2p %.3f N %zu inl %.2f it %d\n", i, j,
@@ -274,7 +357,7 @@ int main(int argc, char** argv) {
                         }
                         std::fprintf(stderr, "    ground search %.1f ms:", dt * 1e3);
                         for (const auto& c : cands) {
-                            const auto fs = core::free_space_violations_both(src.gicp.cloud().points, tgt.gicp.cloud().points, c.T_target_source, p.free_space);
+                            const auto fs = core::free_space_violations_both(src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points, tgt.free_space, c.T_target_source);
                             std::fprintf(stderr, " [v%d i%zu fs%.3f %.2fm %.2fdeg]", c.votes, c.inliers.size(), fs.violation_share,
                                          core::translation_error_m(c.T_target_source, T),
                                          core::rotation_error_deg(c.T_target_source, T));

@@ -146,7 +146,7 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
             return drop(CandidateOutcome::kSameSensorPosition, &same_place_rejected);
         }
         const FreeSpaceResult coarse_free_space = free_space_violations_both(
-            source.gicp.cloud().points, target.gicp.cloud().points, T_initial, params.free_space);
+            source.gicp.cloud().points, source.free_space, target.gicp.cloud().points, target.free_space, T_initial);
         record.coarse_free_space_share = coarse_free_space.violation_share;
         if (coarse_free_space.violation_share > max_coarse_share) {
             result.worst_rejected_violation_share =
@@ -175,7 +175,7 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         result.timings.gicp_s += seconds_since(start_gicp);
         record.T_refined = candidate.T_target_source;
         record.gicp_inlier_ratio = candidate.gicp.inlier_ratio;
-        if (!refined || !keeps_up_vector(candidate.T_target_source)) {
+        if (!refined || !keeps_up_vector(candidate.T_target_source, up_direction(source), up_direction(target))) {
             return drop(CandidateOutcome::kRefinementFailed, nullptr);
         }
         if (candidate.T_target_source.translation().norm() < params.min_sensor_separation_m) {
@@ -197,8 +197,9 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         if (record.information_per_inlier < params.min_information_per_inlier) {
             return drop(CandidateOutcome::kWeak, &weak_candidates);
         }
-        candidate.free_space = free_space_violations_both(source.gicp.cloud().points, target.gicp.cloud().points,
-                                                          candidate.T_target_source, params.free_space);
+        candidate.free_space = free_space_violations_both(source.gicp.cloud().points, source.free_space,
+                                                          target.gicp.cloud().points, target.free_space,
+                                                          candidate.T_target_source);
         record.free_space_share = candidate.free_space.violation_share;
         if (candidate.free_space.violation_share > params.max_free_space_violation_share) {
             result.worst_rejected_violation_share =
@@ -243,6 +244,8 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         start = Clock::now();
         RansacParams ransac_params = params.ransac;
         ransac_params.seed = params.ransac.seed + static_cast<std::uint32_t>(round);
+        ransac_params.source_up = up_direction(source);
+        ransac_params.target_up = up_direction(target);
         const RansacResult ransac = ransac_registration(source.keypoint_points, target.keypoint_points,
                                                         remaining, ransac_params);
         result.timings.ransac_s += seconds_since(start);

@@ -77,14 +77,10 @@ struct PairRegistrationParams {
     // check below rejects wrong candidates on principle.
     double min_information_per_inlier = 0.0;
     // Our addition (visibility, free_space_check.hpp): a candidate is dropped when more
-    // than this share of one sensor's points lie in the other sensor's observed free
-    // space (checked both ways, 1 deg ray bins, 1 m + 2% margin, on the G-ICP clouds).
-    // Measured on `lidarfuse sim` captures (curve/straight/intersection, seeds 1-2, with
-    // and without pole motion): right candidates (<= 3 cm off the truth) 0.010-0.020; wrong
-    // ones 0.042-0.34, the lowest from the intersection's look-alike arms, where a wrong
-    // candidate puts a sensor onto another's position rotated by 90 or 180 deg (p2p error
-    // 0.15-0.23 m and overlap 0.85, better than the right candidates' 0.36 m and 0.5).
-    FreeSpaceParams free_space{};
+    // than this share of one sensor's points lie in the other sensor's observed free space
+    // (checked both ways, the G-ICP clouds against each sensor's FreeSpaceMap, built with
+    // SensorFeatureParams::free_space). Measured on `lidarfuse sim` captures and on the real
+    // rigs: bench/BENCHMARK.md.
     double max_free_space_violation_share = 0.08;
     // The same check on the RANSAC transform, before G-ICP (saves refining hopeless
     // candidates); looser, because the RANSAC transform is off by up to ~the RANSAC inlier

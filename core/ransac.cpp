@@ -50,9 +50,9 @@ double required_iterations(double inlier_ratio, double confidence) {
 
 }  // namespace
 
-bool keeps_up_vector(const Eigen::Isometry3d& T_target_source) {
-    // z component of R * (0,0,1) is R(2,2).
-    return T_target_source.linear()(2, 2) >= 0.0;
+bool keeps_up_vector(const Eigen::Isometry3d& T_target_source, const Eigen::Vector3d& source_up,
+                     const Eigen::Vector3d& target_up) {
+    return (T_target_source.linear() * source_up).dot(target_up) >= 0.0;
 }
 
 RansacResult ransac_registration(const std::vector<Eigen::Vector3d>& source_points,
@@ -108,7 +108,7 @@ RansacResult ransac_registration(const std::vector<Eigen::Vector3d>& source_poin
         }
         const KabschResult fit = estimate_rigid_transform(sample_source, sample_target);
         if (!fit.valid) continue;
-        if (params.reject_upside_down && !keeps_up_vector(fit.T_target_source)) {
+        if (params.reject_upside_down && !keeps_up_vector(fit.T_target_source, params.source_up, params.target_up)) {
             ++result.upside_down_hypotheses;
             continue;
         }
@@ -132,7 +132,7 @@ RansacResult ransac_registration(const std::vector<Eigen::Vector3d>& source_poin
         const KabschResult fit =
             estimate_rigid_transform(source_points, target_points, correspondences, inliers);
         if (!fit.valid) break;
-        if (params.reject_upside_down && !keeps_up_vector(fit.T_target_source)) break;
+        if (params.reject_upside_down && !keeps_up_vector(fit.T_target_source, params.source_up, params.target_up)) break;
         std::vector<std::uint32_t> refit_inliers;
         const Consensus consensus = evaluate(fit.T_target_source, source_points, target_points,
                                              correspondences, threshold_sq, &refit_inliers);

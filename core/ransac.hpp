@@ -28,8 +28,13 @@ struct RansacParams {
     double edge_similarity = 0.9;
     // Samples whose source triangle has an edge shorter than this are degenerate (m).
     double min_edge_length_m = 0.3;
-    // Reject hypotheses that turn the up axis (0,0,1) to negative z (PAPER.md step 6).
+    // Reject hypotheses that turn the source's up direction away from the target's
+    // (PAPER.md step 6: the paper's up is each sensor's +z, "not mounted upside down"; where
+    // the road plane is known its normal is the up, so that sensors tilted by 45 deg or
+    // more, whose +z axes may point apart, are not refused: see keeps_up_vector).
     bool reject_upside_down = true;
+    Eigen::Vector3d source_up = Eigen::Vector3d::UnitZ();  // unit, source frame
+    Eigen::Vector3d target_up = Eigen::Vector3d::UnitZ();  // unit, target frame
     // Fewer inliers than this is a failure.
     int min_inliers = 6;
     // Refit-and-recount rounds on the winner's inliers.
@@ -54,8 +59,11 @@ struct RansacResult {
     int upside_down_hypotheses = 0;
 };
 
-// True when R * (0,0,1) has non-negative z: the transform does not flip the up axis.
-bool keeps_up_vector(const Eigen::Isometry3d& T_target_source);
+// True when R * source_up does not point against target_up: the transform does not turn
+// the world upside down. With the default +z axes: R * (0,0,1) has non-negative z.
+bool keeps_up_vector(const Eigen::Isometry3d& T_target_source,
+                     const Eigen::Vector3d& source_up = Eigen::Vector3d::UnitZ(),
+                     const Eigen::Vector3d& target_up = Eigen::Vector3d::UnitZ());
 
 // `source_points[c.source]` and `target_points[c.target]` for every correspondence c.
 RansacResult ransac_registration(const std::vector<Eigen::Vector3d>& source_points,

@@ -76,6 +76,7 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     std::vector<double> curvature;
     estimate_normals_covariances(&clean, normal_params, &curvature);
     out.timings.normals_s = seconds_since(start);
+    out.free_space = FreeSpaceMap(clean.points, clean.normals, params.free_space);
 
     // Step 3: normal-adaptive octree.
     start = Clock::now();
@@ -128,7 +129,7 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     }
     out.timings.fpfh_s = seconds_since(start);
     start = Clock::now();
-    out.ground = estimate_ground_plane(out.octree.cloud.points, out.octree.cloud.normals, params.ground);
+    out.ground = estimate_ground_plane(clean.points, clean.normals, params.ground);
     out.timings.ground_s = seconds_since(start);
     out.status = SensorFeatureStatus::kOk;
     return out;

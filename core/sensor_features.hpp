@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/fpfh.hpp"
+#include "core/free_space_check.hpp"
 #include "core/gicp.hpp"
 #include "core/ground_plane.hpp"
 #include "core/normals.hpp"
@@ -38,9 +39,13 @@ struct SensorFeatureParams {
     OctreeDownsampleParams octree{};
     SiftKeypointParams sift{};
     FpfhParams fpfh{};
-    // The road plane (on the octree cloud) that levels the sensor for the ground-aligned
+    // The road plane (on the pre-processed cloud: every return, with its normal; the octree
+    // keeps few points of a large plane) that levels the sensor for the ground-aligned
     // candidate search (our addition, ground_aligned_search.hpp).
     GroundPlaneParams ground{};
+    // The sensor's observed free space (free_space_check.hpp), from the pre-processed cloud
+    // and its normals: the pair checks test the other sensor's G-ICP cloud against it.
+    FreeSpaceParams free_space{};
     // G-ICP / p2p cloud: voxel size (m) and the k of its covariances.
     double gicp_voxel_size_m = 0.5;
     int gicp_k_neighbors = 20;
@@ -84,9 +89,16 @@ struct SensorFeatures {
     GicpTarget gicp;                              // voxel cloud with covariances + k-d tree
     GicpTarget polish;                            // the finer one (empty when off)
     GroundPlane ground;                           // found = false when no road plane
+    FreeSpaceMap free_space;                      // rays of the pre-processed cloud
     double normal_spread = 0.0;                   // see min_normal_spread
     SensorFeatureTimings timings;
 };
+
+// The sensor's up direction (unit, sensor frame): its road plane's normal where one was
+// found, else its +z axis (PAPER.md: "not mounted upside down").
+inline Eigen::Vector3d up_direction(const SensorFeatures& features) {
+    return features.ground.found ? features.ground.up : Eigen::Vector3d::UnitZ();
+}
 
 // Needs at least `min_keypoints` keypoints for kOk.
 SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeatureParams& params,

@@ -113,6 +113,24 @@ TEST(Ransac, UpVectorCheckRejectsUpsideDown) {
     EXPECT_TRUE(accepted.T_target_source.isApprox(flip, 1e-2));
 }
 
+// Two sensors tilted 45 deg to opposite sides (the side units of a vehicle rig): their +z
+// axes are 90 deg apart plus a little, so +z alone calls the right transform upside down;
+// their road normals (the up directions) agree under it.
+TEST(Ransac, UpVectorCheckUsesTheGivenUpDirections) {
+    const Eigen::Matrix3d R_world_left = Eigen::AngleAxisd(46.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    const Eigen::Matrix3d R_world_right = Eigen::AngleAxisd(-46.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    Eigen::Isometry3d T_left_right = Eigen::Isometry3d::Identity();
+    T_left_right.linear() = R_world_left.transpose() * R_world_right;
+    const Eigen::Vector3d up_left = R_world_left.transpose() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d up_right = R_world_right.transpose() * Eigen::Vector3d::UnitZ();
+    EXPECT_FALSE(keeps_up_vector(T_left_right));
+    EXPECT_TRUE(keeps_up_vector(T_left_right, up_right, up_left));
+    // Turned upside down about the road's x axis, it is refused with the same up directions.
+    Eigen::Isometry3d flipped = T_left_right;
+    flipped.linear() = R_world_left.transpose() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * R_world_right;
+    EXPECT_FALSE(keeps_up_vector(flipped, up_right, up_left));
+}
+
 TEST(Ransac, DegenerateInputs) {
     RansacParams params;
     EXPECT_FALSE(ransac_registration({}, {}, {}, params).success);
