@@ -1,10 +1,15 @@
-// `lidarfuse calibrate CAPTURE.pcap --config station.yaml --out extrinsics.yaml [--frame N]`:
-// the initial registration (issue 4) on one synchronised frame of a capture. Decodes with
-// the production ingest, takes the first complete synchronised frame (or the N-th, 0-based)
-// -- one complete scan per enabled sensor, grouped as `fuse` groups them (members within
-// 1/SR) -- runs core::register_initial and writes every sensor's T_root_sensor plus the
-// per-pair quality figures. Sensors that cannot be registered are written with
-// `registered: false` and the reason, never with a pose.
+// `lidarfuse calibrate`: the initial registration (issue 4) with no initial guess, from
+//   - one synchronised frame of a capture: `CAPTURE.pcap --config station.yaml [--frame N]`,
+//     decoded with the production ingest; the first complete synchronised frame (or the N-th,
+//     0-based) -- one complete scan per enabled sensor, grouped as `fuse` groups them
+//     (members within 1/SR);
+//   - or one point-cloud file per sensor, any LiDAR: `--cloud NAME=FILE ...` (PCD or PLY,
+//     each cloud in its own sensor frame, metres; drivers/io/cloud_file.hpp), the root being
+//     `--root` or the first cloud; `--config` is optional there and only its registration
+//     section is read.
+// Both run core::register_initial with the same parameters and write every sensor's
+// T_root_sensor plus the per-pair quality figures. Sensors that cannot be registered are
+// written with `registered: false` and the reason, never with a pose.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -15,6 +20,7 @@
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/se3.hpp"
 #include "drivers/capture/station_capture.hpp"
+#include "drivers/io/cloud_file.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/station/fusion_config.hpp"
 #include "tools/args.hpp"
@@ -27,23 +33,31 @@ namespace {
 const char* kUsage =
     "usage: lidarfuse calibrate CAPTURE.pcap --config station.yaml --out extrinsics.yaml\n"
     "                           [--frame N] [--threads N]\n"
-    "Finds every sensor's pose relative to the root sensor from one synchronised frame\n"
-    "(the first complete one, or the N-th complete one counting from 0), with no initial\n"
-    "guess. Writes extrinsics.yaml (translation [x, y, z] in metres, rotation_wxyz) with the\n"
-    "per-pair quality figures, and prints the same as a table.\n";
+    "       lidarfuse calibrate --cloud NAME=FILE --cloud NAME=FILE [--cloud NAME=FILE ...]\n"
+    "                           [--root NAME] --out extrinsics.yaml [--config station.yaml]\n"
+    "                           [--threads N]\n"
+    "Finds every sensor's pose relative to the root sensor with no initial guess, from one\n"
+    "synchronised frame of a capture (the first complete one, or the N-th complete one\n"
+    "counting from 0), or from one point-cloud file per sensor (PCD or PLY, any LiDAR, each\n"
+    "in its own sensor frame, metres; the root is --root or the first --cloud). Writes\n"
+    "extrinsics.yaml (translation [x, y, z] in metres, rotation_wxyz) with the per-pair\n"
+    "quality figures, and prints the same as a table.\n"
+    "Exit status: 0 every sensor registered; 2 some refused (the registered ones are still\n"
+    "written); 1 an error (bad file, config or option).\n";
 
-int run_calibrate(int argc, char** argv) {
-    const Args args(argc, argv, {"--config", "--out", "--frame", "--threads"}, {});
-    if (args.help()) {
-        std::printf("%s", kUsage);
-        return 0;
-    }
+// What register_initial runs on: one cloud per sensor, the root first.
+struct CalibrationInput {
+    std::string station;                 // for extrinsics.yaml; empty for cloud files
+    std::vector<std::string> names;      // names[k] is the sensor of clouds[k]
+    std::vector<core::PointCloud> clouds;
+    std::vector<std::string> disabled;   // sensors of the config left out
+};
+
+// The enabled sensors' scans of one synchronised frame of a capture (the N-th complete one).
+CalibrationInput input_from_capture(const Args& args) {
     if (args.positionals().size() != 1) throw UsageError("expected one CAPTURE.pcap\n" + std::string(kUsage));
-    const auto start = std::chrono::steady_clock::now();
-    auto station_config = station::load_station_config(args.required("--config"));
-    // The registration section's initial-registration keys, as lidarfused uses them.
-    core::InitialRegistrationParams params = station::load_fusion_params(args.required("--config")).initial;
-    const std::string out_path = args.required("--out");
+    const std::string config_path = args.required("--config");
+    const auto station_config = station::load_station_config(config_path);
     const long long wanted = args.integer("--frame", 0);
     if (wanted < 0) throw UsageError("--frame must be >= 0");
 
@@ -53,30 +67,32 @@ int run_calibrate(int argc, char** argv) {
     const auto& sensors = station_config.sensors;
     const std::size_t root = station_config.root_index();
     if (!sensors[root].enabled) {
-        throw std::runtime_error(args.required("--config") + ": root sensor \"" + sensors[root].name +
-                                 "\" is disabled");
+        throw std::runtime_error(config_path + ": root sensor \"" + sensors[root].name + "\" is disabled");
     }
+    CalibrationInput input;
+    input.station = station_config.station;
     std::vector<std::size_t> order{root};
     std::vector<std::size_t> position(sensors.size(), 0);
     for (std::size_t s = 0; s < sensors.size(); ++s) {
+        if (!sensors[s].enabled) input.disabled.push_back(sensors[s].name);
         if (s != root && sensors[s].enabled) {
             position[s] = order.size();
             order.push_back(s);
         }
     }
+    for (std::size_t s : order) input.names.push_back(sensors[s].name);
     // The frame: the same grouping as `fuse` (core::FrameSynchroniser, members within one
     // frame period of the root's rate, capture time as the clock), over complete scans only;
     // the wanted-th frame that holds every enabled sensor.
     core::FrameSynchroniser<core::PointCloud> synchroniser(
         order.size(), core::offline_sync_params(capture.infos()[root].frames_per_second));
     long long complete_frames = 0;
-    std::vector<core::PointCloud> clouds;
     const auto take_ready = [&](std::int64_t now_ns) {
-        while (clouds.empty()) {
+        while (input.clouds.empty()) {
             auto frame = synchroniser.poll(now_ns);
             if (!frame) return;
             if (frame->included() != order.size() || complete_frames++ != wanted) continue;
-            for (auto& member : frame->members) clouds.push_back(std::move(*member));
+            for (auto& member : frame->members) input.clouds.push_back(std::move(*member));
         }
     };
     capture.run([&](const capture::CaptureScan& scan) {
@@ -84,62 +100,100 @@ int run_calibrate(int argc, char** argv) {
             synchroniser.push(position[scan.sensor], scan.t_ns, scan.capture_time_ns, scan.cloud->cloud);
             take_ready(scan.capture_time_ns);
         }
-        return clouds.empty();
+        return input.clouds.empty();
     });
     take_ready(std::numeric_limits<std::int64_t>::max());
-    if (clouds.empty()) {
+    if (input.clouds.empty()) {
         throw std::runtime_error(args.positionals()[0] + ": no complete synchronised frame #" +
-                                 std::to_string(wanted) + " with every sensor of " +
-                                 args.required("--config"));
+                                 std::to_string(wanted) + " with every sensor of " + config_path);
     }
-    const double decode_s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return input;
+}
 
-    params.num_threads = static_cast<int>(args.integer("--threads", 2));
-    const core::InitialRegistrationResult result = core::register_initial(clouds, params);
+// One cloud file per `--cloud NAME=FILE`, the root (`--root`, else the first) moved first.
+// Every argument is checked before any file is read.
+CalibrationInput input_from_cloud_files(const Args& args) {
+    if (!args.positionals().empty()) {
+        throw UsageError("--cloud and a CAPTURE.pcap cannot be combined\n" + std::string(kUsage));
+    }
+    if (args.value("--frame")) throw UsageError("--frame applies to a capture, not to --cloud files");
+    std::vector<std::pair<std::string, std::string>> specs;  // name, file
+    for (const std::string& spec : args.values("--cloud")) {
+        const auto eq = spec.find('=');
+        if (eq == std::string::npos || eq == 0 || eq + 1 == spec.size()) {
+            throw UsageError("--cloud " + spec + ": expected NAME=FILE");
+        }
+        for (const auto& [name, file] : specs) {
+            if (name == spec.substr(0, eq)) throw UsageError("--cloud " + spec + ": sensor \"" + name + "\" given twice");
+        }
+        specs.emplace_back(spec.substr(0, eq), spec.substr(eq + 1));
+    }
+    if (specs.size() < 2) throw UsageError("expected at least two --cloud NAME=FILE\n" + std::string(kUsage));
+    const std::string root = args.value("--root").value_or(specs.front().first);
+    const auto it = std::find_if(specs.begin(), specs.end(), [&](const auto& s) { return s.first == root; });
+    if (it == specs.end()) throw UsageError("--root " + root + ": no --cloud of that name");
+    std::rotate(specs.begin(), it, it + 1);
 
-    io::ExtrinsicsDocument doc;
-    doc.station = station_config.station;
-    doc.root = sensors[root].name;
+    CalibrationInput input;
+    for (const auto& [name, file] : specs) {
+        io::CloudFile cloud = io::read_cloud_file(file);
+        std::printf("cloud %-16s %9zu points (%zu without a return or not finite dropped) from %s\n", name.c_str(),
+                    cloud.cloud.size(), cloud.num_dropped, file.c_str());
+        input.names.push_back(name);
+        input.clouds.push_back(std::move(cloud.cloud));
+    }
+    return input;
+}
+
+// Z-Y-X (yaw, pitch, roll) angles of a rotation, in degrees.
+Eigen::Vector3d yaw_pitch_roll_deg(const Eigen::Matrix3d& R) {
+    return Eigen::Vector3d(std::atan2(R(1, 0), R(0, 0)), std::asin(std::clamp(-R(2, 0), -1.0, 1.0)),
+                           std::atan2(R(2, 1), R(2, 2))) *
+           180.0 / M_PI;
+}
+
+// Every sensor's pose (or reason) into the document and the table.
+void report_sensors(const CalibrationInput& input, const core::InitialRegistrationResult& result,
+                    io::ExtrinsicsDocument* doc) {
     std::printf("%-16s %-10s %10s %10s %10s %8s %8s %8s  %s\n", "sensor", "status", "x_m", "y_m", "z_m",
                 "roll_deg", "pitch_deg", "yaw_deg", "reason");
-    for (std::size_t k = 0; k < order.size(); ++k) {
+    for (std::size_t k = 0; k < input.names.size(); ++k) {
         const auto& r = result.sensors[k];
         io::ExtrinsicsEntry entry;
-        entry.name = sensors[order[k]].name;
+        entry.name = input.names[k];
         entry.registered = r.registered;
         entry.quality["points"] = static_cast<double>(r.num_input_points);
         entry.quality["keypoints"] = static_cast<double>(r.num_keypoints);
         if (r.registered) {
             entry.T_root_sensor = r.T_root_sensor;
-            // Z-Y-X (yaw, pitch, roll) angles for the table, in degrees.
-            const Eigen::Matrix3d& R = r.T_root_sensor.linear();
-            const Eigen::Vector3d ypr(std::atan2(R(1, 0), R(0, 0)) * 180.0 / M_PI,
-                                      std::asin(std::clamp(-R(2, 0), -1.0, 1.0)) * 180.0 / M_PI,
-                                      std::atan2(R(2, 1), R(2, 2)) * 180.0 / M_PI);
-            std::printf("%-16s %-10s %10.3f %10.3f %10.3f %8.3f %8.3f %8.3f\n", entry.name.c_str(), "ok",
-                        r.T_root_sensor.translation().x(), r.T_root_sensor.translation().y(),
-                        r.T_root_sensor.translation().z(), ypr.z(), ypr.y(), ypr.x());  // roll, pitch, yaw
+            const Eigen::Vector3d ypr = yaw_pitch_roll_deg(r.T_root_sensor.linear());
+            const Eigen::Vector3d t = r.T_root_sensor.translation();
+            std::printf("%-16s %-10s %10.3f %10.3f %10.3f %8.3f %8.3f %8.3f\n", entry.name.c_str(), "ok", t.x(),
+                        t.y(), t.z(), ypr.z(), ypr.y(), ypr.x());
         } else {
             entry.reason = core::to_string(r.status);
             std::printf("%-16s %-10s %10s %10s %10s %8s %8s %8s  %s\n", entry.name.c_str(), "FAILED", "-", "-",
                         "-", "-", "-", "-", entry.reason.c_str());
         }
-        doc.sensors.push_back(std::move(entry));
+        doc->sensors.push_back(std::move(entry));
     }
-    for (const auto& s : sensors) {
-        if (s.enabled) continue;
+    for (const std::string& name : input.disabled) {
         io::ExtrinsicsEntry entry;
-        entry.name = s.name;
+        entry.name = name;
         entry.reason = "disabled in the station config";
-        doc.sensors.push_back(std::move(entry));
+        doc->sensors.push_back(std::move(entry));
     }
+}
+
+// Every pair's figures into the document and the table.
+void report_pairs(const CalibrationInput& input, const core::InitialRegistrationResult& result,
+                  io::ExtrinsicsDocument* doc) {
     std::printf("\n%-16s %-16s %-28s %10s %8s %8s %12s %10s\n", "source", "target", "status", "p2p_m",
                 "inliers", "overlap", "min_eig_H", "free_viol");
     for (const auto& p : result.pairs) {
         io::ExtrinsicsPair pair;
-        pair.source = sensors[order[p.source]].name;
-        pair.target = sensors[order[p.target]].name;
+        pair.source = input.names[static_cast<std::size_t>(p.source)];
+        pair.target = input.names[static_cast<std::size_t>(p.target)];
         pair.status = core::to_string(p.status);
         pair.figures["p2p_error_m"] = p.p2p_error_m;
         pair.figures["inliers"] = static_cast<double>(p.gicp_inliers);
@@ -150,20 +204,21 @@ int run_calibrate(int argc, char** argv) {
         std::printf("%-16s %-16s %-28s %10.3f %8zu %8.2f %12.4g %10.3f\n", pair.source.c_str(),
                     pair.target.c_str(), pair.status.c_str(), p.p2p_error_m, p.gicp_inliers, p.overlap_share,
                     p.min_hessian_eigenvalue, std::max(p.free_space_violation_share, p.worst_rejected_violation_share));
-        doc.pairs.push_back(std::move(pair));
+        doc->pairs.push_back(std::move(pair));
     }
-    io::write_extrinsics_yaml(out_path, doc);
+}
 
-    const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    std::printf("\ncalibrate_decode_time %.1f ms\n", 1e3 * decode_s);
+// The `name value unit` lines: wall time per stage, and the time inside each stage summed
+// over sensors / pairs (they run in parallel, so those add up to more than the wall time).
+void print_figures(const core::InitialRegistrationResult& result, double input_s, double total_s,
+                   std::size_t num_sensors) {
+    std::printf("\ncalibrate_decode_time %.1f ms\n", 1e3 * input_s);
     std::printf("calibrate_features_time %.1f ms\n", 1e3 * result.timings.features_s);
     std::printf("calibrate_pairs_time %.1f ms\n", 1e3 * result.timings.pairs_s);
     std::printf("calibrate_polish_time %.1f ms\n", 1e3 * result.timings.polish_s);
     std::printf("calibrate_polished_pairs %zu of %zu pairs\n", result.polish.polished,
                 result.polish.polished + result.polish.kept);
     std::printf("calibrate_pose_graph_time %.1f ms\n", 1e3 * result.timings.pose_graph_s);
-    // Time inside each stage summed over sensors / pairs (they run in parallel, so these
-    // add up to more than the wall-clock stages above).
     const core::StageTimeSums sums = core::sum_stage_timings(result);
     const core::SensorFeatureTimings& f = sums.features;
     const core::PairTimings& pt = sums.pairs;
@@ -174,8 +229,39 @@ int run_calibrate(int argc, char** argv) {
         {"ransac", pt.ransac_s},        {"gicp", pt.gicp_s},            {"p2p", pt.p2p_s}};
     for (const auto& [name, seconds] : stages) std::printf("calibrate_stage_%s_sum %.1f ms\n", name, 1e3 * seconds);
     std::printf("calibrate_total_time %.1f ms\n", 1e3 * total_s);
-    std::printf("calibrate_registered %zu of %zu sensors\n", result.num_registered(), order.size());
-    return result.num_registered() == order.size() ? 0 : 2;
+    std::printf("calibrate_registered %zu of %zu sensors\n", result.num_registered(), num_sensors);
+}
+
+int run_calibrate(int argc, char** argv) {
+    const Args args(argc, argv, {"--config", "--out", "--frame", "--threads", "--cloud", "--root"}, {});
+    if (args.help()) {
+        std::printf("%s", kUsage);
+        return 0;
+    }
+    const auto start = std::chrono::steady_clock::now();
+    const bool from_files = !args.values("--cloud").empty();
+    if (!from_files && args.value("--root")) throw UsageError("--root applies to --cloud files");
+    const std::string out_path = args.required("--out");
+    // The registration section's initial-registration keys, as lidarfused uses them.
+    const auto config = args.value("--config");
+    core::InitialRegistrationParams params = config ? station::load_fusion_params(*config).initial
+                                                    : core::default_initial_registration_params();
+    const CalibrationInput input = from_files ? input_from_cloud_files(args) : input_from_capture(args);
+    const double input_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+    params.num_threads = static_cast<int>(args.integer("--threads", 2));
+    const core::InitialRegistrationResult result = core::register_initial(input.clouds, params);
+
+    io::ExtrinsicsDocument doc;
+    doc.station = input.station;
+    doc.root = input.names.front();
+    report_sensors(input, result, &doc);
+    report_pairs(input, result, &doc);
+    io::write_extrinsics_yaml(out_path, doc);
+    print_figures(result, input_s,
+                  std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+                  input.names.size());
+    return result.num_registered() == input.names.size() ? 0 : 2;
 }
 
 }  // namespace
