@@ -104,6 +104,21 @@ Frame load_frame(const std::string& dir, double truth_shift_s) {
     return frame;
 }
 
+// register_pair's G-ICP runs, one per correspondence bound, each from the last result.
+core::GicpResult coarse_to_fine(const core::PairRegistrationParams& p, const core::GicpTarget& target,
+                                const core::PointCloud& source, const Eigen::Isometry3d& T_start) {
+    core::GicpParams gparams = p.gicp;
+    core::GicpRegistration reg(gparams);
+    core::GicpResult result;
+    result.T_target_source = T_start;
+    for (double bound_m : p.gicp_max_correspondence_m) {
+        gparams.max_correspondence_distance_m = bound_m;
+        reg.set_params(gparams);
+        result = reg.align(target, source, result.T_target_source);
+    }
+    return result;
+}
+
 // A 4 x 4 row-major matrix from a text file.
 Eigen::Isometry3d read_reference(const std::filesystem::path& file) {
     std::ifstream in(file);
@@ -302,16 +317,8 @@ int main(int argc, char** argv) {
                         std::fprintf(stderr, "    truth free space: source->target %zu/%zu %.3f  target->source %zu/%zu %.3f\n",
                                      a.num_violations, a.num_tested, a.violation_share, b.num_violations, b.num_tested,
                                      b.violation_share);
-                        core::GicpParams gparams = p.gicp;
-                        core::GicpRegistration reg(gparams);
-                        Eigen::Isometry3d Tc = T;
-                        core::GicpResult gr;
-                        for (double md : p.gicp_max_correspondence_m) {
-                            gparams.max_correspondence_distance_m = md;
-                            reg.set_params(gparams);
-                            gr = reg.align(tgt.gicp, src.gicp.cloud(), Tc);
-                            Tc = gr.T_target_source;
-                        }
+                        const core::GicpResult gr = coarse_to_fine(p, tgt.gicp, src.gicp.cloud(), T);
+                        const Eigen::Isometry3d Tc = gr.T_target_source;
                         core::P2pErrorParams pp;
                         pp.cutoff_radius_m = p.p2p_cutoff_m;
                         const auto pe = core::p2p_error(src.gicp.cloud().points, tgt.gicp.tree(), Tc, pp);
@@ -334,19 +341,11 @@ int main(int argc, char** argv) {
                         const auto cands = core::ground_aligned_search(ks, kt, gp);
                         const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                         if (option(opts, "refine", 0) != 0) {
-                            core::GicpParams gparams = p.gicp;
-                            core::GicpRegistration reg(gparams);
                             for (const auto& c : cands) {
                                 const auto coarse = core::free_space_violations_both(src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points, tgt.free_space, c.T_target_source);
                                 if (coarse.violation_share > p.max_ground_coarse_free_space_violation_share) continue;
-                                Eigen::Isometry3d Tc = c.T_target_source;
-                                core::GicpResult gr;
-                                for (double md : p.gicp_max_correspondence_m) {
-                                    gparams.max_correspondence_distance_m = md;
-                                    reg.set_params(gparams);
-                                    gr = reg.align(tgt.gicp, src.gicp.cloud(), Tc);
-                                    Tc = gr.T_target_source;
-                                }
+                                const core::GicpResult gr = coarse_to_fine(p, tgt.gicp, src.gicp.cloud(), c.T_target_source);
+                                const Eigen::Isometry3d Tc = gr.T_target_source;
                                 const auto fs = core::free_space_violations_both(src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points, tgt.free_space, Tc);
                                 core::P2pErrorParams pp; pp.cutoff_radius_m = p.p2p_cutoff_m;
                                 const auto pe = core::p2p_error(src.gicp.cloud().points, tgt.gicp.tree(), Tc, pp);
