@@ -44,6 +44,41 @@ void spanning_tree_poses(std::size_t n, const std::vector<PairResult>& pairs,
     }
 }
 
+// Our addition, loop closure: a pair that kept no right candidate of its own (descriptors
+// that match nothing between a dense and a sparse cloud, a vote with no peak) but whose two
+// sensors the consensus placed through other pairs is refined from that placement with the
+// same G-ICP and checks; it joins the pose graph when it stays within the edge tolerances
+// of the placement. It adds a measurement, never a placement: both sensors are placed
+// already, and a refused sensor (ambiguous, unconfirmed) is left alone.
+void close_loops(const std::vector<SensorFeatures>& features, const std::vector<bool>& refused,
+                 const InitialRegistrationParams& params, int threads, std::vector<PairResult>* pairs,
+                 std::vector<bool>* edge_ok) {
+    std::vector<Eigen::Isometry3d> poses;
+    std::vector<bool> placed;
+    spanning_tree_poses(features.size(), *pairs, *edge_ok, &poses, &placed);
+    for (std::size_t e = 0; e < pairs->size(); ++e) {
+        const PairResult& p = (*pairs)[e];
+        const auto s = static_cast<std::size_t>(p.source);
+        const auto t = static_cast<std::size_t>(p.target);
+        if ((*edge_ok)[e] || !placed[s] || !placed[t] || refused[s] || refused[t]) continue;
+        const Eigen::Isometry3d T_start = poses[t].inverse() * poses[s];
+        PairRegistrationParams pair_params = params.pair;
+        pair_params.start_T_target_source = &T_start;
+        pair_params.num_threads = threads;
+        PairResult closed = register_pair(features[s], features[t], p.source, p.target, pair_params);
+        if (closed.status != PairStatus::kOk ||
+            translation_error_m(closed.T_target_source, T_start) > params.max_edge_translation_m ||
+            rotation_error_deg(closed.T_target_source, T_start) > params.max_edge_rotation_deg) {
+            continue;
+        }
+        // Keep what the search tried, for the diagnostics, before the closing run.
+        closed.timings = p.timings;
+        closed.tried.insert(closed.tried.begin(), p.tried.begin(), p.tried.end());
+        (*pairs)[e] = std::move(closed);
+        (*edge_ok)[e] = true;
+    }
+}
+
 SensorRegistrationStatus from_features(SensorFeatureStatus status) {
     switch (status) {
         case SensorFeatureStatus::kOk: return SensorRegistrationStatus::kRegistered;
@@ -185,6 +220,9 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
     const EdgeConsensusResult consensus_result = select_consistent_edges(n, &result.pairs, &edge_ok, consensus);
     const std::vector<bool>& ambiguous = consensus_result.ambiguous;
     const std::vector<bool>& unconfirmed = consensus_result.unconfirmed;
+    std::vector<bool> refused(n, false);
+    for (std::size_t i = 0; i < n; ++i) refused[i] = ambiguous[i] || unconfirmed[i];
+    close_loops(features, refused, params, threads, &result.pairs, &edge_ok);
     result.timings.pose_graph_s = seconds_since(start);
 
     start = Clock::now();

@@ -211,9 +211,13 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
     };
 
     // Our addition: candidates from the vote over yaw and translation in the levelled
-    // ground frames (ground_aligned_search.hpp), when both sensors see the road.
+    // ground frames (ground_aligned_search.hpp), when both sensors see the road; or only the
+    // given start transform.
     bool any_consensus = false;
-    if (params.use_ground_aligned_search && source.ground.found && target.ground.found) {
+    if (params.start_T_target_source != nullptr) {
+        any_consensus = true;
+        consider(*params.start_T_target_source, 0, params.max_coarse_free_space_violation_share, false);
+    } else if (params.use_ground_aligned_search && source.ground.found && target.ground.found) {
         start = Clock::now();
         const GroundAlignedKeypoints s{&source.keypoint_points, &source.keypoint_normals, &source.descriptors,
                                        source.ground.T_ground_sensor};
@@ -239,7 +243,7 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
     // Steps 5-8: RANSAC + Kabsch + up-vector check, G-ICP, then again without the
     // correspondences that supported the earlier candidates. With the ground-aligned
     // search on, only when it left no candidate (e.g. a sensor that sees no road).
-    const bool run_ransac = candidates.empty();
+    const bool run_ransac = candidates.empty() && params.start_T_target_source == nullptr;
     for (int round = 0; run_ransac && round < std::max(1, params.max_candidates) && remaining.size() >= 3; ++round) {
         start = Clock::now();
         RansacParams ransac_params = params.ransac;

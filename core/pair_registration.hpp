@@ -86,6 +86,10 @@ struct PairRegistrationParams {
     // candidates); looser, because the RANSAC transform is off by up to ~the RANSAC inlier
     // threshold.
     double max_coarse_free_space_violation_share = 0.35;
+    // When set, the one transform to refine and check instead of searching (the initial
+    // registration's loop closure: a pair whose sensors the consensus placed, started from
+    // the placement). Must outlive the call.
+    const Eigen::Isometry3d* start_T_target_source = nullptr;
     int num_threads = 1;
 };
 

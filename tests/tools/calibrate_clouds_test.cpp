@@ -80,10 +80,10 @@ TEST(CalibrateClouds, RealOusterPairRegistersWithinTheReference) {
 
 // A Pandar64 on the roof and two thinned 64-ring units tilted 45 deg to either side (9-10 k
 // points against 92 k), 0.7 m from it. Both side units must be registered against the top
-// one. The issue asks for 0.3 deg and 3 cm from the references (another algorithm's result
-// on this scene, 0.5-0.6 cm / 0.01-0.04 deg from an independent ICP); the right unit,
-// reached through the left one, measures 3.5 cm / 0.26 deg (bench/BENCHMARK.md), so its
-// translation bound here is 4 cm.
+// one within the issue's 0.3 deg and 3 cm of the references (another algorithm's result
+// on this scene, 0.5-0.6 cm / 0.01-0.04 deg from an independent ICP). The right -> top pair
+// finds no candidate of its own; the right unit is placed through the left one and the
+// loop closure refines right -> top from there (bench/BENCHMARK.md).
 TEST(CalibrateClouds, RealRoadRigRegistersBothTiltedSideUnits) {
     LIDARFUSE_REQUIRE_RIG(dir, "opencalib_road_rig");
     test::TempDir out("calibrate_opencalib");
@@ -94,12 +94,11 @@ TEST(CalibrateClouds, RealRoadRigRegistersBothTiltedSideUnits) {
     const Calibration c = calibrate(arguments, out);
     ASSERT_EQ(c.status, 0) << c.output;
     EXPECT_EQ(c.root, "top");
-    const std::map<std::string, double> max_translation_m{{"left", 0.03}, {"right", 0.04}};
-    for (const auto& [name, bound_m] : max_translation_m) {
+    for (const char* name : {"left", "right"}) {
         ASSERT_TRUE(c.sensors.at(name).registered) << name << "\n" << c.output;
-        const Eigen::Isometry3d reference = read_reference(dir / ("T_top_" + name + ".txt"));
+        const Eigen::Isometry3d reference = read_reference(dir / ("T_top_" + std::string(name) + ".txt"));
         const Eigen::Isometry3d& T = c.sensors.at(name).T_root_sensor;
-        EXPECT_LT(core::translation_error_m(T, reference), bound_m) << name << "\n" << c.output;
+        EXPECT_LT(core::translation_error_m(T, reference), 0.03) << name << "\n" << c.output;
         EXPECT_LT(core::rotation_error_deg(T, reference), 0.3) << name << "\n" << c.output;
     }
 }
