@@ -76,7 +76,6 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     std::vector<double> curvature;
     estimate_normals_covariances(&clean, normal_params, &curvature);
     out.timings.normals_s = seconds_since(start);
-    out.free_space = FreeSpaceMap(clean.points, clean.normals, params.free_space);
 
     // Step 3: normal-adaptive octree.
     start = Clock::now();
@@ -130,6 +129,7 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     out.timings.fpfh_s = seconds_since(start);
     start = Clock::now();
     out.ground = estimate_ground_plane(clean.points, clean.normals, params.ground);
+    out.free_space = FreeSpaceMap(clean.points, clean.normals, params.free_space);
     out.timings.ground_s = seconds_since(start);
     out.status = SensorFeatureStatus::kOk;
     return out;

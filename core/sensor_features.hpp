@@ -73,7 +73,7 @@ struct SensorFeatureTimings {
     double octree_s = 0.0;
     double keypoints_s = 0.0;
     double fpfh_s = 0.0;
-    double ground_s = 0.0;
+    double ground_s = 0.0;      // the road plane and the free-space map
     double gicp_cloud_s = 0.0;  // the G-ICP and the polish clouds
 };
 
@@ -89,7 +89,7 @@ struct SensorFeatures {
     GicpTarget gicp;                              // voxel cloud with covariances + k-d tree
     GicpTarget polish;                            // the finer one (empty when off)
     GroundPlane ground;                           // found = false when no road plane
-    FreeSpaceMap free_space;                      // rays of the pre-processed cloud
+    FreeSpaceMap free_space;                      // rays of the pre-processed cloud (kOk only)
     double normal_spread = 0.0;                   // see min_normal_spread
     SensorFeatureTimings timings;
 };
