@@ -105,8 +105,9 @@ Frame load_frame(const std::string& dir, double truth_shift_s) {
 }
 
 // register_pair's G-ICP runs, one per correspondence bound, each from the last result.
-core::GicpResult coarse_to_fine(const core::PairRegistrationParams& p, const core::GicpTarget& target,
-                                const core::PointCloud& source, const Eigen::Isometry3d& T_start) {
+core::GicpResult coarse_to_fine(const core::PairRegistrationParams& p,
+                                const core::GicpTarget& target, const core::PointCloud& source,
+                                const Eigen::Isometry3d& T_start) {
     core::GicpParams gparams = p.gicp;
     core::GicpRegistration reg(gparams);
     core::GicpResult result;
@@ -124,7 +125,8 @@ Eigen::Isometry3d read_reference(const std::filesystem::path& file) {
     std::ifstream in(file);
     Eigen::Matrix4d M;
     for (int k = 0; k < 16; ++k) {
-        if (!(in >> M(k / 4, k % 4))) throw std::runtime_error(file.string() + ": expected 16 numbers (4 x 4, row-major)");
+        if (!(in >> M(k / 4, k % 4)))
+            throw std::runtime_error(file.string() + ": expected 16 numbers (4 x 4, row-major)");
     }
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.matrix() = M;
@@ -138,16 +140,21 @@ Frame load_rig(const std::string& dir) {
     for (const auto& entry : std::filesystem::directory_iterator(dir)) {
         const std::string name = entry.path().filename().string();
         const auto sep = name.find('_', 2);
-        if (name.rfind("T_", 0) != 0 || entry.path().extension() != ".txt" || sep == std::string::npos) continue;
+        if (name.rfind("T_", 0) != 0 || entry.path().extension() != ".txt" ||
+            sep == std::string::npos)
+            continue;
         const std::string a = name.substr(2, sep - 2);
-        if (!root.empty() && a != root) throw std::runtime_error(dir + ": references from two roots, " + root + " and " + a);
+        if (!root.empty() && a != root)
+            throw std::runtime_error(dir + ": references from two roots, " + root + " and " + a);
         root = a;
         references[entry.path().stem().string().substr(sep + 1)] = read_reference(entry.path());
     }
-    if (root.empty()) throw std::runtime_error(dir + ": no station.yaml and no T_ROOT_NAME.txt references");
+    if (root.empty())
+        throw std::runtime_error(dir + ": no station.yaml and no T_ROOT_NAME.txt references");
     auto cloud_of = [&](const std::string& name) {
         for (const char* ext : {".pcd", ".ply"}) {
-            if (std::filesystem::exists(dir + "/" + name + ext)) return io::read_cloud_file(dir + "/" + name + ext).cloud;
+            if (std::filesystem::exists(dir + "/" + name + ext))
+                return io::read_cloud_file(dir + "/" + name + ext).cloud;
         }
         throw std::runtime_error(dir + ": no " + name + ".pcd or " + name + ".ply");
     };
@@ -312,22 +319,31 @@ int main(int argc, char** argv) {
                     {
                         // The checks at the truth: what the free-space test and G-ICP say of
                         // the right transform (a right pair refused by a check shows here).
-                        const auto a = core::free_space_violations(src.gicp.cloud().points, tgt.free_space, T);
-                        const auto b = core::free_space_violations(tgt.gicp.cloud().points, src.free_space, T.inverse());
-                        std::fprintf(stderr, "    truth free space: source->target %zu/%zu %.3f  target->source %zu/%zu %.3f\n",
-                                     a.num_violations, a.num_tested, a.violation_share, b.num_violations, b.num_tested,
-                                     b.violation_share);
-                        const core::GicpResult gr = coarse_to_fine(p, tgt.gicp, src.gicp.cloud(), T);
+                        const auto a =
+                            core::free_space_violations(src.gicp.cloud().points, tgt.free_space, T);
+                        const auto b = core::free_space_violations(tgt.gicp.cloud().points,
+                                                                   src.free_space, T.inverse());
+                        std::fprintf(stderr,
+                                     "    truth free space: source->target %zu/%zu %.3f  "
+                                     "target->source %zu/%zu %.3f\n",
+                                     a.num_violations, a.num_tested, a.violation_share,
+                                     b.num_violations, b.num_tested, b.violation_share);
+                        const core::GicpResult gr =
+                            coarse_to_fine(p, tgt.gicp, src.gicp.cloud(), T);
                         const Eigen::Isometry3d Tc = gr.T_target_source;
                         core::P2pErrorParams pp;
                         pp.cutoff_radius_m = p.p2p_cutoff_m;
-                        const auto pe = core::p2p_error(src.gicp.cloud().points, tgt.gicp.tree(), Tc, pp);
-                        std::fprintf(stderr,
-                                     "    G-ICP from the truth: moves %.3f m %.3f deg, converged %d in %d, inliers %.3f, "
-                                     "p2p %.3f m, overlap %.3f, info/inlier %.2f\n",
-                                     core::translation_error_m(Tc, T), core::rotation_error_deg(Tc, T), gr.converged ? 1 : 0,
-                                     gr.iterations, gr.inlier_ratio, pe.error_m, pe.overlap_share,
-                                     core::information_per_inlier(gr.H_eigenvalues(0), gr.num_inliers));
+                        const auto pe =
+                            core::p2p_error(src.gicp.cloud().points, tgt.gicp.tree(), Tc, pp);
+                        std::fprintf(
+                            stderr,
+                            "    G-ICP from the truth: moves %.3f m %.3f deg, converged %d in %d, "
+                            "inliers %.3f, "
+                            "p2p %.3f m, overlap %.3f, info/inlier %.2f\n",
+                            core::translation_error_m(Tc, T), core::rotation_error_deg(Tc, T),
+                            gr.converged ? 1 : 0, gr.iterations, gr.inlier_ratio, pe.error_m,
+                            pe.overlap_share,
+                            core::information_per_inlier(gr.H_eigenvalues(0), gr.num_inliers));
                     }
                     {
                         core::GroundAlignedKeypoints ks{&src.keypoint_points, &src.keypoint_normals, &src.descriptors, src.ground.T_ground_sensor};
@@ -342,11 +358,16 @@ int main(int argc, char** argv) {
                         const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                         if (option(opts, "refine", 0) != 0) {
                             for (const auto& c : cands) {
-                                const auto coarse = core::free_space_violations_both(src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points, tgt.free_space, c.T_target_source);
+                                const auto coarse = core::free_space_violations_both(
+                                    src.gicp.cloud().points, src.free_space,
+                                    tgt.gicp.cloud().points, tgt.free_space, c.T_target_source);
                                 if (coarse.violation_share > p.max_ground_coarse_free_space_violation_share) continue;
-                                const core::GicpResult gr = coarse_to_fine(p, tgt.gicp, src.gicp.cloud(), c.T_target_source);
+                                const core::GicpResult gr = coarse_to_fine(
+                                    p, tgt.gicp, src.gicp.cloud(), c.T_target_source);
                                 const Eigen::Isometry3d Tc = gr.T_target_source;
-                                const auto fs = core::free_space_violations_both(src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points, tgt.free_space, Tc);
+                                const auto fs = core::free_space_violations_both(
+                                    src.gicp.cloud().points, src.free_space,
+                                    tgt.gicp.cloud().points, tgt.free_space, Tc);
                                 core::P2pErrorParams pp; pp.cutoff_radius_m = p.p2p_cutoff_m;
                                 const auto pe = core::p2p_error(src.gicp.cloud().points, tgt.gicp.tree(), Tc, pp);
                                 std::fprintf(stderr, "    refined %zu->%zu: start %.2fm err %.3fm %.3fdeg fs %.4f coarse %.3f p2p %.3f N %zu inl %.2f it %d\n", i, j,
@@ -356,7 +377,9 @@ int main(int argc, char** argv) {
                         }
                         std::fprintf(stderr, "    ground search %.1f ms:", dt * 1e3);
                         for (const auto& c : cands) {
-                            const auto fs = core::free_space_violations_both(src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points, tgt.free_space, c.T_target_source);
+                            const auto fs = core::free_space_violations_both(
+                                src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points,
+                                tgt.free_space, c.T_target_source);
                             std::fprintf(stderr, " [v%d i%zu fs%.3f %.2fm %.2fdeg]", c.votes, c.inliers.size(), fs.violation_share,
                                          core::translation_error_m(c.T_target_source, T),
                                          core::rotation_error_deg(c.T_target_source, T));

@@ -30,7 +30,9 @@ bool polish_one(const SensorFeatures& source, const SensorFeatures& target,
         if (!run.converged && run.status != GicpStatus::kMaxIterations) return false;
         T = run.T_target_source;
     }
-    if (!keeps_up_vector(T, up_direction(source), up_direction(target)) || run.inlier_ratio < params.min_overlap_share) return false;
+    if (!keeps_up_vector(T, up_direction(source), up_direction(target)) ||
+        run.inlier_ratio < params.min_overlap_share)
+        return false;
     if (translation_error_m(T, pair->T_target_source) > params.max_shift_m ||
         rotation_error_deg(T, pair->T_target_source) > params.max_rotation_deg) {
         return false;

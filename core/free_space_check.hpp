@@ -56,8 +56,8 @@ class FreeSpaceMap {
 public:
     FreeSpaceMap() = default;
     // `points` in the sensor frame; `normals` unit (any sign), same size, or empty.
-    FreeSpaceMap(const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3d>& normals,
-                 const FreeSpaceParams& params = {});
+    FreeSpaceMap(const std::vector<Eigen::Vector3d>& points,
+                 const std::vector<Eigen::Vector3d>& normals, const FreeSpaceParams& params = {});
 
     bool empty() const { return min_range_m_.empty(); }
     // The bin of a point in this sensor's frame, -1 at the origin or when not finite.
@@ -85,7 +85,8 @@ struct FreeSpaceResult {
 // Source points (source frame) checked against the target's free space (target frame).
 // The map's params apply.
 FreeSpaceResult free_space_violations(const std::vector<Eigen::Vector3d>& source_points,
-                                      const FreeSpaceMap& target, const Eigen::Isometry3d& T_target_source);
+                                      const FreeSpaceMap& target,
+                                      const Eigen::Isometry3d& T_target_source);
 
 // Both directions combined: the larger of the two violation shares, with the counts of
 // that direction.

@@ -51,8 +51,8 @@ void spanning_tree_poses(std::size_t n, const std::vector<PairResult>& pairs,
 // of the placement. It adds a measurement, never a placement: both sensors are placed
 // already, and a refused sensor (ambiguous, unconfirmed) is left alone.
 void close_loops(const std::vector<SensorFeatures>& features, const std::vector<bool>& refused,
-                 const InitialRegistrationParams& params, int threads, std::vector<PairResult>* pairs,
-                 std::vector<bool>* edge_ok) {
+                 const InitialRegistrationParams& params, int threads,
+                 std::vector<PairResult>* pairs, std::vector<bool>* edge_ok) {
     std::vector<Eigen::Isometry3d> poses;
     std::vector<bool> placed;
     spanning_tree_poses(features.size(), *pairs, *edge_ok, &poses, &placed);
@@ -65,7 +65,8 @@ void close_loops(const std::vector<SensorFeatures>& features, const std::vector<
         PairRegistrationParams pair_params = params.pair;
         pair_params.start_T_target_source = &T_start;
         pair_params.num_threads = threads;
-        PairResult closed = register_pair(features[s], features[t], p.source, p.target, pair_params);
+        PairResult closed =
+            register_pair(features[s], features[t], p.source, p.target, pair_params);
         if (closed.status != PairStatus::kOk ||
             translation_error_m(closed.T_target_source, T_start) > params.max_edge_translation_m ||
             rotation_error_deg(closed.T_target_source, T_start) > params.max_edge_rotation_deg) {

@@ -145,8 +145,9 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         if (T_initial.translation().norm() < params.min_sensor_separation_m) {
             return drop(CandidateOutcome::kSameSensorPosition, &same_place_rejected);
         }
-        const FreeSpaceResult coarse_free_space = free_space_violations_both(
-            source.gicp.cloud().points, source.free_space, target.gicp.cloud().points, target.free_space, T_initial);
+        const FreeSpaceResult coarse_free_space =
+            free_space_violations_both(source.gicp.cloud().points, source.free_space,
+                                       target.gicp.cloud().points, target.free_space, T_initial);
         record.coarse_free_space_share = coarse_free_space.violation_share;
         if (coarse_free_space.violation_share > max_coarse_share) {
             result.worst_rejected_violation_share =
@@ -175,7 +176,8 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         result.timings.gicp_s += seconds_since(start_gicp);
         record.T_refined = candidate.T_target_source;
         record.gicp_inlier_ratio = candidate.gicp.inlier_ratio;
-        if (!refined || !keeps_up_vector(candidate.T_target_source, up_direction(source), up_direction(target))) {
+        if (!refined || !keeps_up_vector(candidate.T_target_source, up_direction(source),
+                                         up_direction(target))) {
             return drop(CandidateOutcome::kRefinementFailed, nullptr);
         }
         if (candidate.T_target_source.translation().norm() < params.min_sensor_separation_m) {
@@ -197,9 +199,9 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
         if (record.information_per_inlier < params.min_information_per_inlier) {
             return drop(CandidateOutcome::kWeak, &weak_candidates);
         }
-        candidate.free_space = free_space_violations_both(source.gicp.cloud().points, source.free_space,
-                                                          target.gicp.cloud().points, target.free_space,
-                                                          candidate.T_target_source);
+        candidate.free_space = free_space_violations_both(
+            source.gicp.cloud().points, source.free_space, target.gicp.cloud().points,
+            target.free_space, candidate.T_target_source);
         record.free_space_share = candidate.free_space.violation_share;
         if (candidate.free_space.violation_share > params.max_free_space_violation_share) {
             result.worst_rejected_violation_share =
@@ -216,7 +218,8 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
     bool any_consensus = false;
     if (params.start_T_target_source != nullptr) {
         any_consensus = true;
-        consider(*params.start_T_target_source, 0, params.max_coarse_free_space_violation_share, false);
+        consider(*params.start_T_target_source, 0, params.max_coarse_free_space_violation_share,
+                 false);
     } else if (params.use_ground_aligned_search && source.ground.found && target.ground.found) {
         start = Clock::now();
         const GroundAlignedKeypoints s{&source.keypoint_points, &source.keypoint_normals, &source.descriptors,

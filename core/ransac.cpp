@@ -108,7 +108,8 @@ RansacResult ransac_registration(const std::vector<Eigen::Vector3d>& source_poin
         }
         const KabschResult fit = estimate_rigid_transform(sample_source, sample_target);
         if (!fit.valid) continue;
-        if (params.reject_upside_down && !keeps_up_vector(fit.T_target_source, params.source_up, params.target_up)) {
+        if (params.reject_upside_down &&
+            !keeps_up_vector(fit.T_target_source, params.source_up, params.target_up)) {
             ++result.upside_down_hypotheses;
             continue;
         }
@@ -132,7 +133,9 @@ RansacResult ransac_registration(const std::vector<Eigen::Vector3d>& source_poin
         const KabschResult fit =
             estimate_rigid_transform(source_points, target_points, correspondences, inliers);
         if (!fit.valid) break;
-        if (params.reject_upside_down && !keeps_up_vector(fit.T_target_source, params.source_up, params.target_up)) break;
+        if (params.reject_upside_down &&
+            !keeps_up_vector(fit.T_target_source, params.source_up, params.target_up))
+            break;
         std::vector<std::uint32_t> refit_inliers;
         const Consensus consensus = evaluate(fit.T_target_source, source_points, target_points,
                                              correspondences, threshold_sq, &refit_inliers);

@@ -47,10 +47,10 @@ const char* kUsage =
 
 // What register_initial runs on: one cloud per sensor, the root first.
 struct CalibrationInput {
-    std::string station;                 // for extrinsics.yaml; empty for cloud files
-    std::vector<std::string> names;      // names[k] is the sensor of clouds[k]
+    std::string station;             // for extrinsics.yaml; empty for cloud files
+    std::vector<std::string> names;  // names[k] is the sensor of clouds[k]
     std::vector<core::PointCloud> clouds;
-    std::vector<std::string> disabled;   // sensors of the config left out
+    std::vector<std::string> disabled;  // sensors of the config left out
 };
 
 // The enabled sensors' scans of one synchronised frame of a capture (the N-th complete one).
@@ -67,7 +67,8 @@ CalibrationInput input_from_capture(const Args& args) {
     const auto& sensors = station_config.sensors;
     const std::size_t root = station_config.root_index();
     if (!sensors[root].enabled) {
-        throw std::runtime_error(config_path + ": root sensor \"" + sensors[root].name + "\" is disabled");
+        throw std::runtime_error(config_path + ": root sensor \"" + sensors[root].name +
+                                 "\" is disabled");
     }
     CalibrationInput input;
     input.station = station_config.station;
@@ -116,7 +117,8 @@ CalibrationInput input_from_cloud_files(const Args& args) {
     if (!args.positionals().empty()) {
         throw UsageError("--cloud and a CAPTURE.pcap cannot be combined\n" + std::string(kUsage));
     }
-    if (args.value("--frame")) throw UsageError("--frame applies to a capture, not to --cloud files");
+    if (args.value("--frame"))
+        throw UsageError("--frame applies to a capture, not to --cloud files");
     std::vector<std::pair<std::string, std::string>> specs;  // name, file
     for (const std::string& spec : args.values("--cloud")) {
         const auto eq = spec.find('=');
@@ -124,21 +126,25 @@ CalibrationInput input_from_cloud_files(const Args& args) {
             throw UsageError("--cloud " + spec + ": expected NAME=FILE");
         }
         for (const auto& [name, file] : specs) {
-            if (name == spec.substr(0, eq)) throw UsageError("--cloud " + spec + ": sensor \"" + name + "\" given twice");
+            if (name == spec.substr(0, eq))
+                throw UsageError("--cloud " + spec + ": sensor \"" + name + "\" given twice");
         }
         specs.emplace_back(spec.substr(0, eq), spec.substr(eq + 1));
     }
-    if (specs.size() < 2) throw UsageError("expected at least two --cloud NAME=FILE\n" + std::string(kUsage));
+    if (specs.size() < 2)
+        throw UsageError("expected at least two --cloud NAME=FILE\n" + std::string(kUsage));
     const std::string root = args.value("--root").value_or(specs.front().first);
-    const auto it = std::find_if(specs.begin(), specs.end(), [&](const auto& s) { return s.first == root; });
+    const auto it =
+        std::find_if(specs.begin(), specs.end(), [&](const auto& s) { return s.first == root; });
     if (it == specs.end()) throw UsageError("--root " + root + ": no --cloud of that name");
     std::rotate(specs.begin(), it, it + 1);
 
     CalibrationInput input;
     for (const auto& [name, file] : specs) {
         io::CloudFile cloud = io::read_cloud_file(file);
-        std::printf("cloud %-16s %9zu points (%zu without a return or not finite dropped) from %s\n", name.c_str(),
-                    cloud.cloud.size(), cloud.num_dropped, file.c_str());
+        std::printf(
+            "cloud %-16s %9zu points (%zu without a return or not finite dropped) from %s\n",
+            name.c_str(), cloud.cloud.size(), cloud.num_dropped, file.c_str());
         input.names.push_back(name);
         input.clouds.push_back(std::move(cloud.cloud));
     }
@@ -168,8 +174,8 @@ void report_sensors(const CalibrationInput& input, const core::InitialRegistrati
             entry.T_root_sensor = r.T_root_sensor;
             const Eigen::Vector3d ypr = yaw_pitch_roll_deg(r.T_root_sensor.linear());
             const Eigen::Vector3d t = r.T_root_sensor.translation();
-            std::printf("%-16s %-10s %10.3f %10.3f %10.3f %8.3f %8.3f %8.3f\n", entry.name.c_str(), "ok", t.x(),
-                        t.y(), t.z(), ypr.z(), ypr.y(), ypr.x());
+            std::printf("%-16s %-10s %10.3f %10.3f %10.3f %8.3f %8.3f %8.3f\n", entry.name.c_str(),
+                        "ok", t.x(), t.y(), t.z(), ypr.z(), ypr.y(), ypr.x());
         } else {
             entry.reason = core::to_string(r.status);
             std::printf("%-16s %-10s %10s %10s %10s %8s %8s %8s  %s\n", entry.name.c_str(), "FAILED", "-", "-",
@@ -233,7 +239,8 @@ void print_figures(const core::InitialRegistrationResult& result, double input_s
 }
 
 int run_calibrate(int argc, char** argv) {
-    const Args args(argc, argv, {"--config", "--out", "--frame", "--threads", "--cloud", "--root"}, {});
+    const Args args(argc, argv, {"--config", "--out", "--frame", "--threads", "--cloud", "--root"},
+                    {});
     if (args.help()) {
         std::printf("%s", kUsage);
         return 0;
@@ -246,8 +253,10 @@ int run_calibrate(int argc, char** argv) {
     const auto config = args.value("--config");
     core::InitialRegistrationParams params = config ? station::load_fusion_params(*config).initial
                                                     : core::default_initial_registration_params();
-    const CalibrationInput input = from_files ? input_from_cloud_files(args) : input_from_capture(args);
-    const double input_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const CalibrationInput input =
+        from_files ? input_from_cloud_files(args) : input_from_capture(args);
+    const double input_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
     params.num_threads = static_cast<int>(args.integer("--threads", 2));
     const core::InitialRegistrationResult result = core::register_initial(input.clouds, params);

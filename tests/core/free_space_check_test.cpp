@@ -67,7 +67,8 @@ TEST(FreeSpaceCheck, ShiftedTransformPutsPointsIntoFreeSpace) {
 
 TEST(FreeSpaceCheck, NoReturnsMeansNothingTested) {
     const auto a = room(3);
-    const FreeSpaceResult r = free_space_violations(a, std::vector<Eigen::Vector3d>{}, Eigen::Isometry3d::Identity());
+    const FreeSpaceResult r =
+        free_space_violations(a, std::vector<Eigen::Vector3d>{}, Eigen::Isometry3d::Identity());
     EXPECT_EQ(r.num_tested, 0u);
     EXPECT_EQ(r.violation_share, 0.0);
     const FreeSpaceResult nan_input =
@@ -111,7 +112,8 @@ TEST(FreeSpaceCheck, GrazingRoadBetweenBeamsIsNoViolationWithItsNormals) {
     const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
     // Without normals the bin's first return bounds the road points between the rings by
     // range alone: they count as violations.
-    const FreeSpaceResult points_only = free_space_violations(road.between, FreeSpaceMap(road.rings, {}), I);
+    const FreeSpaceResult points_only =
+        free_space_violations(road.between, FreeSpaceMap(road.rings, {}), I);
     EXPECT_GT(points_only.num_tested, 1000u);
     EXPECT_GT(points_only.violation_share, 0.5);
     // With the road's normal the range may change across the bin by r * bin * tan(incidence).
@@ -122,7 +124,8 @@ TEST(FreeSpaceCheck, GrazingRoadBetweenBeamsIsNoViolationWithItsNormals) {
     // A wall 5 m in front of those returns, facing the sensor, is still a violation.
     std::vector<Eigen::Vector3d> wall;
     for (const auto& p : road.rings) wall.push_back(p * (p.norm() - 5.0) / p.norm());
-    const FreeSpaceResult blocked = free_space_violations(wall, FreeSpaceMap(road.rings, road.ring_normals), I);
+    const FreeSpaceResult blocked =
+        free_space_violations(wall, FreeSpaceMap(road.rings, road.ring_normals), I);
     EXPECT_GT(blocked.violation_share, 0.99);
 }
 
@@ -132,7 +135,8 @@ TEST(FreeSpaceCheck, GrazingRoadBetweenBeamsIsNoViolationWithItsNormals) {
 TEST(FreeSpaceCheck, ReturnsBeyondTheLargestIncidenceTestNothing) {
     const GrazingRoad road = grazing_road(2.0, -6.1);
     const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
-    const FreeSpaceResult points_only = free_space_violations(road.between, FreeSpaceMap(road.rings, {}), I);
+    const FreeSpaceResult points_only =
+        free_space_violations(road.between, FreeSpaceMap(road.rings, {}), I);
     EXPECT_GT(points_only.num_tested, 1000u);
     EXPECT_GT(points_only.violation_share, 0.5);
     const FreeSpaceResult with_normals =

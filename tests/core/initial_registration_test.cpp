@@ -236,7 +236,8 @@ TEST(InitialRegistration, WeakSinglePairIsRefusedNotTaken) {
     EXPECT_TRUE(r.sensors[1].status == SensorRegistrationStatus::kUnconfirmed ||
                 r.sensors[1].status == SensorRegistrationStatus::kAmbiguous)
         << to_string(r.sensors[1].status);
-    EXPECT_TRUE(r.pairs[0].status == PairStatus::kUnconfirmed || r.pairs[0].status == PairStatus::kAmbiguous);
+    EXPECT_TRUE(r.pairs[0].status == PairStatus::kUnconfirmed ||
+                r.pairs[0].status == PairStatus::kAmbiguous);
 
     InitialRegistrationParams guessing = test_params();
     guessing.consensus.ambiguity.enabled = false;

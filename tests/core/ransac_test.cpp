@@ -117,8 +117,10 @@ TEST(Ransac, UpVectorCheckRejectsUpsideDown) {
 // axes are 90 deg apart plus a little, so +z alone calls the right transform upside down;
 // their road normals (the up directions) agree under it.
 TEST(Ransac, UpVectorCheckUsesTheGivenUpDirections) {
-    const Eigen::Matrix3d R_world_left = Eigen::AngleAxisd(46.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
-    const Eigen::Matrix3d R_world_right = Eigen::AngleAxisd(-46.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    const Eigen::Matrix3d R_world_left =
+        Eigen::AngleAxisd(46.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    const Eigen::Matrix3d R_world_right =
+        Eigen::AngleAxisd(-46.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
     Eigen::Isometry3d T_left_right = Eigen::Isometry3d::Identity();
     T_left_right.linear() = R_world_left.transpose() * R_world_right;
     const Eigen::Vector3d up_left = R_world_left.transpose() * Eigen::Vector3d::UnitZ();
@@ -127,7 +129,8 @@ TEST(Ransac, UpVectorCheckUsesTheGivenUpDirections) {
     EXPECT_TRUE(keeps_up_vector(T_left_right, up_right, up_left));
     // Turned upside down about the road's x axis, it is refused with the same up directions.
     Eigen::Isometry3d flipped = T_left_right;
-    flipped.linear() = R_world_left.transpose() * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * R_world_right;
+    flipped.linear() = R_world_left.transpose() *
+                       Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()) * R_world_right;
     EXPECT_FALSE(keeps_up_vector(flipped, up_right, up_left));
 }
 

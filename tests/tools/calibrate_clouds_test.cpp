@@ -44,7 +44,8 @@ struct Calibration {
 Calibration calibrate(const std::string& arguments, const test::TempDir& dir) {
     Calibration c;
     const std::string out = (dir.path() / "extrinsics.yaml").string();
-    c.status = test::run_command(test::tool_path() + " calibrate " + arguments + " --out " + out, &c.output);
+    c.status = test::run_command(test::tool_path() + " calibrate " + arguments + " --out " + out,
+                                 &c.output);
     if (!std::filesystem::exists(out)) return c;
     io::ExtrinsicsDocument doc = io::read_extrinsics_document(out);
     c.root = doc.root;
@@ -52,11 +53,11 @@ Calibration calibrate(const std::string& arguments, const test::TempDir& dir) {
     return c;
 }
 
-#define LIDARFUSE_REQUIRE_RIG(var, rig)                                                          \
-    const std::filesystem::path var = rig_dir(rig);                                              \
-    if (var.empty()) {                                                                           \
-        GTEST_SKIP() << "real data " << (rig) << " not found (set LIDARFUSE_DATA_DIR to the "     \
-                     << "shared data folder)";                                                   \
+#define LIDARFUSE_REQUIRE_RIG(var, rig)                                                       \
+    const std::filesystem::path var = rig_dir(rig);                                           \
+    if (var.empty()) {                                                                        \
+        GTEST_SKIP() << "real data " << (rig) << " not found (set LIDARFUSE_DATA_DIR to the " \
+                     << "shared data folder)";                                                \
     }
 
 // Two Ouster 128-beam units 1.25 m apart, each rolled 20 deg outward. The reference is a
@@ -65,8 +66,9 @@ Calibration calibrate(const std::string& arguments, const test::TempDir& dir) {
 TEST(CalibrateClouds, RealOusterPairRegistersWithinTheReference) {
     LIDARFUSE_REQUIRE_RIG(dir, "edgar_ouster_pair");
     test::TempDir out("calibrate_edgar");
-    const Calibration c = calibrate("--cloud frontleft=" + (dir / "frontleft.pcd").string() + " --cloud frontright=" +
-                                        (dir / "frontright.pcd").string() + " --root frontright",
+    const Calibration c = calibrate("--cloud frontleft=" + (dir / "frontleft.pcd").string() +
+                                        " --cloud frontright=" + (dir / "frontright.pcd").string() +
+                                        " --root frontright",
                                     out);
     ASSERT_EQ(c.status, 0) << c.output;
     EXPECT_EQ(c.root, "frontright");
@@ -89,14 +91,16 @@ TEST(CalibrateClouds, RealRoadRigRegistersBothTiltedSideUnits) {
     test::TempDir out("calibrate_opencalib");
     std::string arguments;
     for (const char* name : {"top", "left", "right"}) {
-        arguments += std::string(" --cloud ") + name + "=" + (dir / (std::string(name) + ".pcd")).string();
+        arguments +=
+            std::string(" --cloud ") + name + "=" + (dir / (std::string(name) + ".pcd")).string();
     }
     const Calibration c = calibrate(arguments, out);
     ASSERT_EQ(c.status, 0) << c.output;
     EXPECT_EQ(c.root, "top");
     for (const char* name : {"left", "right"}) {
         ASSERT_TRUE(c.sensors.at(name).registered) << name << "\n" << c.output;
-        const Eigen::Isometry3d reference = read_reference(dir / ("T_top_" + std::string(name) + ".txt"));
+        const Eigen::Isometry3d reference =
+            read_reference(dir / ("T_top_" + std::string(name) + ".txt"));
         const Eigen::Isometry3d& T = c.sensors.at(name).T_root_sensor;
         EXPECT_LT(core::translation_error_m(T, reference), 0.03) << name << "\n" << c.output;
         EXPECT_LT(core::rotation_error_deg(T, reference), 0.3) << name << "\n" << c.output;
@@ -122,12 +126,14 @@ TEST(CalibrateClouds, BadCloudArgumentsFailWithTheirName) {
         {"--cloud a=" + d + "/broken.pcd", "at least two"},
         {"--cloud a=" + d + "/x.pcd --cloud a=" + d + "/y.pcd", "given twice"},
         {"--cloud a=" + d + "/x.pcd --cloud b=" + d + "/y.pcd --root c", "--root c"},
-        {d + "/capture.pcap --cloud a=" + d + "/x.pcd --cloud b=" + d + "/y.pcd", "cannot be combined"},
+        {d + "/capture.pcap --cloud a=" + d + "/x.pcd --cloud b=" + d + "/y.pcd",
+         "cannot be combined"},
     };
     for (const Case& c : cases) {
         const Calibration result = calibrate(c.arguments, dir);
         EXPECT_EQ(result.status, 1) << c.arguments << "\n" << result.output;
-        EXPECT_NE(result.output.find(c.expected), std::string::npos) << c.arguments << "\n" << result.output;
+        EXPECT_NE(result.output.find(c.expected), std::string::npos) << c.arguments << "\n"
+                                                                     << result.output;
         EXPECT_FALSE(std::filesystem::exists(d + "/extrinsics.yaml")) << c.arguments;
     }
 }
