@@ -47,6 +47,7 @@
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/io/cloud_file.hpp"
 #include "drivers/io/pose_csv.hpp"
+#include "drivers/io/rig_reference.hpp"
 #include "drivers/station/station_config.hpp"
 
 using namespace lidarfuse;
@@ -120,19 +121,6 @@ core::GicpResult coarse_to_fine(const core::PairRegistrationParams& p,
     return result;
 }
 
-// A 4 x 4 row-major matrix from a text file.
-Eigen::Isometry3d read_reference(const std::filesystem::path& file) {
-    std::ifstream in(file);
-    Eigen::Matrix4d M;
-    for (int k = 0; k < 16; ++k) {
-        if (!(in >> M(k / 4, k % 4)))
-            throw std::runtime_error(file.string() + ": expected 16 numbers (4 x 4, row-major)");
-    }
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.matrix() = M;
-    return T;
-}
-
 // A real rig folder: the root's cloud first, then every sensor it has a reference to.
 Frame load_rig(const std::string& dir) {
     std::string root;
@@ -147,7 +135,7 @@ Frame load_rig(const std::string& dir) {
         if (!root.empty() && a != root)
             throw std::runtime_error(dir + ": references from two roots, " + root + " and " + a);
         root = a;
-        references[entry.path().stem().string().substr(sep + 1)] = read_reference(entry.path());
+        references[entry.path().stem().string().substr(sep + 1)] = io::read_rig_reference(entry.path());
     }
     if (root.empty())
         throw std::runtime_error(dir + ": no station.yaml and no T_ROOT_NAME.txt references");

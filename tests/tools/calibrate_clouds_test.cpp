@@ -11,6 +11,7 @@
 
 #include "core/se3.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
+#include "drivers/io/rig_reference.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace lidarfuse {
@@ -21,17 +22,6 @@ std::filesystem::path rig_dir(const std::string& rig) {
     const auto data = test::data_dir();
     if (!data || !std::filesystem::is_directory(*data / "real" / rig)) return {};
     return *data / "real" / rig;
-}
-
-// T_a_b.txt: 4 x 4 row-major, p_a = T * p_b (SOURCES.md's convention).
-Eigen::Isometry3d read_reference(const std::filesystem::path& file) {
-    std::ifstream in(file);
-    Eigen::Matrix4d M;
-    for (int k = 0; k < 16; ++k) in >> M(k / 4, k % 4);
-    EXPECT_TRUE(in.good() || in.eof()) << file;
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.matrix() = M;
-    return T;
 }
 
 struct Calibration {
@@ -73,7 +63,7 @@ TEST(CalibrateClouds, RealOusterPairRegistersWithinTheReference) {
     ASSERT_EQ(c.status, 0) << c.output;
     EXPECT_EQ(c.root, "frontright");
     ASSERT_TRUE(c.sensors.at("frontleft").registered) << c.output;
-    const Eigen::Isometry3d reference = read_reference(dir / "T_frontright_frontleft.txt");
+    const Eigen::Isometry3d reference = io::read_rig_reference(dir / "T_frontright_frontleft.txt");
     const Eigen::Isometry3d& T = c.sensors.at("frontleft").T_root_sensor;
     EXPECT_LT(core::translation_error_m(T, reference), 0.10) << c.output;
     EXPECT_LT(core::rotation_error_deg(T, reference), 0.1) << c.output;
@@ -100,7 +90,7 @@ TEST(CalibrateClouds, RealRoadRigRegistersBothTiltedSideUnits) {
     for (const char* name : {"left", "right"}) {
         ASSERT_TRUE(c.sensors.at(name).registered) << name << "\n" << c.output;
         const Eigen::Isometry3d reference =
-            read_reference(dir / ("T_top_" + std::string(name) + ".txt"));
+            io::read_rig_reference(dir / ("T_top_" + std::string(name) + ".txt"));
         const Eigen::Isometry3d& T = c.sensors.at(name).T_root_sensor;
         EXPECT_LT(core::translation_error_m(T, reference), 0.03) << name << "\n" << c.output;
         EXPECT_LT(core::rotation_error_deg(T, reference), 0.3) << name << "\n" << c.output;
