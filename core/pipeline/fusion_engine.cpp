@@ -30,6 +30,7 @@ double ms_since(Clock::time_point t0) {
 PoseGraphParams graph_params(const FusionParams& p) {
     PoseGraphParams g;
     g.huber_delta = p.huber_delta;
+    g.max_iterations = p.graph_max_iterations;
     g.num_threads = 1;
     return g;
 }
@@ -318,22 +319,38 @@ FrameOutput FusionEngine::Impl::process(const FrameInput& in) {
 
     // 6. The fused cloud, in the root frame.
     const auto t_fuse = Clock::now();
-    if (params.build_fused_cloud) {
-        for (std::size_t s : active) {
-            const SensorTrack& track = *tracks[s];
-            const Eigen::Isometry3f T = out.T_root_sensor[s].cast<float>();
-            const auto& pts = track.current_points();
-            for (std::size_t k = 0; k < pts.size(); ++k) {
-                out.cloud.points.push_back(T * pts[k].cast<float>());
-                out.cloud.intensity.push_back(track.current_intensity()[k]);
-                out.cloud.sensor.push_back(static_cast<std::uint8_t>(s));
-                out.cloud.dynamic.push_back(track.current_dynamic()[k]);
-            }
-        }
-    }
+    if (params.build_fused_cloud) build_fused_cloud(active, &out);
     out.timings.fuse_ms = ms_since(t_fuse);
     out.timings.total_ms = ms_since(t_start);
     return out;
+}
+
+// Each sensor's points, in the root frame, in configuration order: sized once, then every
+// sensor fills its own slice. Serial: a copy at memory speed gains nothing from a second
+// thread that a loaded machine may not schedule at once.
+void FusionEngine::Impl::build_fused_cloud(const std::vector<std::size_t>& active,
+                                           FrameOutput* out) const {
+    std::vector<std::size_t> offset(active.size() + 1, 0);
+    for (std::size_t k = 0; k < active.size(); ++k) {
+        offset[k + 1] = offset[k] + tracks[active[k]]->current_points().size();
+    }
+    FusedCloud& cloud = out->cloud;
+    cloud.points.resize(offset.back());
+    cloud.intensity.resize(offset.back());
+    cloud.sensor.resize(offset.back());
+    cloud.dynamic.resize(offset.back());
+    for (std::size_t k = 0; k < active.size(); ++k) {
+        const std::size_t s = active[k];
+        const SensorTrack& track = *tracks[s];
+        const Eigen::Isometry3f T = out->T_root_sensor[s].cast<float>();
+        const auto& pts = track.current_points();
+        for (std::size_t j = 0, o = offset[k]; j < pts.size(); ++j, ++o) {
+            cloud.points[o] = T * pts[j].cast<float>();
+            cloud.intensity[o] = track.current_intensity()[j];
+            cloud.sensor[o] = static_cast<std::uint8_t>(s);
+            cloud.dynamic[o] = track.current_dynamic()[j];
+        }
+    }
 }
 
 FusionEngine::FusionEngine(std::size_t num_sensors, const FusionParams& params)

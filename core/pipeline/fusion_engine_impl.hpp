@@ -100,6 +100,8 @@ struct FusionEngine::Impl {
     // Pairs: at least one of `fresh`, the other any sensor whose reference is final (deskew
     // on: deskewed) and shares the frame.
     void add_fine_reference_edges(const std::vector<std::size_t>& fresh, bool deskewed_only);
+    // Step 6: the fused cloud of the sensors in `active`, in the root frame.
+    void build_fused_cloud(const std::vector<std::size_t>& active, FrameOutput* out) const;
 
     // G-ICP Hessian scaled so that whitened residuals are in sigmas (fusion_engine.hpp).
     Matrix6d calibrated_information(const GicpResult& r) const {

@@ -57,6 +57,11 @@ struct FusionParams {
     double correspondence_factor = 1.5;
     // Huber delta of the pose graph in sigmas (edge information is calibrated, see engine).
     double huber_delta = 3.0;
+    // Levenberg-Marquardt iterations of the pose graph per frame. Warm-started at the
+    // predicted poses, the robust window problem is not converged to the solver's tolerances
+    // even after 50; poses after 10 are as accurate on the paper table (bench/BENCHMARK.md)
+    // at a third of the graph's time.
+    int graph_max_iterations = 10;
     // Per-column motion compensation (core/deskew.hpp): every scan is moved into the sensor
     // frame at its timestamp t_ns (the instant poses refer to) with the body twist of the
     // last three pose estimates (SensorTrack::deskew_twist: two frame periods, which damps
