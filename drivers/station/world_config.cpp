@@ -9,7 +9,11 @@ namespace {
 // A sequence of exactly `size` finite numbers, or nothing (and a problem).
 std::optional<std::vector<double>> numbers(YamlReader& r, const YAML::Node& node, const std::string& path,
                                            std::size_t size, const char* what) {
-    if (!node || !node.IsSequence() || node.size() != size) {
+    if (!node) {
+        r.problems.push_back(path + ": missing (expected " + what + ")");
+        return std::nullopt;
+    }
+    if (!node.IsSequence() || node.size() != size) {
         r.problems.push_back(path + ": expected " + what + ", got " + YamlReader::describe(node));
         return std::nullopt;
     }
