@@ -183,20 +183,27 @@ WorldFrameTracker::WorldFrameTracker(const WorldFrameParams& params, std::size_t
 bool WorldFrameTracker::update(const FrameOutput& out) {
     if (frame_.fixed) return false;
     const std::size_t root = params_.root_sensor;
+    if (root_first_frame_ < 0 && root < out.health.size() && out.health[root].pose_valid) {
+        root_first_frame_ = out.frame_index;
+    }
     if (params_.kind == WorldFrameKind::kRoad) {
         const auto& applied = out.applied_registration;
-        if (!applied || !applied->job || !applied->job->done()) {
+        if (!road_planes_ && applied && applied->job && applied->job->done() &&
+            !applied->job->result().sensors.empty()) {  // empty: cancelled or failed, wait
+            const auto& result = applied->job->result();
+            std::vector<RoadPlaneObservation> planes;
+            for (std::size_t k = 0; k < result.sensors.size() && k < applied->order.size(); ++k) {
+                const auto& r = result.sensors[k];
+                if (k != 0 && !r.registered) continue;  // order[0] is the root: T_root0_root
+                planes.push_back({applied->T_root0_root * r.T_root_sensor, r.ground});
+            }
+            road_planes_.emplace(std::move(planes), applied->T_root0_root);
+        }
+        if (!road_planes_ || root_first_frame_ < 0 || out.frame_index < root_first_frame_ + params_.settle_frames) {
             return false;
         }
-        const auto& result = applied->job->result();
-        if (result.sensors.empty()) return false;  // cancelled or failed: wait for the next
-        std::vector<RoadPlaneObservation> planes;
-        for (std::size_t k = 0; k < result.sensors.size() && k < applied->order.size(); ++k) {
-            const auto& r = result.sensors[k];
-            if (k != 0 && !r.registered) continue;  // order[0] is the root: its pose is T_root0_root
-            planes.push_back({applied->T_root0_root * r.T_root_sensor, r.ground});
-        }
-        WorldFrame f = estimate_road_frame(planes, applied->T_root0_root, &out.cloud, params_.road);
+        WorldFrame f = estimate_road_frame(road_planes_->first, road_planes_->second, &out.cloud, params_.road);
+        road_planes_.reset();
         if (!f.fixed) {
             // No road seen at all: the fused frame stays the root frame, and says why.
             f.note += "; the fused frame is the root sensor's (as world.frame: sensor)";

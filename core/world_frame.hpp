@@ -58,7 +58,18 @@ struct WorldFrameParams {
     std::optional<Eigen::Isometry3d> T_world_root;
     // geo: the offset is the fit's translation rounded to a multiple of this (m).
     double offset_step_m = 1.0;
+    // road: the plane is estimated on the fused cloud of a frame at least this many frames
+    // after the root's first: with deskew, FusionEngine re-anchors the root's reference
+    // FusionParams::deskew_reference_after_frames after it, which tilts the root frame by the
+    // root's motion over half a sweep (measured: 3 cm of road height 60 m away), and the road
+    // must be found in the frame the poses are in from then on. Set it to
+    // deskew_reference_after_frames + 1 with deskew, 0 without (world_frame_settle_frames()).
+    int settle_frames = 0;
 };
+
+inline int world_frame_settle_frames(const FusionParams& fusion) {
+    return fusion.deskew ? fusion.deskew_reference_after_frames + 1 : 0;
+}
 
 struct WorldFrame {
     WorldFrameKind kind = WorldFrameKind::kSensor;
@@ -101,7 +112,9 @@ WorldFrame geo_frame_from(const Eigen::Isometry3d& T_world_root, double offset_s
 //   sensor, geo with T_world_root: at construction;
 //   road: from the first initial registration applied (FrameOutput::applied_registration;
 //     the root is never registered again within an engine's life, so it is never
-//     re-estimated); no road plane found at all: the sensor frame, with a note;
+//     re-estimated): its sensors' planes, refined on the fused cloud of that frame or, when
+//     the root started fewer than settle_frames before, of the first frame that many after
+//     it; no road plane found at all: the sensor frame, with a note;
 //   geo with anchors: at the first frame with no initial registration pending in which at
 //     least 3 anchors have a pose (after the first registration was applied).
 // Not thread safe: one thread calls update() and apply().
@@ -122,6 +135,9 @@ private:
     WorldFrameParams params_;
     std::size_t num_sensors_;
     bool registration_applied_ = false;
+    std::int64_t root_first_frame_ = -1;  // the first frame the root had a pose
+    // road: the applied registration's planes (root frame) and root pose, until settled.
+    std::optional<std::pair<std::vector<RoadPlaneObservation>, Eigen::Isometry3d>> road_planes_;
     WorldFrame frame_;
 };
 

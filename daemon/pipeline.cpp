@@ -87,7 +87,9 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         receivers.back()->log = ingest_log;
     }
     engine = std::make_unique<core::FusionEngine>(sensors.size(), config.fusion);
-    world = std::make_unique<core::WorldFrameTracker>(config.world.params, sensors.size());
+    core::WorldFrameParams world_params = config.world.params;
+    world_params.settle_frames = core::world_frame_settle_frames(config.fusion);
+    world = std::make_unique<core::WorldFrameTracker>(world_params, sensors.size());
     world_frame = world->frame();
     last_health.assign(sensors.size(), core::SensorHealth{});
     offset_to_root_ms.assign(sensors.size(), 0.0);

@@ -109,7 +109,12 @@ int run_fuse(int argc, char** argv) {
             throw UsageError("--world: expected road, sensor or geo, got \"" + *w + "\"");
         }
     }
+    world_config.params.settle_frames = core::world_frame_settle_frames(params);
     core::WorldFrameTracker world(world_config.params, n);
+    // Frames fused before the world frame is known (road: a few frames, until the root's
+    // reference is deskewed) wait here and are written in it once it is; offline, nothing
+    // needs to be left out.
+    std::vector<core::FrameOutput> waiting;
     long long frames_before_world = 0;
     std::vector<io::ExtrinsicsEntry> last_poses(n);
     for (std::size_t s = 0; s < n; ++s) last_poses[s].name = station.sensors[s].name;
@@ -127,6 +132,19 @@ int run_fuse(int argc, char** argv) {
     long long continuous_frames = 0;
     std::vector<std::string> last_event(n);
 
+    const auto write_in_world = [&](core::FrameOutput* out) {
+        world.apply(out);
+        for (std::size_t s = 0; s < n; ++s) {
+            const auto& h = out->health[s];
+            if (!h.pose_valid || !h.included) continue;
+            poses.push_back({out->frame_index, station.sensors[s].name, out->t_ns[s], out->T_root_sensor[s]});
+            last_poses[s].registered = true;
+            last_poses[s].T_root_sensor = world.frame().T_fused_root.inverse() * out->T_root_sensor[s];
+        }
+        if (save.count(out->frame_index)) {
+            io::write_fused_cloud_ply(out_dir / ("fused_" + std::to_string(out->frame_index) + ".ply"), out->cloud);
+        }
+    };
     const auto fuse_frame = [&](core::SyncedFrame<PendingScan>&& frame) {
         core::FrameInput input;
         input.sensors.resize(n);
@@ -142,12 +160,6 @@ int run_fuse(int argc, char** argv) {
         const double cpu0_ms = process_cpu_ms();
         auto out = engine.process(input);
         const double cpu_ms = process_cpu_ms() - cpu0_ms;
-        // The world frame: poses and cloud into the fused frame; frames before it is known
-        // (road: before the initial registration, inline here, so never) are not written.
-        world.update(out);
-        const bool in_world = world.fixed();
-        if (in_world) world.apply(&out);
-        else ++frames_before_world;
         std::size_t tracking = 0;
         for (std::size_t s = 0; s < n; ++s) {
             const auto& h = out.health[s];
@@ -156,19 +168,20 @@ int run_fuse(int argc, char** argv) {
                              h.event.c_str());
             }
             last_event[s] = h.event;
-            if (!h.pose_valid || !h.included) continue;
-            ++tracking;
-            if (!in_world) continue;
-            poses.push_back({out.frame_index, station.sensors[s].name, out.t_ns[s], out.T_root_sensor[s]});
-            last_poses[s].registered = true;
-            last_poses[s].T_root_sensor = world.frame().T_fused_root.inverse() * out.T_root_sensor[s];
+            tracking += h.pose_valid && h.included;
         }
         const auto& t = out.timings;
         timing << out.frame_index << ',' << frame.t_ns << ',' << frame.included() << ',' << tracking << ','
                << t.initial_ms << ',' << t.preprocess_ms << ',' << t.registration_ms << ','
                << t.graph_ms << ',' << t.fuse_ms << ',' << t.total_ms << '\n';
-        if (save.count(out.frame_index) && in_world) {
-            io::write_fused_cloud_ply(out_dir / ("fused_" + std::to_string(out.frame_index) + ".ply"), out.cloud);
+        // The world frame: poses and cloud into the fused frame, written once it is known.
+        world.update(out);
+        if (!world.fixed()) ++frames_before_world;
+        if (!save.count(out.frame_index)) out.cloud.clear();  // only the saved clouds wait
+        waiting.push_back(std::move(out));
+        if (world.fixed()) {
+            for (auto& w : waiting) write_in_world(&w);
+            waiting.clear();
         }
         total_ms += t.total_ms;
         if (t.initial_ms > 0.5 * t.total_ms) {
@@ -199,6 +212,10 @@ int run_fuse(int argc, char** argv) {
         auto frame = synchroniser.poll(std::numeric_limits<std::int64_t>::max());
         if (!frame) break;
         fuse_frame(std::move(*frame));
+    }
+    if (!waiting.empty()) {
+        std::fprintf(stderr, "world frame: not known by the end of the capture; %zu frames not written (%s)\n",
+                     waiting.size(), world.frame().note.c_str());
     }
     io::write_pose_csv(out_dir / "poses.csv", poses);
     const core::WorldFrame& wf = world.frame();
@@ -233,7 +250,8 @@ int run_fuse(int argc, char** argv) {
     std::printf("fuse_remove_dynamic %d flag\n", params.remove_dynamic ? 1 : 0);
     std::printf("fuse_world_frame %s frame\n", core::to_string(wf.kind));
     std::printf("fuse_world_fixed_at %lld frame\n", static_cast<long long>(wf.frame_index));
-    std::printf("fuse_world_frames_before %lld frames\n", frames_before_world);
+    std::printf("fuse_world_frames_before %lld frames\n", frames_before_world);  // written late
+    std::printf("fuse_world_frames_unwritten %zu frames\n", waiting.size());
     if (wf.fixed && wf.kind == core::WorldFrameKind::kRoad) {
         std::printf("fuse_world_road_sensors %zu sensors\n", wf.num_sensors);
         std::printf("fuse_world_root_height %.4f m\n", wf.root_height_m);
