@@ -135,7 +135,10 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     std::size_t root_rows = 0;
     for (const auto& p : poses) root_rows += p.sensor == "lidar0";
     EXPECT_GE(root_rows, 1u) << text;
-    const std::size_t frames_fused = std::stoul(*fused);
+    // Frames fused before the world frame (road, the default) was known are not published.
+    const auto unpublished = test::line_after(text, "dropped, ");
+    ASSERT_TRUE(unpublished.has_value()) << text;
+    const std::size_t frames_fused = std::stoul(*fused) - std::stoul(*unpublished);
     EXPECT_EQ(root_rows, frames_fused) << text;
 
     // DDS: one cloud, one poses message and one tf message per fused frame, none lost.
@@ -150,7 +153,10 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     EXPECT_GT(seen.sampled_with_intensity, seen.sampled_points / 2)
         << seen.sampled_with_intensity << " of " << seen.sampled_points << " sampled points";
     EXPECT_TRUE(seen.all_ok_seen) << "no diagnostics with every sensor OK";
-    EXPECT_EQ(seen.last_pipeline["frames_fused"], std::to_string(frames_fused));
+    EXPECT_EQ(seen.last_pipeline["frames_fused"], *fused);  // published or not
+    EXPECT_EQ(seen.last_pipeline["frames_before_world_frame"], *unpublished);
+    EXPECT_EQ(seen.last_pipeline["world_frame"], "road");
+    EXPECT_EQ(seen.last_pipeline["world_frame_fixed"], "true");
     EXPECT_EQ(seen.last_pipeline["dds_write_failures"], "0");
     EXPECT_EQ(seen.last_pipeline["kernel_drops"], "0");
     std::string registered_names;
