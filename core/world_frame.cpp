@@ -5,15 +5,19 @@
 #include <cmath>
 
 #include "core/kabsch.hpp"
+#include "core/normals.hpp"
 #include "core/pipeline/initial_registration_job.hpp"
 
 namespace lidarfuse::core {
 
 const char* to_string(WorldFrameKind kind) {
     switch (kind) {
-        case WorldFrameKind::kRoad: return "road";
-        case WorldFrameKind::kGeo: return "geo";
-        case WorldFrameKind::kSensor: return "sensor";
+        case WorldFrameKind::kRoad:
+            return "road";
+        case WorldFrameKind::kGeo:
+            return "geo";
+        case WorldFrameKind::kSensor:
+            return "sensor";
     }
     return "unknown";
 }
@@ -22,7 +26,8 @@ namespace {
 
 // The fused frame of a plane n . x + d = 0 (root frame, n unit and up): z = n, origin the
 // root's foot on the plane, x the root's x axis projected onto it.
-Eigen::Isometry3d road_frame_in_root(const Eigen::Vector3d& n, double d, const Eigen::Isometry3d& root_pose) {
+Eigen::Isometry3d road_frame_in_root(const Eigen::Vector3d& n, double d,
+                                     const Eigen::Isometry3d& root_pose) {
     const Eigen::Vector3d p = root_pose.translation();
     const Eigen::Vector3d origin = p - (n.dot(p) + d) * n;
     Eigen::Vector3d x = root_pose.linear().col(0);
@@ -112,12 +117,14 @@ WorldFrame estimate_road_frame(const std::vector<RoadPlaneObservation>& sensors,
             n = m;
             d = -n.dot(mean);
             f.num_road_points = count;
-            f.residual_rms_m = std::sqrt(std::max(0.0, solver.eigenvalues()(0)) / static_cast<double>(count));
+            f.residual_rms_m =
+                std::sqrt(std::max(0.0, solver.eigenvalues()(0)) / static_cast<double>(count));
             f.residual_max_m = band;
             ++rounds;
         }
         if (rounds > 0) {
-            f.note += ", refined on " + std::to_string(f.num_road_points) + " road points of the fused cloud";
+            f.note += ", refined on " + std::to_string(f.num_road_points) +
+                      " road points of the fused cloud";
         }
     }
     const Eigen::Isometry3d T_root_fused = road_frame_in_root(n, d, root_pose);
@@ -128,7 +135,8 @@ WorldFrame estimate_road_frame(const std::vector<RoadPlaneObservation>& sensors,
 }
 
 WorldFrame fit_geo_frame(const std::vector<Eigen::Vector3d>& positions_root,
-                         const std::vector<Eigen::Vector3d>& positions_world, double offset_step_m) {
+                         const std::vector<Eigen::Vector3d>& positions_world,
+                         double offset_step_m) {
     WorldFrame f;
     f.kind = WorldFrameKind::kGeo;
     if (positions_root.size() != positions_world.size() || positions_root.size() < 3) {
@@ -199,10 +207,32 @@ bool WorldFrameTracker::update(const FrameOutput& out) {
             }
             road_planes_.emplace(std::move(planes), applied->T_root0_root);
         }
-        if (!road_planes_ || root_first_frame_ < 0 || out.frame_index < root_first_frame_ + params_.settle_frames) {
+        if (root_first_frame_ < 0 || out.frame_index < root_first_frame_ + params_.settle_frames) {
             return false;
         }
-        WorldFrame f = estimate_road_frame(road_planes_->first, road_planes_->second, &out.cloud, params_.road);
+        if (!road_planes_ && num_sensors_ == 1) {
+            // A station of one sensor has no initial registration to take planes from: the
+            // root's road plane from this frame's cloud (root frame = its sensor frame at
+            // the first frame), once (about 50 ms for 50k points).
+            PointCloud root_cloud;
+            for (std::size_t i = 0; i < out.cloud.points.size(); ++i) {
+                if (i >= out.cloud.dynamic.size() || !out.cloud.dynamic[i]) {
+                    root_cloud.points.push_back(out.cloud.points[i].cast<double>());
+                }
+            }
+            NormalParams np;
+            np.compute_covariances = false;
+            if (root_cloud.points.size() >= 10) estimate_normals_covariances(&root_cloud, np);
+            RoadPlaneObservation o;
+            if (root_cloud.normals.size() == root_cloud.points.size()) {
+                o.ground = estimate_ground_plane(root_cloud.points, root_cloud.normals);
+            }
+            road_planes_.emplace(std::vector<RoadPlaneObservation>{o},
+                                 Eigen::Isometry3d::Identity());
+        }
+        if (!road_planes_) return false;
+        WorldFrame f = estimate_road_frame(road_planes_->first, road_planes_->second, &out.cloud,
+                                           params_.road);
         road_planes_.reset();
         if (!f.fixed) {
             // No road seen at all: the fused frame stays the root frame, and says why.
@@ -215,8 +245,9 @@ bool WorldFrameTracker::update(const FrameOutput& out) {
         return true;
     }
     if (params_.kind == WorldFrameKind::kGeo) {
-        registration_applied_ = registration_applied_ || out.applied_registration.has_value() ||
-                                (num_sensors_ == 1 && root < out.health.size() && out.health[root].pose_valid);
+        registration_applied_ =
+            registration_applied_ || out.applied_registration.has_value() ||
+            (num_sensors_ == 1 && root < out.health.size() && out.health[root].pose_valid);
         if (!registration_applied_ || out.initial_registration_pending) return false;
         std::vector<Eigen::Vector3d> in_root, in_world;
         for (const auto& a : params_.anchors) {

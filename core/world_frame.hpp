@@ -83,11 +83,11 @@ struct WorldFrame {
     double residual_rms_m = 0.0;
     double residual_max_m = 0.0;
     std::vector<double> anchor_residuals_m;  // geo fit: per anchor, in anchor order
-    std::size_t num_sensors = 0;       // road: sensor planes used; geo: anchors fitted
-    std::size_t num_road_points = 0;   // road: points of the last refinement band
-    double root_height_m = 0.0;        // road: the root sensor above the road plane
-    std::int64_t frame_index = -1;     // the frame it was fixed at (-1: from the config)
-    std::string note;                  // how it was fixed, or why it fell back
+    std::size_t num_sensors = 0;             // road: sensor planes used; geo: anchors fitted
+    std::size_t num_road_points = 0;         // road: points of the last refinement band
+    double root_height_m = 0.0;              // road: the root sensor above the road plane
+    std::int64_t frame_index = -1;           // the frame it was fixed at (-1: from the config)
+    std::string note;                        // how it was fixed, or why it fell back
 };
 
 // The road frame from the registered sensors' road planes (sensor frames) and poses (root
@@ -104,7 +104,8 @@ WorldFrame estimate_road_frame(const std::vector<RoadPlaneObservation>& sensors,
 // geo from positions: T_world_root by Kabsch from positions_root[i] -> positions_world[i].
 // fixed = false (and a note) with fewer than 3 positions or positions in a line.
 WorldFrame fit_geo_frame(const std::vector<Eigen::Vector3d>& positions_root,
-                         const std::vector<Eigen::Vector3d>& positions_world, double offset_step_m = 1.0);
+                         const std::vector<Eigen::Vector3d>& positions_world,
+                         double offset_step_m = 1.0);
 // geo from a given T_world_root.
 WorldFrame geo_frame_from(const Eigen::Isometry3d& T_world_root, double offset_step_m = 1.0);
 
@@ -114,7 +115,8 @@ WorldFrame geo_frame_from(const Eigen::Isometry3d& T_world_root, double offset_s
 //     the root is never registered again within an engine's life, so it is never
 //     re-estimated): its sensors' planes, refined on the fused cloud of that frame or, when
 //     the root started fewer than settle_frames before, of the first frame that many after
-//     it; no road plane found at all: the sensor frame, with a note;
+//     it; no road plane found at all: the sensor frame, with a note; a station of one
+//     sensor (no registration to apply): the root's own plane, from its cloud, at once;
 //   geo with anchors: at the first frame with no initial registration pending in which at
 //     least 3 anchors have a pose (after the first registration was applied).
 // Not thread safe: one thread calls update() and apply().
