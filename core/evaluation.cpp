@@ -86,8 +86,9 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
             const auto first = std::min_element(samples.begin(), samples.end(), [](auto& a, auto& b) {
                 return a.t_ns < b.t_ns || (a.t_ns == b.t_ns && a.frame < b.frame);
             });
-            const double d = first->pose.translation().head<2>().norm() +
-                             1e-6 * rotation_angle_deg(first->pose.rotation(), Eigen::Matrix3d::Identity());
+            const double d =
+                first->pose.translation().head<2>().norm() +
+                1e-6 * rotation_angle_deg(first->pose.rotation(), Eigen::Matrix3d::Identity());
             if (d < best) {
                 best = d;
                 result.root_sensor = name;
@@ -166,8 +167,10 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
             if (params.world == EvaluationParams::World::kRoad) {
                 const Eigen::Vector3d up_est = m.estimate->pose.linear().transpose().col(2);
                 const Eigen::Vector3d up_gt = m.truth->pose.linear().transpose().col(2);
-                world_trans.push_back(m.estimate->pose.translation().z() - m.truth->pose.translation().z());
-                world_rot.push_back(std::atan2(up_est.cross(up_gt).norm(), up_est.dot(up_gt)) * 180.0 / M_PI);
+                world_trans.push_back(m.estimate->pose.translation().z() -
+                                      m.truth->pose.translation().z());
+                world_rot.push_back(std::atan2(up_est.cross(up_gt).norm(), up_est.dot(up_gt)) *
+                                    180.0 / M_PI);
             } else if (params.world == EvaluationParams::World::kGeo) {
                 Eigen::Isometry3d est = m.estimate->pose;
                 est.translation() += params.world_offset;
@@ -178,7 +181,8 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
         if (!world_trans.empty()) {
             e.world_rmse_trans_m = rms(world_trans, 0, world_trans.size());
             e.world_rmse_rot_deg = rms(world_rot, 0, world_rot.size());
-            for (const double v : world_trans) e.world_max_trans_m = std::max(e.world_max_trans_m, std::abs(v));
+            for (const double v : world_trans)
+                e.world_max_trans_m = std::max(e.world_max_trans_m, std::abs(v));
             sums[4] += e.world_rmse_trans_m;
             sums[5] += e.world_rmse_rot_deg;
         }

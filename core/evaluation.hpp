@@ -15,8 +15,8 @@
 //    geo) cancels out: with `sensor` T_fused_root0 is the identity and nothing changes.
 //  - world (optional, EvaluationParams::world): the estimate's own frame against the truth's
 //    world. kRoad: only what a road frame fixes, each sensor's height (z) and up direction
-//    (the angle between the world z axis seen from the sensor, R^T e_z, in both); the truth's world must be
-//    road-aligned (the simulator's road is z = 0). kGeo: the poses directly, after adding
+//    (the angle between the world z axis seen from the sensor, R^T e_z, in both); the truth's world
+//    must be road-aligned (the simulator's road is z = 0). kGeo: the poses directly, after adding
 //    world_offset (the geo offset, T_world_fused's translation) to the estimate.
 // Per sensor: RMSE over frames; then the mean over sensors.
 

@@ -129,19 +129,22 @@ void check_frame_names(const station::StationConfig& station, const DdsConfig& d
     const bool geo = world.params.kind == core::WorldFrameKind::kGeo;
     for (std::size_t i = 0; i < station.sensors.size(); ++i) {
         if (station.sensors[i].name == dds.frame_id) {
-            problems->push_back("output.dds.frame_id: \"" + dds.frame_id + "\" is also the name of sensors[" +
-                                std::to_string(i) + "], whose tf frame it is; pick a name no sensor has "
+            problems->push_back("output.dds.frame_id: \"" + dds.frame_id +
+                                "\" is also the name of sensors[" + std::to_string(i) +
+                                "], whose tf frame it is; pick a name no sensor has "
                                 "(the default, lidarfuse/fused, cannot collide)");
         }
         if (geo && station.sensors[i].name == world.frame_id) {
-            problems->push_back("world.frame_id: \"" + world.frame_id + "\" is also the name of sensors[" +
-                                std::to_string(i) + "], whose tf frame it is; pick a name no sensor has");
+            problems->push_back("world.frame_id: \"" + world.frame_id +
+                                "\" is also the name of sensors[" + std::to_string(i) +
+                                "], whose tf frame it is; pick a name no sensor has");
         }
     }
     if (geo && world.frame_id == dds.frame_id) {
-        problems->push_back("world.frame_id: \"" + world.frame_id +
-                            "\" is also output.dds.frame_id; the world frame is the fused frame's parent, "
-                            "so they need different names");
+        problems->push_back(
+            "world.frame_id: \"" + world.frame_id +
+            "\" is also output.dds.frame_id; the world frame is the fused frame's parent, "
+            "so they need different names");
     }
 }
 

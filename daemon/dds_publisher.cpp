@@ -21,7 +21,8 @@ dds_qos_t* writer_qos(int depth, double max_blocking_ms, const std::string& user
     dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE,
                          static_cast<dds_duration_t>(max_blocking_ms * 1e6));
     dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, depth);
-    dds_qset_durability(qos, transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+    dds_qset_durability(qos,
+                        transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
     const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
     dds_qset_data_representation(qos, 1, &xcdr1);
     dds_qset_userdata(qos, user_data.data(), user_data.size());
@@ -47,7 +48,8 @@ std::string ros_topic_name(const std::string& topic_namespace, const std::string
     return topic_namespace.empty() ? "rt/" + leaf : "rt/" + topic_namespace + "/" + leaf;
 }
 
-DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames, std::string static_parent_frame)
+DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames,
+                           std::string static_parent_frame)
     : config_(config),
       frames_(std::move(frames)),
       static_parent_frame_(std::move(static_parent_frame)),
@@ -69,8 +71,8 @@ DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames, std::s
             dds_delete(participant_);
             throw std::runtime_error("DDS: cannot create topic " + name + ": " + dds_error(topic));
         }
-        dds_qos_t* qos =
-            writer_qos(depth, config_.max_blocking_ms, ros_type_hash_user_data(type->m_typename), transient_local);
+        dds_qos_t* qos = writer_qos(depth, config_.max_blocking_ms,
+                                    ros_type_hash_user_data(type->m_typename), transient_local);
         const dds_entity_t writer = dds_create_writer(participant_, topic, qos, nullptr);
         dds_delete_qos(qos);
         if (writer < 0) {
@@ -91,7 +93,8 @@ DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames, std::s
     diagnostics_writer_ =
         make_writer("rt/diagnostics", &diagnostic_msgs_msg_dds__DiagnosticArray__desc, depth);
     if (!static_parent_frame_.empty()) {
-        tf_static_writer_ = make_writer("rt/tf_static", &tf2_msgs_msg_dds__TFMessage__desc, 1, true);
+        tf_static_writer_ =
+            make_writer("rt/tf_static", &tf2_msgs_msg_dds__TFMessage__desc, 1, true);
     }
 }
 

@@ -41,7 +41,8 @@ struct DdsCounters {
     std::uint64_t written = 0;   // samples accepted by dds_write
     std::uint64_t failures = 0;  // dds_write errors (timeouts included)
     std::uint64_t timeouts = 0;  // ... of which a reader held the writer past max_blocking_ms
-    std::uint64_t clouds = 0, tf = 0, tf_static = 0, poses = 0, diagnostics = 0;  // written per topic
+    std::uint64_t clouds = 0, tf = 0, tf_static = 0, poses = 0,
+                  diagnostics = 0;       // written per topic
     std::uint64_t unstamped_frames = 0;  // frames without a stamped sensor: nothing sent
 };
 
@@ -58,7 +59,8 @@ public:
     // domain and the topic when Cyclone refuses.
     // `static_parent_frame` non-empty (world.frame: geo): an rt/tf_static writer too
     // (transient-local, depth 1, as tf2_ros's static broadcaster) for publish_static().
-    DdsPublisher(const DdsConfig& config, StationFrames frames, std::string static_parent_frame = "");
+    DdsPublisher(const DdsConfig& config, StationFrames frames,
+                 std::string static_parent_frame = "");
     ~DdsPublisher();
     DdsPublisher(const DdsPublisher&) = delete;
     DdsPublisher& operator=(const DdsPublisher&) = delete;
@@ -90,7 +92,8 @@ private:
                  tf_static_writer_ = 0;
     FrameMessageBuilder frame_builder_;
     DiagnosticsBuilder diagnostics_builder_;
-    Counter written_, failures_, timeouts_, clouds_, tf_, tf_static_, poses_, diagnostics_, unstamped_;
+    Counter written_, failures_, timeouts_, clouds_, tf_, tf_static_, poses_, diagnostics_,
+        unstamped_;
 };
 
 }  // namespace lidarfuse::daemon

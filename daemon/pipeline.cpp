@@ -101,7 +101,8 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         names.root = config.fusion.root_sensor;
         // geo: the world frame is the fused frame's parent on rt/tf_static (the offset).
         const bool geo = config.world.params.kind == core::WorldFrameKind::kGeo;
-        dds = std::make_unique<DdsPublisher>(config.output.dds, names, geo ? config.world.frame_id : "");
+        dds = std::make_unique<DdsPublisher>(config.output.dds, names,
+                                             geo ? config.world.frame_id : "");
     }
     heartbeat_ns = steady_ns();
 }

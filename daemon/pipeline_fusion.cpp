@@ -143,8 +143,10 @@ void Pipeline::Impl::fusion_loop() {
 
 void Pipeline::Impl::log_world_frame(const core::WorldFrame& f) {
     const Eigen::Vector3d t = f.T_fused_root.translation();
-    fusion_log->info("world frame ({}) fixed at frame {}: {}; T_fused_root translation [{:.3f}, {:.3f}, {:.3f}] m",
-                     core::to_string(f.kind), f.frame_index, f.note, t.x(), t.y(), t.z());
+    fusion_log->info(
+        "world frame ({}) fixed at frame {}: {}; T_fused_root translation [{:.3f}, {:.3f}, {:.3f}] "
+        "m",
+        core::to_string(f.kind), f.frame_index, f.note, t.x(), t.y(), t.z());
     if (f.kind == core::WorldFrameKind::kRoad && f.num_sensors > 0) {
         fusion_log->info("road plane: root sensor {:.3f} m above it, rms {:.4f} m over {} points",
                          f.root_height_m, f.residual_rms_m, f.num_road_points);
@@ -153,9 +155,10 @@ void Pipeline::Impl::log_world_frame(const core::WorldFrame& f) {
     }
     if (f.kind == core::WorldFrameKind::kGeo) {
         const Eigen::Vector3d o = f.T_world_fused.translation();
-        fusion_log->info("geo: offset (world -> fused) [{:.3f}, {:.3f}, {:.3f}] m; fit residual rms {:.4f} m, "
-                         "max {:.4f} m over {} sensors",
-                         o.x(), o.y(), o.z(), f.residual_rms_m, f.residual_max_m, f.num_sensors);
+        fusion_log->info(
+            "geo: offset (world -> fused) [{:.3f}, {:.3f}, {:.3f}] m; fit residual rms {:.4f} m, "
+            "max {:.4f} m over {} sensors",
+            o.x(), o.y(), o.z(), f.residual_rms_m, f.residual_max_m, f.num_sensors);
     }
 }
 

@@ -65,7 +65,6 @@ struct Pipeline::Impl {
     core::WorldFrame world_frame;
     std::uint64_t frames_before_world_frame = 0;
 
-
     explicit Impl(const DaemonConfig& c);
     static std::shared_ptr<spdlog::logger> logger(const std::string& name);
 

@@ -96,7 +96,8 @@ void Pipeline::Impl::output_loop() {
             const FrameStamps stamps = frame_stamps_of(*result, times);
             dds->publish_frame(*result, stamps);
             // geo: <world> -> fused frame on rt/tf_static, with the first stamped frame.
-            if (world_now.kind == core::WorldFrameKind::kGeo) dds->publish_static(world_now.T_world_fused, stamps.frame_ns);
+            if (world_now.kind == core::WorldFrameKind::kGeo)
+                dds->publish_static(world_now.T_world_fused, stamps.frame_ns);
         }
         note_published(*result, times);
         for (std::size_t s = 0; s < sensors.size(); ++s) {

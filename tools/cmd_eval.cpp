@@ -41,7 +41,8 @@ void write_plot(const std::filesystem::path& file, const core::EvaluationResult&
 
 int run_eval(int argc, char** argv) {
     const Args args(argc, argv,
-                    {"--gt", "--poses", "--root", "--plot", "--tolerance-ms", "--cloud", "--world", "--world-offset"},
+                    {"--gt", "--poses", "--root", "--plot", "--tolerance-ms", "--cloud", "--world",
+                     "--world-offset"},
                     {});
     if (args.help()) {
         std::printf(
@@ -49,9 +50,12 @@ int run_eval(int argc, char** argv) {
             "                      [--tolerance-ms 25] [--plot DIR [--cloud FUSED.ply]]\n"
             "Per sensor and on average: translation and rotation RMSE over frames, after\n"
             "fitting T_coord by SVD from the sensor positions (the paper's metric), and without\n"
-            "any fitted alignment (strict: both relative to the root sensor at its first frame, so\n"
-            "poses.csv may be in any world frame). --plot writes error-over-time SVGs into DIR, and\n"
-            "with --cloud (a fused frame from fuse --save-cloud) DIR/top_view.svg coloured by sensor.\n"
+            "any fitted alignment (strict: both relative to the root sensor at its first frame, "
+            "so\n"
+            "poses.csv may be in any world frame). --plot writes error-over-time SVGs into DIR, "
+            "and\n"
+            "with --cloud (a fused frame from fuse --save-cloud) DIR/top_view.svg coloured by "
+            "sensor.\n"
             "--world road: also each sensor's height and up-direction error in poses.csv's own\n"
             "frame against the truth's (which must be road-aligned, as the simulator's is);\n"
             "--world geo [--world-offset X,Y,Z]: poses.csv (plus the offset: extrinsics.yaml's\n"

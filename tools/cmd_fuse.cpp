@@ -13,9 +13,9 @@
 #include "drivers/io/cloud_ply.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/pose_csv.hpp"
+#include "drivers/ouster/projection.hpp"
 #include "drivers/station/fusion_config.hpp"
 #include "drivers/station/world_config.hpp"
-#include "drivers/ouster/projection.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
 
@@ -94,7 +94,8 @@ int run_fuse(int argc, char** argv) {
     std::set<long long> save;
     for (const auto& f : args.values("--save-cloud")) save.insert(std::stoll(f));
     core::FusionEngine engine(n, params);
-    station::WorldConfig world_config = station::load_world_config(args.required("--config"), station);
+    station::WorldConfig world_config =
+        station::load_world_config(args.required("--config"), station);
     if (const auto w = args.value("--world")) {
         if (*w == "road") {
             world_config.params.kind = core::WorldFrameKind::kRoad;
@@ -102,7 +103,8 @@ int run_fuse(int argc, char** argv) {
             world_config.params.kind = core::WorldFrameKind::kSensor;
         } else if (*w == "geo") {
             if (world_config.params.anchors.empty() && !world_config.params.T_world_root) {
-                throw UsageError("--world geo needs world.positions or world.T_world_root in the config");
+                throw UsageError(
+                    "--world geo needs world.positions or world.T_world_root in the config");
             }
             world_config.params.kind = core::WorldFrameKind::kGeo;
         } else {
@@ -137,12 +139,15 @@ int run_fuse(int argc, char** argv) {
         for (std::size_t s = 0; s < n; ++s) {
             const auto& h = out->health[s];
             if (!h.pose_valid || !h.included) continue;
-            poses.push_back({out->frame_index, station.sensors[s].name, out->t_ns[s], out->T_root_sensor[s]});
+            poses.push_back(
+                {out->frame_index, station.sensors[s].name, out->t_ns[s], out->T_root_sensor[s]});
             last_poses[s].registered = true;
-            last_poses[s].T_root_sensor = world.frame().T_fused_root.inverse() * out->T_root_sensor[s];
+            last_poses[s].T_root_sensor =
+                world.frame().T_fused_root.inverse() * out->T_root_sensor[s];
         }
         if (save.count(out->frame_index)) {
-            io::write_fused_cloud_ply(out_dir / ("fused_" + std::to_string(out->frame_index) + ".ply"), out->cloud);
+            io::write_fused_cloud_ply(
+                out_dir / ("fused_" + std::to_string(out->frame_index) + ".ply"), out->cloud);
         }
     };
     const auto fuse_frame = [&](core::SyncedFrame<PendingScan>&& frame) {
@@ -214,8 +219,10 @@ int run_fuse(int argc, char** argv) {
         fuse_frame(std::move(*frame));
     }
     if (!waiting.empty()) {
-        std::fprintf(stderr, "world frame: not known by the end of the capture; %zu frames not written (%s)\n",
-                     waiting.size(), world.frame().note.c_str());
+        std::fprintf(
+            stderr,
+            "world frame: not known by the end of the capture; %zu frames not written (%s)\n",
+            waiting.size(), world.frame().note.c_str());
     }
     io::write_pose_csv(out_dir / "poses.csv", poses);
     const core::WorldFrame& wf = world.frame();

@@ -22,14 +22,15 @@ void emit_pose(YAML::Emitter& out, const char* key, const Eigen::Isometry3d& T) 
     if (q.w() < 0) q.coeffs() = -q.coeffs();
     const Eigen::Vector3d t = T.translation();
     out << YAML::Key << key << YAML::Value << YAML::BeginMap;
-    out << YAML::Key << "translation" << YAML::Value << YAML::Flow << YAML::BeginSeq << t.x() << t.y() << t.z()
-        << YAML::EndSeq;
-    out << YAML::Key << "rotation_wxyz" << YAML::Value << YAML::Flow << YAML::BeginSeq << q.w() << q.x() << q.y()
-        << q.z() << YAML::EndSeq;
+    out << YAML::Key << "translation" << YAML::Value << YAML::Flow << YAML::BeginSeq << t.x()
+        << t.y() << t.z() << YAML::EndSeq;
+    out << YAML::Key << "rotation_wxyz" << YAML::Value << YAML::Flow << YAML::BeginSeq << q.w()
+        << q.x() << q.y() << q.z() << YAML::EndSeq;
     out << YAML::EndMap;
 }
 
-void emit_sensor(YAML::Emitter& out, const ExtrinsicsEntry& s, const std::optional<ExtrinsicsWorld>& world) {
+void emit_sensor(YAML::Emitter& out, const ExtrinsicsEntry& s,
+                 const std::optional<ExtrinsicsWorld>& world) {
     out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << s.name;
     out << YAML::Key << "registered" << YAML::Value << s.registered;
     if (s.registered) {
@@ -75,7 +76,8 @@ Eigen::Isometry3d read_pose(const YAML::Node& pose, const std::string& path) {
         if (!std::isfinite(v)) throw std::runtime_error(path + ".translation: not finite");
     }
     const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
-    if (!(std::abs(quat.norm() - 1.0) <= 1e-3)) throw std::runtime_error(path + ".rotation_wxyz: not unit length");
+    if (!(std::abs(quat.norm() - 1.0) <= 1e-3))
+        throw std::runtime_error(path + ".rotation_wxyz: not unit length");
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.linear() = quat.normalized().toRotationMatrix();
     T.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
@@ -147,7 +149,8 @@ std::string extrinsics_to_yaml(const ExtrinsicsDocument& document) {
         const auto& w = *document.world;
         out << YAML::Key << "world" << YAML::Value << YAML::BeginMap;
         out << YAML::Key << "frame" << YAML::Value << w.frame;
-        if (!w.fused_frame.empty()) out << YAML::Key << "fused_frame" << YAML::Value << w.fused_frame;
+        if (!w.fused_frame.empty())
+            out << YAML::Key << "fused_frame" << YAML::Value << w.fused_frame;
         emit_pose(out, "T_fused_root", w.T_fused_root);
         if (!w.world_frame.empty()) {
             out << YAML::Key << "world_frame" << YAML::Value << w.world_frame;
@@ -168,10 +171,11 @@ std::string extrinsics_to_yaml(const ExtrinsicsDocument& document) {
         out << YAML::EndSeq;
     }
     out << YAML::EndMap;
-    std::string comment = "# T_root_sensor maps sensor coordinates into the root sensor's frame (metres)\n";
+    std::string comment =
+        "# T_root_sensor maps sensor coordinates into the root sensor's frame (metres)\n";
     if (document.world) {
-        comment += "# T_fused_sensor into the published fused frame (world frame: " + document.world->frame +
-                   ", see world:)\n";
+        comment += "# T_fused_sensor into the published fused frame (world frame: " +
+                   document.world->frame + ", see world:)\n";
     }
     return comment + std::string(out.c_str()) + "\n";
 }

@@ -7,8 +7,9 @@ namespace lidarfuse::station {
 namespace {
 
 // A sequence of exactly `size` finite numbers, or nothing (and a problem).
-std::optional<std::vector<double>> numbers(YamlReader& r, const YAML::Node& node, const std::string& path,
-                                           std::size_t size, const char* what) {
+std::optional<std::vector<double>> numbers(YamlReader& r, const YAML::Node& node,
+                                           const std::string& path, std::size_t size,
+                                           const char* what) {
     if (!node) {
         r.problems.push_back(path + ": missing (expected " + what + ")");
         return std::nullopt;
@@ -26,11 +27,13 @@ std::optional<std::vector<double>> numbers(YamlReader& r, const YAML::Node& node
     return out;
 }
 
-std::optional<Eigen::Isometry3d> read_transform(YamlReader& r, const YAML::Node& node, const std::string& path) {
+std::optional<Eigen::Isometry3d> read_transform(YamlReader& r, const YAML::Node& node,
+                                                const std::string& path) {
     if (!r.optional_map(node, path)) return std::nullopt;
     r.only_keys(node, path, {"translation", "rotation_wxyz"});
     const auto t = numbers(r, node["translation"], path + ".translation", 3, "[x, y, z] in metres");
-    const auto q = numbers(r, node["rotation_wxyz"], path + ".rotation_wxyz", 4, "a unit quaternion [w, x, y, z]");
+    const auto q = numbers(r, node["rotation_wxyz"], path + ".rotation_wxyz", 4,
+                           "a unit quaternion [w, x, y, z]");
     if (!t || !q) return std::nullopt;
     const Eigen::Quaterniond rotation((*q)[0], (*q)[1], (*q)[2], (*q)[3]);
     if (std::abs(rotation.norm() - 1.0) > 1e-3) {
@@ -48,8 +51,8 @@ std::optional<Eigen::Isometry3d> read_transform(YamlReader& r, const YAML::Node&
 bool valid_frame_id(const std::string& frame) {
     if (frame.empty() || frame.size() > 128 || frame.front() == '/') return false;
     for (const char c : frame) {
-        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                        c == '_' || c == '.' || c == '/' || c == '-';
+        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                        (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '/' || c == '-';
         if (!ok) return false;
     }
     return true;
@@ -72,7 +75,8 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
         } else if (*frame == "sensor") {
             p.kind = core::WorldFrameKind::kSensor;
         } else {
-            r.problems.push_back("world.frame: expected road, geo or sensor, got \"" + *frame + "\"");
+            r.problems.push_back("world.frame: expected road, geo or sensor, got \"" + *frame +
+                                 "\"");
             return;
         }
     }
@@ -80,8 +84,10 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
         if (valid_frame_id(*id)) {
             world->frame_id = *id;
         } else {
-            r.problems.push_back("world.frame_id: expected 1..128 characters of [A-Za-z0-9_./-], not starting "
-                                 "with '/', got \"" + *id + "\"");
+            r.problems.push_back(
+                "world.frame_id: expected 1..128 characters of [A-Za-z0-9_./-], not starting "
+                "with '/', got \"" +
+                *id + "\"");
         }
     }
     const bool geo = p.kind == core::WorldFrameKind::kGeo;
@@ -95,12 +101,14 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
         return;
     }
     if (positions && given) {
-        r.problems.push_back("world.T_world_root: give either world.positions or world.T_world_root, not both");
+        r.problems.push_back(
+            "world.T_world_root: give either world.positions or world.T_world_root, not both");
         return;
     }
     if (!positions && !given) {
-        r.problems.push_back("world.positions: missing (world.frame: geo needs the known positions of at least 3 "
-                             "sensors, or world.T_world_root)");
+        r.problems.push_back(
+            "world.positions: missing (world.frame: geo needs the known positions of at least 3 "
+            "sensors, or world.T_world_root)");
         return;
     }
     if (given) {
@@ -108,8 +116,9 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
         return;
     }
     if (!positions.IsMap()) {
-        r.problems.push_back("world.positions: expected a mapping of sensor name to [x, y, z], got " +
-                             YamlReader::describe(positions));
+        r.problems.push_back(
+            "world.positions: expected a mapping of sensor name to [x, y, z], got " +
+            YamlReader::describe(positions));
         return;
     }
     for (const auto& entry : positions) {
@@ -121,7 +130,8 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
         }
         if (station.sensors.empty()) continue;  // the station section failed: reported there
         if (index == station.sensors.size()) {
-            r.problems.push_back(path + ": \"" + name + "\" is not the name of a configured sensor");
+            r.problems.push_back(path + ": \"" + name +
+                                 "\" is not the name of a configured sensor");
             continue;
         }
         if (const auto xyz = numbers(r, entry.second, path, 3, "[x, y, z] in metres")) {
@@ -129,7 +139,8 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
         }
     }
     if (positions.size() < 3) {
-        r.problems.push_back("world.positions: expected at least 3 sensors, got " + std::to_string(positions.size()));
+        r.problems.push_back("world.positions: expected at least 3 sensors, got " +
+                             std::to_string(positions.size()));
     }
 }
 

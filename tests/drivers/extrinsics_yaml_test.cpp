@@ -4,10 +4,9 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <fstream>
-
-#include <yaml-cpp/yaml.h>
 
 #include "tests/support/test_data.hpp"
 
@@ -139,7 +138,8 @@ TEST(ExtrinsicsYaml, WorldBlockRoundTripAndFusedPoses) {
     ExtrinsicsWorld w;
     w.frame = "geo";
     w.fused_frame = "lidarfuse/fused";
-    w.T_fused_root.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.1, 0.2, 1).normalized()).toRotationMatrix();
+    w.T_fused_root.linear() =
+        Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.1, 0.2, 1).normalized()).toRotationMatrix();
     w.T_fused_root.translation() = Eigen::Vector3d(0.4, -0.25, 0.2);
     w.world_frame = "utm";
     w.T_world_fused.translation() = Eigen::Vector3d(691234, 5335012, 512);
@@ -153,7 +153,8 @@ TEST(ExtrinsicsYaml, WorldBlockRoundTripAndFusedPoses) {
     EXPECT_EQ(back.world->fused_frame, "lidarfuse/fused");
     EXPECT_EQ(back.world->world_frame, "utm");
     EXPECT_TRUE(back.world->T_fused_root.isApprox(w.T_fused_root, 1e-8));
-    EXPECT_EQ(back.world->T_world_fused.translation(), w.T_world_fused.translation());  // whole metres, exact
+    EXPECT_EQ(back.world->T_world_fused.translation(),
+              w.T_world_fused.translation());  // whole metres, exact
     EXPECT_DOUBLE_EQ(back.world->figures.at("residual_max_m"), 0.0456);
     ASSERT_EQ(back.sensors.size(), doc.sensors.size());
     EXPECT_TRUE(back.sensors[1].T_root_sensor.isApprox(doc.sensors[1].T_root_sensor, 1e-8));

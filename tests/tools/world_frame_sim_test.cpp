@@ -32,7 +32,10 @@ protected:
         dir_ = new test::TempDir("world-sim");
         const std::string d = dir_->path().string();
         std::string out;
-        ASSERT_EQ(test::run_command(tool_ + " sim --scenario curve --seed 1 --seconds 2 --out " + d + "/sim", &out), 0)
+        ASSERT_EQ(
+            test::run_command(
+                tool_ + " sim --scenario curve --seed 1 --seconds 2 --out " + d + "/sim", &out),
+            0)
             << out;
         ASSERT_EQ(test::run_command(tool_ + " fuse " + d + "/sim/capture.pcap --config " + d +
                                         "/sim/station.yaml --out " + d + "/road --save-cloud 20",
@@ -63,7 +66,8 @@ TEST_F(WorldFrameSim, RoadLiesAtZeroInTheFusedCloud) {
     std::map<std::pair<int, int>, std::vector<double>> cells;
     for (const auto& p : cloud.cloud.points) {
         if (std::abs(p.z()) > 0.08) continue;
-        cells[{static_cast<int>(std::floor(p.x() / 10)), static_cast<int>(std::floor(p.y() / 10))}].push_back(p.z());
+        cells[{static_cast<int>(std::floor(p.x() / 10)), static_cast<int>(std::floor(p.y() / 10))}]
+            .push_back(p.z());
     }
     std::size_t checked = 0;
     double worst = 0;
@@ -88,7 +92,8 @@ TEST_F(WorldFrameSim, SensorHeightsMatchGroundTruth) {
     const auto poses = io::read_pose_csv(dir_->path() / "road" / "poses.csv");
     std::map<std::pair<std::int64_t, std::string>, double> true_z;
     for (const auto& r : truth) true_z[{r.frame, r.sensor}] = r.pose.translation().z();
-    const std::int64_t fixed_at = static_cast<std::int64_t>(test::figure(road_output_, "fuse_world_fixed_at").value_or(-1));
+    const std::int64_t fixed_at =
+        static_cast<std::int64_t>(test::figure(road_output_, "fuse_world_fixed_at").value_or(-1));
     std::size_t at_fix = 0;
     for (const auto& r : poses) {
         if (r.frame != fixed_at) continue;
@@ -98,7 +103,8 @@ TEST_F(WorldFrameSim, SensorHeightsMatchGroundTruth) {
     EXPECT_EQ(at_fix, 4u);
     core::EvaluationParams params;
     params.world = core::EvaluationParams::World::kRoad;
-    const auto result = core::evaluate_trajectories(trajectories(truth), trajectories(poses), params);
+    const auto result =
+        core::evaluate_trajectories(trajectories(truth), trajectories(poses), params);
     ASSERT_TRUE(result.ok) << result.error;
     EXPECT_EQ(result.root_sensor, "lidar0");  // found in the road frame too
     for (const auto& s : result.sensors) {
@@ -121,8 +127,8 @@ TEST_F(WorldFrameSim, SensorHeightsMatchGroundTruth) {
 TEST_F(WorldFrameSim, EvalGivesTheSameErrorsInTheRoadAndTheSensorFrame) {
     const std::string d = dir_->path().string();
     std::string out;
-    ASSERT_EQ(test::run_command(tool_ + " fuse " + d + "/sim/capture.pcap --config " + d + "/sim/station.yaml --out " +
-                                    d + "/sensor --world sensor",
+    ASSERT_EQ(test::run_command(tool_ + " fuse " + d + "/sim/capture.pcap --config " + d +
+                                    "/sim/station.yaml --out " + d + "/sensor --world sensor",
                                 &out),
               0)
         << out;
@@ -130,14 +136,16 @@ TEST_F(WorldFrameSim, EvalGivesTheSameErrorsInTheRoadAndTheSensorFrame) {
     ASSERT_FALSE(sensor_poses.empty());
     EXPECT_TRUE(sensor_poses.front().pose.isApprox(Eigen::Isometry3d::Identity(), 1e-9));
     std::string road_eval, sensor_eval;
-    ASSERT_EQ(test::run_command(tool_ + " eval --gt " + d + "/sim/ground_truth.csv --poses " + d + "/road/poses.csv",
+    ASSERT_EQ(test::run_command(tool_ + " eval --gt " + d + "/sim/ground_truth.csv --poses " + d +
+                                    "/road/poses.csv",
                                 &road_eval),
               0);
-    ASSERT_EQ(test::run_command(tool_ + " eval --gt " + d + "/sim/ground_truth.csv --poses " + d + "/sensor/poses.csv",
+    ASSERT_EQ(test::run_command(tool_ + " eval --gt " + d + "/sim/ground_truth.csv --poses " + d +
+                                    "/sensor/poses.csv",
                                 &sensor_eval),
               0);
-    for (const char* name : {"eval_mean_rmse_trans", "eval_mean_rmse_rot", "eval_mean_strict_rmse_trans",
-                             "eval_mean_strict_rmse_rot"}) {
+    for (const char* name : {"eval_mean_rmse_trans", "eval_mean_rmse_rot",
+                             "eval_mean_strict_rmse_trans", "eval_mean_strict_rmse_rot"}) {
         const auto road = test::figure(road_eval, name), sensor = test::figure(sensor_eval, name);
         ASSERT_TRUE(road && sensor) << name;
         EXPECT_NEAR(*road, *sensor, 2e-5) << name;  // poses.csv keeps 1e-6 m
