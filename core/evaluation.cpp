@@ -86,8 +86,9 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
             const auto first = std::min_element(samples.begin(), samples.end(), [](auto& a, auto& b) {
                 return a.t_ns < b.t_ns || (a.t_ns == b.t_ns && a.frame < b.frame);
             });
-            const double d = first->pose.translation().norm() +
-                             rotation_angle_deg(first->pose.rotation(), Eigen::Matrix3d::Identity());
+            const double d =
+                first->pose.translation().head<2>().norm() +
+                1e-6 * rotation_angle_deg(first->pose.rotation(), Eigen::Matrix3d::Identity());
             if (d < best) {
                 best = d;
                 result.root_sensor = name;
@@ -113,6 +114,8 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
         return result;
     }
     const Eigen::Isometry3d T_world_root0 = root->second.front().truth->pose;
+    const Eigen::Isometry3d T_fused_root0 = root->second.front().estimate->pose;
+    const Eigen::Isometry3d T_root0_fused = T_fused_root0.inverse();
 
     // T_coord: Umeyama without scale from estimated to true positions. The positions must
     // span a plane: with fewer than three sensors, or sensors along a line, the rotation
@@ -139,7 +142,7 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
         }
     }
 
-    double sums[4] = {0, 0, 0, 0};
+    double sums[6] = {0, 0, 0, 0, 0, 0};
     for (const auto& [name, matches] : matched) {
         SensorErrors e;
         e.sensor = name;
@@ -149,16 +152,39 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
             result.sensors.push_back(std::move(e));
             continue;
         }
+        std::vector<double> world_trans, world_rot;
         for (const auto& m : matches) {
             const Eigen::Isometry3d aligned = result.T_world_root * m.estimate->pose;
             const Eigen::Isometry3d strict_truth = T_world_root0.inverse() * m.truth->pose;
+            const Eigen::Isometry3d strict_estimate = T_root0_fused * m.estimate->pose;
             e.t_ns.push_back(m.estimate->t_ns);
             e.trans_err_m.push_back((aligned.translation() - m.truth->pose.translation()).norm());
             e.rot_err_deg.push_back(rotation_angle_deg(aligned.rotation(), m.truth->pose.rotation()));
             e.strict_trans_err_m.push_back(
-                (m.estimate->pose.translation() - strict_truth.translation()).norm());
+                (strict_estimate.translation() - strict_truth.translation()).norm());
             e.strict_rot_err_deg.push_back(
-                rotation_angle_deg(m.estimate->pose.rotation(), strict_truth.rotation()));
+                rotation_angle_deg(strict_estimate.rotation(), strict_truth.rotation()));
+            if (params.world == EvaluationParams::World::kRoad) {
+                const Eigen::Vector3d up_est = m.estimate->pose.linear().transpose().col(2);
+                const Eigen::Vector3d up_gt = m.truth->pose.linear().transpose().col(2);
+                world_trans.push_back(m.estimate->pose.translation().z() -
+                                      m.truth->pose.translation().z());
+                world_rot.push_back(std::atan2(up_est.cross(up_gt).norm(), up_est.dot(up_gt)) *
+                                    180.0 / M_PI);
+            } else if (params.world == EvaluationParams::World::kGeo) {
+                Eigen::Isometry3d est = m.estimate->pose;
+                est.translation() += params.world_offset;
+                world_trans.push_back((est.translation() - m.truth->pose.translation()).norm());
+                world_rot.push_back(rotation_angle_deg(est.rotation(), m.truth->pose.rotation()));
+            }
+        }
+        if (!world_trans.empty()) {
+            e.world_rmse_trans_m = rms(world_trans, 0, world_trans.size());
+            e.world_rmse_rot_deg = rms(world_rot, 0, world_rot.size());
+            for (const double v : world_trans)
+                e.world_max_trans_m = std::max(e.world_max_trans_m, std::abs(v));
+            sums[4] += e.world_rmse_trans_m;
+            sums[5] += e.world_rmse_rot_deg;
         }
         const std::size_t n = e.trans_err_m.size();
         e.rmse_trans_m = rms(e.trans_err_m, 0, n);
@@ -183,6 +209,8 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
     result.mean_rmse_rot_deg = sums[1] / count;
     result.mean_strict_rmse_trans_m = sums[2] / count;
     result.mean_strict_rmse_rot_deg = sums[3] / count;
+    result.mean_world_rmse_trans_m = sums[4] / count;
+    result.mean_world_rmse_rot_deg = sums[5] / count;
     result.ok = true;
     return result;
 }

@@ -293,6 +293,7 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
         s.num_downsampled_points = f.octree.cloud.size();
         s.num_keypoints = f.keypoints.size();
         s.timings = f.timings;
+        s.ground = f.ground;
         if (i == 0 && f.status == SensorFeatureStatus::kOk) {
             s.registered = true;  // the root defines the frame
             s.status = SensorRegistrationStatus::kRegistered;

@@ -100,6 +100,9 @@ struct SensorRegistration {
     std::size_t num_downsampled_points = 0;
     std::size_t num_keypoints = 0;
     SensorFeatureTimings timings;
+    // The sensor's road plane in its own frame (found = false when none), for a road-aligned
+    // world frame (core/world_frame.hpp); set whether or not the sensor was registered.
+    GroundPlane ground;
 };
 
 // Wall-clock seconds per stage (the per-sensor and per-pair stages run in parallel; their

@@ -122,13 +122,29 @@ void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path
 
 // tf2 keeps one parent per frame: the fused frame must not be a sensor's frame too, or that
 // sensor would be its own parent (and dropped from tf).
+// geo's world frame is the fused frame's parent on rt/tf_static: it must be neither the
+// fused frame nor a sensor's frame.
 void check_frame_names(const station::StationConfig& station, const DdsConfig& dds,
-                       std::vector<std::string>* problems) {
+                       const station::WorldConfig& world, std::vector<std::string>* problems) {
+    const bool geo = world.params.kind == core::WorldFrameKind::kGeo;
     for (std::size_t i = 0; i < station.sensors.size(); ++i) {
-        if (station.sensors[i].name != dds.frame_id) continue;
-        problems->push_back("output.dds.frame_id: \"" + dds.frame_id + "\" is also the name of sensors[" +
-                            std::to_string(i) + "], whose tf frame it is; pick a name no sensor has "
-                            "(the default, lidarfuse/fused, cannot collide)");
+        if (station.sensors[i].name == dds.frame_id) {
+            problems->push_back("output.dds.frame_id: \"" + dds.frame_id +
+                                "\" is also the name of sensors[" + std::to_string(i) +
+                                "], whose tf frame it is; pick a name no sensor has "
+                                "(the default, lidarfuse/fused, cannot collide)");
+        }
+        if (geo && station.sensors[i].name == world.frame_id) {
+            problems->push_back("world.frame_id: \"" + world.frame_id +
+                                "\" is also the name of sensors[" + std::to_string(i) +
+                                "], whose tf frame it is; pick a name no sensor has");
+        }
+    }
+    if (geo && world.frame_id == dds.frame_id) {
+        problems->push_back(
+            "world.frame_id: \"" + world.frame_id +
+            "\" is also output.dds.frame_id; the world frame is the fused frame's parent, "
+            "so they need different names");
     }
 }
 
@@ -167,6 +183,7 @@ DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string
     station::read_fusion_sections(r, doc, &config.fusion);
     read_output(r, doc["output"], base_dir, &config.output);
     read_health(r, doc["health"], &config.health);
+    station::read_world_section(r, doc, config.station, &config.world);
     if (doc["logging"] && r.optional_map(doc["logging"], "logging")) {
         r.only_keys(doc["logging"], "logging", {"level"});
         if (auto level = r.string(doc["logging"]["level"], "logging.level", false)) {
@@ -180,7 +197,7 @@ DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string
         }
     }
     problems.insert(problems.end(), r.problems.begin(), r.problems.end());
-    check_frame_names(config.station, config.output.dds, &problems);
+    check_frame_names(config.station, config.output.dds, config.world, &problems);
     if (!problems.empty()) throw station::ConfigError(source_name, problems);
     config.fusion.root_sensor = config.station.root_index();
     return config;

@@ -11,6 +11,7 @@
 
 #include "core/pipeline/fusion_types.hpp"
 #include "drivers/station/station_config.hpp"
+#include "drivers/station/world_config.hpp"
 
 namespace lidarfuse::daemon {
 
@@ -83,6 +84,8 @@ struct DaemonConfig {
         f.num_threads = 2;
         return f;
     }();
+    // The frame clouds and poses are published in (road by default; config/station.schema.md).
+    station::WorldConfig world;
     OutputConfig output;
     HealthConfig health;
     std::string log_level = "info";

@@ -250,6 +250,11 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
     add(v, "last_latency_ms", number(stats.last_latency_ms, "%.2f"));
     add(v, "dds_samples_written", std::to_string(stats.dds_samples_written));
     add(v, "dds_write_failures", std::to_string(stats.dds_write_failures));
+    add(v, "world_frame", stats.world_frame);
+    add(v, "world_frame_fixed", stats.world_fixed ? "true" : "false");
+    add(v, "frames_before_world_frame", std::to_string(stats.frames_before_world_frame));
+    add(v, "world_residual_rms_m", number(stats.world_residual_rms_m, "%.4f"));
+    add(v, "world_residual_max_m", number(stats.world_residual_max_m, "%.4f"));
     for (std::size_t i = 0; i < status_.size(); ++i) {
         status_[i].values._buffer = values_[i].data();
         status_[i].values._length = status_[i].values._maximum =

@@ -13,12 +13,16 @@ std::string dds_error(dds_return_t rc) { return dds_strretcode(rc); }
 
 // Reliable, keep-last `depth`, XCDR1, volatile, and the type hash in USER_DATA as
 // rmw_cyclonedds_cpp puts it there for a topic's writer.
-dds_qos_t* writer_qos(int depth, double max_blocking_ms, const std::string& user_data) {
+// rt/tf_static is transient-local with a depth of 1, as tf2_ros's static broadcaster: a
+// listener that starts later still gets the last message.
+dds_qos_t* writer_qos(int depth, double max_blocking_ms, const std::string& user_data,
+                      bool transient_local = false) {
     dds_qos_t* qos = dds_create_qos();
     dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE,
                          static_cast<dds_duration_t>(max_blocking_ms * 1e6));
     dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, depth);
-    dds_qset_durability(qos, DDS_DURABILITY_VOLATILE);
+    dds_qset_durability(qos,
+                        transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
     const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
     dds_qset_data_representation(qos, 1, &xcdr1);
     dds_qset_userdata(qos, user_data.data(), user_data.size());
@@ -44,9 +48,11 @@ std::string ros_topic_name(const std::string& topic_namespace, const std::string
     return topic_namespace.empty() ? "rt/" + leaf : "rt/" + topic_namespace + "/" + leaf;
 }
 
-DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames)
+DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames,
+                           std::string static_parent_frame)
     : config_(config),
       frames_(std::move(frames)),
+      static_parent_frame_(std::move(static_parent_frame)),
       domain_id_(resolve_domain_id(config.domain_id, std::getenv("ROS_DOMAIN_ID"))),
       frame_builder_(frames_),
       diagnostics_builder_(frames_) {
@@ -58,15 +64,15 @@ DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames)
                                  " (check CYCLONEDDS_URI)");
     }
     const auto make_writer = [&](const std::string& name, const dds_topic_descriptor_t* type,
-                                 int depth) {
+                                 int depth, bool transient_local = false) {
         const dds_entity_t topic =
             dds_create_topic(participant_, type, name.c_str(), nullptr, nullptr);
         if (topic < 0) {
             dds_delete(participant_);
             throw std::runtime_error("DDS: cannot create topic " + name + ": " + dds_error(topic));
         }
-        dds_qos_t* qos =
-            writer_qos(depth, config_.max_blocking_ms, ros_type_hash_user_data(type->m_typename));
+        dds_qos_t* qos = writer_qos(depth, config_.max_blocking_ms,
+                                    ros_type_hash_user_data(type->m_typename), transient_local);
         const dds_entity_t writer = dds_create_writer(participant_, topic, qos, nullptr);
         dds_delete_qos(qos);
         if (writer < 0) {
@@ -86,6 +92,10 @@ DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames)
     tf_writer_ = make_writer("rt/tf", &tf2_msgs_msg_dds__TFMessage__desc, depth);
     diagnostics_writer_ =
         make_writer("rt/diagnostics", &diagnostic_msgs_msg_dds__DiagnosticArray__desc, depth);
+    if (!static_parent_frame_.empty()) {
+        tf_static_writer_ =
+            make_writer("rt/tf_static", &tf2_msgs_msg_dds__TFMessage__desc, 1, true);
+    }
 }
 
 DdsPublisher::~DdsPublisher() {
@@ -115,6 +125,24 @@ void DdsPublisher::publish_frame(const core::FrameOutput& frame, const FrameStam
     write(poses_writer_, &frame_builder_.poses(frame, stamps), &poses_);
 }
 
+void DdsPublisher::publish_static(const Eigen::Isometry3d& T_parent_fused, std::int64_t stamp_ns) {
+    if (tf_static_writer_ <= 0 || stamp_ns <= 0) return;  // never a stamp 0
+    if (static_sent_ && T_parent_fused.isApprox(static_sent_pose_, 1e-12)) return;  // unchanged
+    geometry_msgs_msg_dds__TransformStamped_ t{};
+    t.header.stamp = to_ros_time(stamp_ns);
+    t.header.frame_id = const_cast<char*>(static_parent_frame_.c_str());
+    t.child_frame_id = const_cast<char*>(frames_.fused_frame.c_str());
+    t.transform = to_ros_transform(T_parent_fused);
+    tf2_msgs_msg_dds__TFMessage_ message{};
+    message.transforms._buffer = &t;
+    message.transforms._length = message.transforms._maximum = 1;
+    message.transforms._release = false;
+    if (write(tf_static_writer_, &message, &tf_static_)) {
+        static_sent_ = true;
+        static_sent_pose_ = T_parent_fused;
+    }
+}
+
 void DdsPublisher::publish_diagnostics(const PipelineStats& stats, std::int64_t stamp_ns) {
     write(diagnostics_writer_, &diagnostics_builder_.build(stats, stamp_ns), &diagnostics_);
 }
@@ -126,6 +154,7 @@ DdsCounters DdsPublisher::counters() const {
     c.timeouts = timeouts_.value.load();
     c.clouds = clouds_.value.load();
     c.tf = tf_.value.load();
+    c.tf_static = tf_static_.value.load();
     c.poses = poses_.value.load();
     c.diagnostics = diagnostics_.value.load();
     c.unstamped_frames = unstamped_.value.load();

@@ -7,6 +7,8 @@
 //   rt/tf            tf2_msgs::msg::dds_::TFMessage_             one per fused frame with a
 //                    registered sensor in it: T_fused_sensor of each such sensor (the root
 //                    included), stamped with its scan's stamp (daemon/frame_stamps.hpp)
+//   rt/tf_static     tf2_msgs::msg::dds_::TFMessage_             world.frame: geo only:
+//                    <world.frame_id> -> fused frame (the geo offset), once
 //   rt/diagnostics   diagnostic_msgs::msg::dds_::DiagnosticArray_
 //
 // The sensors move (the poles sway), so their transforms go on rt/tf only: tf2 drops a
@@ -39,7 +41,8 @@ struct DdsCounters {
     std::uint64_t written = 0;   // samples accepted by dds_write
     std::uint64_t failures = 0;  // dds_write errors (timeouts included)
     std::uint64_t timeouts = 0;  // ... of which a reader held the writer past max_blocking_ms
-    std::uint64_t clouds = 0, tf = 0, poses = 0, diagnostics = 0;  // written per topic
+    std::uint64_t clouds = 0, tf = 0, tf_static = 0, poses = 0,
+                  diagnostics = 0;       // written per topic
     std::uint64_t unstamped_frames = 0;  // frames without a stamped sensor: nothing sent
 };
 
@@ -54,13 +57,20 @@ class DdsPublisher {
 public:
     // Creates the participant, topics and writers; throws std::runtime_error naming the
     // domain and the topic when Cyclone refuses.
-    DdsPublisher(const DdsConfig& config, StationFrames frames);
+    // `static_parent_frame` non-empty (world.frame: geo): an rt/tf_static writer too
+    // (transient-local, depth 1, as tf2_ros's static broadcaster) for publish_static().
+    DdsPublisher(const DdsConfig& config, StationFrames frames,
+                 std::string static_parent_frame = "");
     ~DdsPublisher();
     DdsPublisher(const DdsPublisher&) = delete;
     DdsPublisher& operator=(const DdsPublisher&) = delete;
 
     void publish_frame(const core::FrameOutput& frame, const FrameStamps& stamps);
     void publish_diagnostics(const PipelineStats& stats, std::int64_t stamp_ns);
+    // rt/tf_static: static_parent_frame -> the fused frame, T_parent_fused. Sent the first
+    // time and again only when the transform changes; nothing without a static writer or
+    // with a stamp that is not positive.
+    void publish_static(const Eigen::Isometry3d& T_parent_fused, std::int64_t stamp_ns);
 
     DdsCounters counters() const;
     int domain_id() const { return domain_id_; }
@@ -73,12 +83,17 @@ private:
 
     DdsConfig config_;
     StationFrames frames_;
+    std::string static_parent_frame_;
+    bool static_sent_ = false;
+    Eigen::Isometry3d static_sent_pose_ = Eigen::Isometry3d::Identity();
     int domain_id_ = 0;
     dds_entity_t participant_ = 0;
-    dds_entity_t points_writer_ = 0, poses_writer_ = 0, tf_writer_ = 0, diagnostics_writer_ = 0;
+    dds_entity_t points_writer_ = 0, poses_writer_ = 0, tf_writer_ = 0, diagnostics_writer_ = 0,
+                 tf_static_writer_ = 0;
     FrameMessageBuilder frame_builder_;
     DiagnosticsBuilder diagnostics_builder_;
-    Counter written_, failures_, timeouts_, clouds_, tf_, poses_, diagnostics_, unstamped_;
+    Counter written_, failures_, timeouts_, clouds_, tf_, tf_static_, poses_, diagnostics_,
+        unstamped_;
 };
 
 }  // namespace lidarfuse::daemon

@@ -32,10 +32,16 @@ const char* kUsage =
 std::string status_line(const lidarfuse::daemon::PipelineStats& st) {
     std::size_t ok = 0;
     for (const auto& s : st.sensors) ok += s.state == lidarfuse::daemon::SensorState::kOk;
-    char buffer[256];
-    std::snprintf(buffer, sizeof(buffer), "fused %llu frames, %zu/%zu sensors OK, %.1f ms/frame, %llu dropped",
-                  static_cast<unsigned long long>(st.frames_fused), ok, st.sensors.size(), st.mean_fusion_ms,
-                  static_cast<unsigned long long>(st.frame_queue_drops + st.scan_queue_drops));
+    char buffer[320];
+    // Frames fused before the world frame was known (road: the initial registration) are
+    // not published: "N unpublished" says how many.
+    std::snprintf(
+        buffer, sizeof(buffer),
+        "fused %llu frames, %zu/%zu sensors OK, %.1f ms/frame, %llu dropped, %llu unpublished "
+        "(before the %s world frame)",
+        static_cast<unsigned long long>(st.frames_fused), ok, st.sensors.size(), st.mean_fusion_ms,
+        static_cast<unsigned long long>(st.frame_queue_drops + st.scan_queue_drops),
+        static_cast<unsigned long long>(st.frames_before_world_frame), st.world_frame.c_str());
     return buffer;
 }
 

@@ -87,6 +87,10 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         receivers.back()->log = ingest_log;
     }
     engine = std::make_unique<core::FusionEngine>(sensors.size(), config.fusion);
+    core::WorldFrameParams world_params = config.world.params;
+    world_params.settle_frames = core::world_frame_settle_frames(config.fusion);
+    world = std::make_unique<core::WorldFrameTracker>(world_params, sensors.size());
+    world_frame = world->frame();
     last_health.assign(sensors.size(), core::SensorHealth{});
     offset_to_root_ms.assign(sensors.size(), 0.0);
     if (config.output.dds.enabled) {
@@ -95,7 +99,10 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         names.fused_frame = config.output.dds.frame_id;
         for (const auto& sc : config.station.sensors) names.sensor_names.push_back(sc.name);
         names.root = config.fusion.root_sensor;
-        dds = std::make_unique<DdsPublisher>(config.output.dds, names);
+        // geo: the world frame is the fused frame's parent on rt/tf_static (the offset).
+        const bool geo = config.world.params.kind == core::WorldFrameKind::kGeo;
+        dds = std::make_unique<DdsPublisher>(config.output.dds, names,
+                                             geo ? config.world.frame_id : "");
     }
     heartbeat_ns = steady_ns();
 }

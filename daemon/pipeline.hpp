@@ -4,7 +4,9 @@
 //   receiver threads (one per UDP port): recvmmsg -> sensor routing -> packet parsing and
 //       scan assembly -> projection -> ScanMessage into that receiver's queue
 //   sync thread: scans -> FrameSynchroniser (steady clock deadline) -> frame queue
-//   fusion thread: FusionEngine::process -> result queue; beats the heartbeat
+//   fusion thread: FusionEngine::process -> world frame (core/world_frame.hpp: the
+//       frame's poses and cloud re-expressed in the fused frame; frames before it is
+//       known are counted, not published) -> result queue; beats the heartbeat
 //   output thread: poses.csv, extrinsics.yaml, clouds, diagnostics log
 //
 // The receiving side is daemon/sensor_ingest; this file wires the stages together.
@@ -59,6 +61,14 @@ struct PipelineStats {
     // having been written to DDS (when DDS is off: to the output thread taking it).
     double last_latency_ms = 0.0;
     std::uint64_t dds_samples_written = 0, dds_write_failures = 0, dds_write_timeouts = 0;
+    // The world frame (station.yaml `world:`): its kind, whether it is known yet, the
+    // frames fused before it was (not published: their frame was not known), and its fit
+    // (road: rms of the road points about the plane; geo: rms and largest distance of the
+    // sensors' fitted positions from the given ones, m).
+    std::string world_frame = "sensor";
+    bool world_fixed = false;
+    std::uint64_t frames_before_world_frame = 0;
+    double world_residual_rms_m = 0.0, world_residual_max_m = 0.0;
     std::vector<int> granted_receive_buffers;
     std::vector<SensorStats> sensors;
 };

@@ -116,13 +116,21 @@ void Pipeline::Impl::fusion_loop() {
                 fusion_log->warn("frame {}: {}: {}", out.frame_index, sensors[s]->name, out.health[s].event);
             }
         }
+        const bool world_fixed_now = world->update(out);
+        if (world_fixed_now) log_world_frame(world->frame());
         {
             std::lock_guard<std::mutex> lock(stats_mutex);
             ++frames_fused;
             last_fusion_ms = out.timings.total_ms;
             sum_fusion_ms += out.timings.total_ms;
             last_health = out.health;
+            if (world_fixed_now) world_frame = world->frame();
+            if (!world->fixed()) ++frames_before_world_frame;
         }
+        // Until the world frame is known (road: the initial registration), a frame's poses
+        // and cloud are in no frame a consumer could keep: counted, not published.
+        if (!world->fixed()) continue;
+        world->apply(&out);  // poses and cloud into the fused frame (a few ms per 100k points)
         results.push(std::move(out));
     }
     // Shutdown: a job not begun is skipped; one running stops at register_initial's next
@@ -131,6 +139,27 @@ void Pipeline::Impl::fusion_loop() {
     init_jobs.close();
     init_worker.join();
     results.close();
+}
+
+void Pipeline::Impl::log_world_frame(const core::WorldFrame& f) {
+    const Eigen::Vector3d t = f.T_fused_root.translation();
+    fusion_log->info(
+        "world frame ({}) fixed at frame {}: {}; T_fused_root translation [{:.3f}, {:.3f}, {:.3f}] "
+        "m",
+        core::to_string(f.kind), f.frame_index, f.note, t.x(), t.y(), t.z());
+    if (f.kind == core::WorldFrameKind::kRoad && f.num_sensors > 0) {
+        fusion_log->info("road plane: root sensor {:.3f} m above it, rms {:.4f} m over {} points",
+                         f.root_height_m, f.residual_rms_m, f.num_road_points);
+    } else if (f.kind == core::WorldFrameKind::kRoad) {
+        fusion_log->warn("world frame: {}", f.note);
+    }
+    if (f.kind == core::WorldFrameKind::kGeo) {
+        const Eigen::Vector3d o = f.T_world_fused.translation();
+        fusion_log->info(
+            "geo: offset (world -> fused) [{:.3f}, {:.3f}, {:.3f}] m; fit residual rms {:.4f} m, "
+            "max {:.4f} m over {} sensors",
+            o.x(), o.y(), o.z(), f.residual_rms_m, f.residual_max_m, f.num_sensors);
+    }
 }
 
 }  // namespace lidarfuse::daemon

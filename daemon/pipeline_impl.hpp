@@ -15,6 +15,7 @@
 
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/fusion_engine.hpp"
+#include "core/world_frame.hpp"
 #include "daemon/dds_publisher.hpp"
 #include "daemon/frame_stamps.hpp"
 #include "daemon/pipeline.hpp"
@@ -29,6 +30,7 @@ struct Pipeline::Impl {
     DropOldestQueue<core::SyncedFrame<ScanMessage>> frames;
     DropOldestQueue<core::FrameOutput> results;
     std::unique_ptr<core::FusionEngine> engine;
+    std::unique_ptr<core::WorldFrameTracker> world;  // fusion thread only
     std::thread sync_thread, fusion_thread, output_thread;
     std::atomic<bool> stopping{false};
     std::atomic<std::int64_t> heartbeat_ns{0};
@@ -58,7 +60,10 @@ struct Pipeline::Impl {
     std::vector<core::SensorHealth> last_health;
     double last_latency_ms = 0;
     std::vector<double> offset_to_root_ms;
-
+    // A copy of the world frame for the output thread and the stats, written by the fusion
+    // thread when it becomes fixed (before the first frame in it is queued).
+    core::WorldFrame world_frame;
+    std::uint64_t frames_before_world_frame = 0;
 
     explicit Impl(const DaemonConfig& c);
     static std::shared_ptr<spdlog::logger> logger(const std::string& name);
@@ -69,6 +74,7 @@ struct Pipeline::Impl {
     // The frame's entry of the ring; empty t_ns when it is no longer known.
     FrameTime frame_time(const core::FrameOutput& out);
     void fusion_loop();
+    void log_world_frame(const core::WorldFrame& frame);
 
     // pipeline_output.cpp
     void output_loop();

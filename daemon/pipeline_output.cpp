@@ -27,16 +27,46 @@ void Pipeline::Impl::output_loop() {
         if (fresh) io::write_pose_csv_header(poses);
     };
     open_poses();
-    std::vector<io::ExtrinsicsEntry> extrinsics(sensors.size());
-    for (std::size_t s = 0; s < sensors.size(); ++s) extrinsics[s].name = sensors[s]->name;
+    // T_root_sensor per sensor (the root frame, as `lidarfuse calibrate` writes it), and the
+    // world frame that takes it to the published one (extrinsics_yaml.hpp).
+    io::ExtrinsicsDocument extrinsics;
+    extrinsics.station = config.station.station;
+    extrinsics.root = sensors[config.fusion.root_sensor]->name;
+    extrinsics.sensors.resize(sensors.size());
+    for (std::size_t s = 0; s < sensors.size(); ++s) extrinsics.sensors[s].name = sensors[s]->name;
+    core::WorldFrame world_now;  // the fusion thread's, once fixed (before its first frame)
     const auto write_extrinsics = [&] {
         if (!out_cfg.extrinsics_yaml) return;
         try {
-            io::write_extrinsics_yaml(out_cfg.directory / "extrinsics.yaml",
-                                      sensors[config.fusion.root_sensor]->name, extrinsics);
+            io::write_extrinsics_yaml(out_cfg.directory / "extrinsics.yaml", extrinsics);
         } catch (const std::exception& error) {
             output_log->error("{}", error.what());
         }
+    };
+    const auto note_world = [&] {
+        if (!world_now.fixed) {
+            std::lock_guard<std::mutex> lock(stats_mutex);
+            world_now = world_frame;
+        }
+        if (!world_now.fixed || extrinsics.world) return;
+        io::ExtrinsicsWorld w;
+        w.frame = core::to_string(world_now.kind);
+        w.fused_frame = config.output.dds.frame_id;
+        w.T_fused_root = world_now.T_fused_root;
+        if (world_now.kind == core::WorldFrameKind::kGeo) {
+            w.world_frame = config.world.frame_id;
+            w.T_world_fused = world_now.T_world_fused;
+        }
+        if (world_now.kind != core::WorldFrameKind::kSensor) {
+            w.figures["residual_rms_m"] = world_now.residual_rms_m;
+            w.figures["residual_max_m"] = world_now.residual_max_m;
+            w.figures["sensors_used"] = static_cast<double>(world_now.num_sensors);
+        }
+        if (world_now.kind == core::WorldFrameKind::kRoad) {
+            w.figures["root_height_m"] = world_now.root_height_m;
+            w.figures["road_points"] = static_cast<double>(world_now.num_road_points);
+        }
+        extrinsics.world = std::move(w);
     };
     std::int64_t frames_seen = 0;
     const auto diagnostics_period_ns =
@@ -57,15 +87,26 @@ void Pipeline::Impl::output_loop() {
             if (results.closed()) break;
             continue;
         }
+        // The poses and the cloud are in the fused frame (the fusion thread applied the
+        // world frame): T_root_sensor below holds T_fused_sensor.
+        note_world();
+        const Eigen::Isometry3d T_root_fused = world_now.T_fused_root.inverse();
         const FrameTime times = frame_time(*result);
-        if (dds) dds->publish_frame(*result, frame_stamps_of(*result, times));
+        if (dds) {
+            const FrameStamps stamps = frame_stamps_of(*result, times);
+            dds->publish_frame(*result, stamps);
+            // geo: <world> -> fused frame on rt/tf_static, with the first stamped frame.
+            if (world_now.kind == core::WorldFrameKind::kGeo)
+                dds->publish_static(world_now.T_world_fused, stamps.frame_ns);
+        }
         note_published(*result, times);
         for (std::size_t s = 0; s < sensors.size(); ++s) {
             const auto& h = result->health[s];
             if (!h.pose_valid) continue;
-            extrinsics[s].registered = true;
-            extrinsics[s].T_root_sensor = result->T_root_sensor[s];
-            extrinsics[s].quality["fitness_reference"] = h.fitness_reference;
+            auto& e = extrinsics.sensors[s];
+            e.registered = true;
+            e.T_root_sensor = T_root_fused * result->T_root_sensor[s];
+            e.quality["fitness_reference"] = h.fitness_reference;
             if (poses && h.included) {
                 io::write_pose_csv_row(poses, {result->frame_index, sensors[s]->name, result->t_ns[s],
                                                result->T_root_sensor[s]});
@@ -147,6 +188,11 @@ PipelineStats Pipeline::Impl::collect_stats() const {
     out.last_fusion_ms = m.last_fusion_ms;
     out.mean_fusion_ms = m.frames_fused ? m.sum_fusion_ms / static_cast<double>(m.frames_fused) : 0.0;
     out.last_latency_ms = m.last_latency_ms;
+    out.world_frame = core::to_string(m.world_frame.kind);
+    out.world_fixed = m.world_frame.fixed;
+    out.frames_before_world_frame = m.frames_before_world_frame;
+    out.world_residual_rms_m = m.world_frame.residual_rms_m;
+    out.world_residual_max_m = m.world_frame.residual_max_m;
     if (m.dds) {
         const auto c = m.dds->counters();
         out.dds_samples_written = c.written;

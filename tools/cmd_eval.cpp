@@ -40,15 +40,26 @@ void write_plot(const std::filesystem::path& file, const core::EvaluationResult&
 }
 
 int run_eval(int argc, char** argv) {
-    const Args args(argc, argv, {"--gt", "--poses", "--root", "--plot", "--tolerance-ms", "--cloud"}, {});
+    const Args args(argc, argv,
+                    {"--gt", "--poses", "--root", "--plot", "--tolerance-ms", "--cloud", "--world",
+                     "--world-offset"},
+                    {});
     if (args.help()) {
         std::printf(
             "usage: lidarfuse eval --gt ground_truth.csv --poses poses.csv [--root NAME]\n"
             "                      [--tolerance-ms 25] [--plot DIR [--cloud FUSED.ply]]\n"
             "Per sensor and on average: translation and rotation RMSE over frames, after\n"
             "fitting T_coord by SVD from the sensor positions (the paper's metric), and without\n"
-            "any fitted alignment (strict). --plot writes error-over-time SVGs into DIR, and with\n"
-            "--cloud (a fused frame from fuse --save-cloud) DIR/top_view.svg coloured by sensor.\n");
+            "any fitted alignment (strict: both relative to the root sensor at its first frame, "
+            "so\n"
+            "poses.csv may be in any world frame). --plot writes error-over-time SVGs into DIR, "
+            "and\n"
+            "with --cloud (a fused frame from fuse --save-cloud) DIR/top_view.svg coloured by "
+            "sensor.\n"
+            "--world road: also each sensor's height and up-direction error in poses.csv's own\n"
+            "frame against the truth's (which must be road-aligned, as the simulator's is);\n"
+            "--world geo [--world-offset X,Y,Z]: poses.csv (plus the offset: extrinsics.yaml's\n"
+            "world.T_world_fused translation) against the truth directly, no alignment.\n");
         return 0;
     }
     if (args.value("--cloud") && !args.value("--plot")) throw UsageError("--cloud needs --plot DIR");
@@ -58,6 +69,23 @@ int run_eval(int argc, char** argv) {
     params.root_sensor = args.value("--root").value_or("");
     params.match_tolerance_ns =
         static_cast<std::int64_t>(args.number("--tolerance-ms", 25.0) * 1e6);
+    if (const auto w = args.value("--world")) {
+        if (*w == "road") {
+            params.world = core::EvaluationParams::World::kRoad;
+        } else if (*w == "geo") {
+            params.world = core::EvaluationParams::World::kGeo;
+        } else if (*w != "sensor") {
+            throw UsageError("--world: expected road, geo or sensor, got \"" + *w + "\"");
+        }
+    }
+    if (const auto o = args.value("--world-offset")) {
+        double x = 0, y = 0, z = 0;
+        char tail = 0;
+        if (std::sscanf(o->c_str(), "%lf,%lf,%lf%c", &x, &y, &z, &tail) != 3) {
+            throw UsageError("--world-offset: expected X,Y,Z in metres, got \"" + *o + "\"");
+        }
+        params.world_offset = Eigen::Vector3d(x, y, z);
+    }
     const auto result = core::evaluate_trajectories(truth, estimate, params);
     if (!result.ok) {
         std::fprintf(stderr, "lidarfuse eval: %s\n", result.error.c_str());
@@ -76,11 +104,27 @@ int run_eval(int argc, char** argv) {
         std::printf("eval_%s_max_trans %.6f m\n", n, s.max_trans_m);
         std::printf("eval_%s_first_tenth_strict_rmse_trans %.6f m\n", n, s.first_tenth_rmse_trans_m);
         std::printf("eval_%s_last_tenth_strict_rmse_trans %.6f m\n", n, s.last_tenth_rmse_trans_m);
+        if (params.world == core::EvaluationParams::World::kRoad) {
+            std::printf("eval_%s_world_height_rmse %.6f m\n", n, s.world_rmse_trans_m);
+            std::printf("eval_%s_world_height_max %.6f m\n", n, s.world_max_trans_m);
+            std::printf("eval_%s_world_up_rmse %.6f deg\n", n, s.world_rmse_rot_deg);
+        } else if (params.world == core::EvaluationParams::World::kGeo) {
+            std::printf("eval_%s_world_rmse_trans %.6f m\n", n, s.world_rmse_trans_m);
+            std::printf("eval_%s_world_max_trans %.6f m\n", n, s.world_max_trans_m);
+            std::printf("eval_%s_world_rmse_rot %.6f deg\n", n, s.world_rmse_rot_deg);
+        }
     }
     std::printf("eval_mean_rmse_trans %.6f m\n", result.mean_rmse_trans_m);
     std::printf("eval_mean_rmse_rot %.6f deg\n", result.mean_rmse_rot_deg);
     std::printf("eval_mean_strict_rmse_trans %.6f m\n", result.mean_strict_rmse_trans_m);
     std::printf("eval_mean_strict_rmse_rot %.6f deg\n", result.mean_strict_rmse_rot_deg);
+    if (params.world == core::EvaluationParams::World::kRoad) {
+        std::printf("eval_mean_world_height_rmse %.6f m\n", result.mean_world_rmse_trans_m);
+        std::printf("eval_mean_world_up_rmse %.6f deg\n", result.mean_world_rmse_rot_deg);
+    } else if (params.world == core::EvaluationParams::World::kGeo) {
+        std::printf("eval_mean_world_rmse_trans %.6f m\n", result.mean_world_rmse_trans_m);
+        std::printf("eval_mean_world_rmse_rot %.6f deg\n", result.mean_world_rmse_rot_deg);
+    }
 
     if (const auto dir = args.value("--plot")) {
         std::filesystem::create_directories(*dir);

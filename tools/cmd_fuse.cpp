@@ -8,11 +8,14 @@
 
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/fusion_engine.hpp"
+#include "core/world_frame.hpp"
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/io/cloud_ply.hpp"
+#include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/pose_csv.hpp"
-#include "drivers/station/fusion_config.hpp"
 #include "drivers/ouster/projection.hpp"
+#include "drivers/station/fusion_config.hpp"
+#include "drivers/station/world_config.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
 
@@ -39,11 +42,14 @@ const char* kUsage =
     "usage: lidarfuse fuse CAPTURE.pcap --config station.yaml --out DIR [--voxel-size M]\n"
     "                      [--window K] [--threads N] [--save-cloud FRAME ...] [--max-frames N]\n"
     "                      [--no-deskew] [--no-dynamic] [--reference-voxel M]\n"
-    "                      [--reference-target-voxel M] [--sensor-grid]\n"
+    "                      [--reference-target-voxel M] [--sensor-grid] [--world road|sensor|geo]\n"
     "Decodes the capture with the production ingest, groups one scan per sensor into frames,\n"
-    "and runs the FusionEngine on every frame. Writes DIR/poses.csv (T_root_sensor per sensor\n"
-    "and frame; header frame,sensor,t_ns,x,y,z,qw,qx,qy,qz), DIR/timing.csv (ms per stage per\n"
-    "frame) and DIR/fused_<FRAME>.ply for each --save-cloud frame.\n"
+    "and runs the FusionEngine on every frame. Writes DIR/poses.csv (T_fused_sensor per sensor\n"
+    "and frame, in the config's world frame, world.frame, as lidarfused publishes it; header\n"
+    "frame,sensor,t_ns,x,y,z,qw,qx,qy,qz), DIR/extrinsics.yaml (the last frame's poses and the\n"
+    "world frame), DIR/timing.csv (ms per stage per frame) and DIR/fused_<FRAME>.ply (fused\n"
+    "frame) for each --save-cloud frame. --world overrides world.frame (geo needs the config's\n"
+    "world.positions or world.T_world_root).\n"
     "Parameters: the config's registration and dynamics sections, as lidarfused reads them\n"
     "(config/station.schema.md); the options override them (--threads: default 2).\n"
     "Accuracy knobs (core/pipeline/fusion_types.hpp): --no-deskew: no per-column motion\n"
@@ -55,7 +61,7 @@ const char* kUsage =
 int run_fuse(int argc, char** argv) {
     const Args args(argc, argv,
                     {"--config", "--out", "--voxel-size", "--window", "--threads", "--save-cloud",
-                     "--max-frames", "--reference-voxel", "--reference-target-voxel"},
+                     "--max-frames", "--reference-voxel", "--reference-target-voxel", "--world"},
                     {"--no-deskew", "--no-dynamic", "--sensor-grid"});
     if (args.help()) {
         std::printf("%s", kUsage);
@@ -88,6 +94,32 @@ int run_fuse(int argc, char** argv) {
     std::set<long long> save;
     for (const auto& f : args.values("--save-cloud")) save.insert(std::stoll(f));
     core::FusionEngine engine(n, params);
+    station::WorldConfig world_config =
+        station::load_world_config(args.required("--config"), station);
+    if (const auto w = args.value("--world")) {
+        if (*w == "road") {
+            world_config.params.kind = core::WorldFrameKind::kRoad;
+        } else if (*w == "sensor") {
+            world_config.params.kind = core::WorldFrameKind::kSensor;
+        } else if (*w == "geo") {
+            if (world_config.params.anchors.empty() && !world_config.params.T_world_root) {
+                throw UsageError(
+                    "--world geo needs world.positions or world.T_world_root in the config");
+            }
+            world_config.params.kind = core::WorldFrameKind::kGeo;
+        } else {
+            throw UsageError("--world: expected road, sensor or geo, got \"" + *w + "\"");
+        }
+    }
+    world_config.params.settle_frames = core::world_frame_settle_frames(params);
+    core::WorldFrameTracker world(world_config.params, n);
+    // Frames fused before the world frame is known (road: a few frames, until the root's
+    // reference is deskewed) wait here and are written in it once it is; offline, nothing
+    // needs to be left out.
+    std::vector<core::FrameOutput> waiting;
+    long long frames_before_world = 0;
+    std::vector<io::ExtrinsicsEntry> last_poses(n);
+    for (std::size_t s = 0; s < n; ++s) last_poses[s].name = station.sensors[s].name;
 
     // Frames: members within one frame period of each other (1/SR of the root sensor).
     core::FrameSynchroniser<PendingScan> synchroniser(
@@ -102,6 +134,22 @@ int run_fuse(int argc, char** argv) {
     long long continuous_frames = 0;
     std::vector<std::string> last_event(n);
 
+    const auto write_in_world = [&](core::FrameOutput* out) {
+        world.apply(out);
+        for (std::size_t s = 0; s < n; ++s) {
+            const auto& h = out->health[s];
+            if (!h.pose_valid || !h.included) continue;
+            poses.push_back(
+                {out->frame_index, station.sensors[s].name, out->t_ns[s], out->T_root_sensor[s]});
+            last_poses[s].registered = true;
+            last_poses[s].T_root_sensor =
+                world.frame().T_fused_root.inverse() * out->T_root_sensor[s];
+        }
+        if (save.count(out->frame_index)) {
+            io::write_fused_cloud_ply(
+                out_dir / ("fused_" + std::to_string(out->frame_index) + ".ply"), out->cloud);
+        }
+    };
     const auto fuse_frame = [&](core::SyncedFrame<PendingScan>&& frame) {
         core::FrameInput input;
         input.sensors.resize(n);
@@ -115,7 +163,7 @@ int run_fuse(int argc, char** argv) {
             in.intensity = std::move(frame.members[s]->intensity);
         }
         const double cpu0_ms = process_cpu_ms();
-        const auto out = engine.process(input);
+        auto out = engine.process(input);
         const double cpu_ms = process_cpu_ms() - cpu0_ms;
         std::size_t tracking = 0;
         for (std::size_t s = 0; s < n; ++s) {
@@ -125,16 +173,20 @@ int run_fuse(int argc, char** argv) {
                              h.event.c_str());
             }
             last_event[s] = h.event;
-            if (!h.pose_valid || !h.included) continue;
-            ++tracking;
-            poses.push_back({out.frame_index, station.sensors[s].name, out.t_ns[s], out.T_root_sensor[s]});
+            tracking += h.pose_valid && h.included;
         }
         const auto& t = out.timings;
         timing << out.frame_index << ',' << frame.t_ns << ',' << frame.included() << ',' << tracking << ','
                << t.initial_ms << ',' << t.preprocess_ms << ',' << t.registration_ms << ','
                << t.graph_ms << ',' << t.fuse_ms << ',' << t.total_ms << '\n';
-        if (save.count(out.frame_index)) {
-            io::write_fused_cloud_ply(out_dir / ("fused_" + std::to_string(out.frame_index) + ".ply"), out.cloud);
+        // The world frame: poses and cloud into the fused frame, written once it is known.
+        world.update(out);
+        if (!world.fixed()) ++frames_before_world;
+        if (!save.count(out.frame_index)) out.cloud.clear();  // only the saved clouds wait
+        waiting.push_back(std::move(out));
+        if (world.fixed()) {
+            for (auto& w : waiting) write_in_world(&w);
+            waiting.clear();
         }
         total_ms += t.total_ms;
         if (t.initial_ms > 0.5 * t.total_ms) {
@@ -166,7 +218,29 @@ int run_fuse(int argc, char** argv) {
         if (!frame) break;
         fuse_frame(std::move(*frame));
     }
+    if (!waiting.empty()) {
+        std::fprintf(
+            stderr,
+            "world frame: not known by the end of the capture; %zu frames not written (%s)\n",
+            waiting.size(), world.frame().note.c_str());
+    }
     io::write_pose_csv(out_dir / "poses.csv", poses);
+    const core::WorldFrame& wf = world.frame();
+    io::ExtrinsicsDocument extrinsics{station.station, station.root, last_poses, {}, std::nullopt};
+    if (wf.fixed) {
+        io::ExtrinsicsWorld w;
+        w.frame = core::to_string(wf.kind);
+        w.T_fused_root = wf.T_fused_root;
+        if (wf.kind == core::WorldFrameKind::kGeo) {
+            w.world_frame = world_config.frame_id;
+            w.T_world_fused = wf.T_world_fused;
+        }
+        w.figures["residual_rms_m"] = wf.residual_rms_m;
+        w.figures["residual_max_m"] = wf.residual_max_m;
+        if (wf.kind == core::WorldFrameKind::kRoad) w.figures["root_height_m"] = wf.root_height_m;
+        extrinsics.world = std::move(w);
+    }
+    io::write_extrinsics_yaml(out_dir / "extrinsics.yaml", extrinsics);
 
     for (std::size_t s = 0; s < n; ++s) {
         const auto& c = capture.counters(s);
@@ -181,6 +255,23 @@ int run_fuse(int argc, char** argv) {
     std::printf("fuse_window %d frames\n", params.window_frames);
     std::printf("fuse_deskew %d flag\n", params.deskew ? 1 : 0);
     std::printf("fuse_remove_dynamic %d flag\n", params.remove_dynamic ? 1 : 0);
+    std::printf("fuse_world_frame %s frame\n", core::to_string(wf.kind));
+    std::printf("fuse_world_fixed_at %lld frame\n", static_cast<long long>(wf.frame_index));
+    std::printf("fuse_world_frames_before %lld frames\n", frames_before_world);  // written late
+    std::printf("fuse_world_frames_unwritten %zu frames\n", waiting.size());
+    if (wf.fixed && wf.kind == core::WorldFrameKind::kRoad) {
+        std::printf("fuse_world_road_sensors %zu sensors\n", wf.num_sensors);
+        std::printf("fuse_world_root_height %.4f m\n", wf.root_height_m);
+        std::printf("fuse_world_road_rms %.4f m\n", wf.residual_rms_m);
+        std::printf("fuse_world_road_points %zu points\n", wf.num_road_points);
+    }
+    if (wf.fixed && wf.kind == core::WorldFrameKind::kGeo) {
+        const Eigen::Vector3d o = wf.T_world_fused.translation();
+        std::printf("fuse_world_geo_offset %.3f,%.3f,%.3f m\n", o.x(), o.y(), o.z());
+        std::printf("fuse_world_geo_residual_rms %.4f m\n", wf.residual_rms_m);
+        std::printf("fuse_world_geo_residual_max %.4f m\n", wf.residual_max_m);
+    }
+    if (!wf.note.empty()) std::fprintf(stderr, "world frame: %s\n", wf.note.c_str());
     std::printf("fuse_frames %lld frames\n", frames);
     std::printf("fuse_frames_partial %llu frames\n", static_cast<unsigned long long>(sc.frames_partial));
     std::printf("fuse_scans_late_dropped %llu scans\n", static_cast<unsigned long long>(sc.late_dropped));

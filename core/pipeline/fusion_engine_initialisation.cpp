@@ -54,6 +54,8 @@ void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<st
     const PendingInitialisation p = std::move(*pending);
     pending.reset();
     const auto& result = p.job->result();
+    out->applied_registration =
+        FrameOutput::AppliedRegistration{p.job, p.order, p.T_root0_root, p.first};
     bool any_failed = false;
     for (std::size_t k = 0; k < p.order.size(); ++k) {
         const std::size_t s = p.order[k];

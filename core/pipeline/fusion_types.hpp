@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -187,6 +188,18 @@ struct FrameOutput {
     // (see FusionParams::initial_registration_inline). The engine keeps its own reference.
     std::shared_ptr<InitialRegistrationJob> initial_job;
     bool initial_registration_pending = false;  // a job is out and not applied yet
+    // The initial registration applied in this frame, if any: its result holds every
+    // sensor's road plane (SensorRegistration::ground), which core/world_frame.hpp turns into
+    // a road-aligned frame. Sensor k of the job is order[k] (order[0] is the root); its
+    // T_root_sensor there is relative to the root at the job's frame, whose pose in the
+    // root frame is T_root0_root (identity for the station's first registration).
+    struct AppliedRegistration {
+        std::shared_ptr<const InitialRegistrationJob> job;
+        std::vector<std::size_t> order;
+        Eigen::Isometry3d T_root0_root = Eigen::Isometry3d::Identity();
+        bool first = false;  // the station's first registration
+    };
+    std::optional<AppliedRegistration> applied_registration;
 };
 
 // FusionParams::covariance_neighbors for a cloud downsampled at voxel_size_m.

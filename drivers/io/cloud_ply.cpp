@@ -15,7 +15,7 @@ void write_fused_cloud_ply(const std::filesystem::path& file, const core::FusedC
     {
         std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
         if (!out) throw std::runtime_error(temporary + ": cannot open for writing");
-        out << "ply\nformat binary_little_endian 1.0\ncomment lidarfuse fused cloud, root frame, metres\n"
+        out << "ply\nformat binary_little_endian 1.0\ncomment lidarfuse fused cloud, fused frame, metres\n"
             << "element vertex " << n << "\nproperty float x\nproperty float y\nproperty float z\n"
             << "property float intensity\nproperty uchar sensor\nproperty uchar dynamic\nend_header\n";
         char record[18];

@@ -17,19 +17,25 @@ void emit_figures(YAML::Emitter& out, const char* key, const std::map<std::strin
     out << YAML::EndMap;
 }
 
-void emit_sensor(YAML::Emitter& out, const ExtrinsicsEntry& s) {
+void emit_pose(YAML::Emitter& out, const char* key, const Eigen::Isometry3d& T) {
+    Eigen::Quaterniond q(T.rotation());
+    if (q.w() < 0) q.coeffs() = -q.coeffs();
+    const Eigen::Vector3d t = T.translation();
+    out << YAML::Key << key << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "translation" << YAML::Value << YAML::Flow << YAML::BeginSeq << t.x()
+        << t.y() << t.z() << YAML::EndSeq;
+    out << YAML::Key << "rotation_wxyz" << YAML::Value << YAML::Flow << YAML::BeginSeq << q.w()
+        << q.x() << q.y() << q.z() << YAML::EndSeq;
+    out << YAML::EndMap;
+}
+
+void emit_sensor(YAML::Emitter& out, const ExtrinsicsEntry& s,
+                 const std::optional<ExtrinsicsWorld>& world) {
     out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << s.name;
     out << YAML::Key << "registered" << YAML::Value << s.registered;
     if (s.registered) {
-        Eigen::Quaterniond q(s.T_root_sensor.rotation());
-        if (q.w() < 0) q.coeffs() = -q.coeffs();
-        const Eigen::Vector3d t = s.T_root_sensor.translation();
-        out << YAML::Key << "T_root_sensor" << YAML::Value << YAML::BeginMap;
-        out << YAML::Key << "translation" << YAML::Value << YAML::Flow << YAML::BeginSeq << t.x() << t.y()
-            << t.z() << YAML::EndSeq;
-        out << YAML::Key << "rotation_wxyz" << YAML::Value << YAML::Flow << YAML::BeginSeq << q.w() << q.x()
-            << q.y() << q.z() << YAML::EndSeq;
-        out << YAML::EndMap;
+        emit_pose(out, "T_root_sensor", s.T_root_sensor);
+        if (world) emit_pose(out, "T_fused_sensor", world->T_fused_root * s.T_root_sensor);
     } else if (!s.reason.empty()) {
         out << YAML::Key << "reason" << YAML::Value << s.reason;
     }
@@ -58,6 +64,41 @@ std::map<std::string, double> read_figures(const YAML::Node& node, const std::st
     return figures;
 }
 
+// The pose `{translation, rotation_wxyz}` at `pose`; `path` names it in errors.
+Eigen::Isometry3d read_pose(const YAML::Node& pose, const std::string& path) {
+    if (!pose || !pose["translation"] || !pose["rotation_wxyz"]) {
+        throw std::runtime_error(path + ": expected translation and rotation_wxyz");
+    }
+    const auto t = pose["translation"].as<std::vector<double>>();
+    const auto q = pose["rotation_wxyz"].as<std::vector<double>>();
+    if (t.size() != 3 || q.size() != 4) throw std::runtime_error(path + ": expected 3 + 4 numbers");
+    for (const double v : t) {
+        if (!std::isfinite(v)) throw std::runtime_error(path + ".translation: not finite");
+    }
+    const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
+    if (!(std::abs(quat.norm() - 1.0) <= 1e-3))
+        throw std::runtime_error(path + ".rotation_wxyz: not unit length");
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = quat.normalized().toRotationMatrix();
+    T.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+    return T;
+}
+
+ExtrinsicsWorld read_world(const YAML::Node& node) {
+    if (!node.IsMap()) throw std::runtime_error("world: expected a map");
+    ExtrinsicsWorld w;
+    if (!node["frame"]) throw std::runtime_error("world.frame: missing");
+    w.frame = node["frame"].as<std::string>();
+    if (node["fused_frame"]) w.fused_frame = node["fused_frame"].as<std::string>();
+    w.T_fused_root = read_pose(node["T_fused_root"], "world.T_fused_root");
+    if (node["world_frame"]) {
+        w.world_frame = node["world_frame"].as<std::string>();
+        w.T_world_fused = read_pose(node["T_world_fused"], "world.T_world_fused");
+    }
+    w.figures = read_figures(node["figures"], "world.figures");
+    return w;
+}
+
 ExtrinsicsEntry read_sensor(const YAML::Node& node, const std::string& path) {
     ExtrinsicsEntry e;
     if (!node.IsMap()) throw std::runtime_error(path + ": expected a map");
@@ -66,22 +107,7 @@ ExtrinsicsEntry read_sensor(const YAML::Node& node, const std::string& path) {
     e.name = node["name"].as<std::string>();
     e.registered = node["registered"].as<bool>();
     if (e.registered) {
-        const YAML::Node pose = node["T_root_sensor"];
-        if (!pose || !pose["translation"] || !pose["rotation_wxyz"]) {
-            throw std::runtime_error(path + ".T_root_sensor: expected translation and rotation_wxyz");
-        }
-        const auto t = pose["translation"].as<std::vector<double>>();
-        const auto q = pose["rotation_wxyz"].as<std::vector<double>>();
-        if (t.size() != 3 || q.size() != 4) throw std::runtime_error(path + ".T_root_sensor: expected 3 + 4 numbers");
-        for (const double v : t) {
-            if (!std::isfinite(v)) throw std::runtime_error(path + ".T_root_sensor.translation: not finite");
-        }
-        const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
-        if (!(std::abs(quat.norm() - 1.0) <= 1e-3)) {
-            throw std::runtime_error(path + ".T_root_sensor.rotation_wxyz: not unit length");
-        }
-        e.T_root_sensor.linear() = quat.normalized().toRotationMatrix();
-        e.T_root_sensor.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+        e.T_root_sensor = read_pose(node["T_root_sensor"], path + ".T_root_sensor");
     } else if (node["reason"]) {
         e.reason = node["reason"].as<std::string>();
     }
@@ -117,8 +143,22 @@ std::string extrinsics_to_yaml(const ExtrinsicsDocument& document) {
     if (!document.station.empty()) out << YAML::Key << "station" << YAML::Value << document.station;
     out << YAML::Key << "root" << YAML::Value << document.root;
     out << YAML::Key << "sensors" << YAML::Value << YAML::BeginSeq;
-    for (const auto& s : document.sensors) emit_sensor(out, s);
+    for (const auto& s : document.sensors) emit_sensor(out, s, document.world);
     out << YAML::EndSeq;
+    if (document.world) {
+        const auto& w = *document.world;
+        out << YAML::Key << "world" << YAML::Value << YAML::BeginMap;
+        out << YAML::Key << "frame" << YAML::Value << w.frame;
+        if (!w.fused_frame.empty())
+            out << YAML::Key << "fused_frame" << YAML::Value << w.fused_frame;
+        emit_pose(out, "T_fused_root", w.T_fused_root);
+        if (!w.world_frame.empty()) {
+            out << YAML::Key << "world_frame" << YAML::Value << w.world_frame;
+            emit_pose(out, "T_world_fused", w.T_world_fused);
+        }
+        emit_figures(out, "figures", w.figures);
+        out << YAML::EndMap;
+    }
     if (!document.pairs.empty()) {
         out << YAML::Key << "pairs" << YAML::Value << YAML::BeginSeq;
         for (const auto& p : document.pairs) {
@@ -131,8 +171,13 @@ std::string extrinsics_to_yaml(const ExtrinsicsDocument& document) {
         out << YAML::EndSeq;
     }
     out << YAML::EndMap;
-    return "# T_root_sensor maps sensor coordinates into the root sensor's frame (metres)\n" +
-           std::string(out.c_str()) + "\n";
+    std::string comment =
+        "# T_root_sensor maps sensor coordinates into the root sensor's frame (metres)\n";
+    if (document.world) {
+        comment += "# T_fused_sensor into the published fused frame (world frame: " +
+                   document.world->frame + ", see world:)\n";
+    }
+    return comment + std::string(out.c_str()) + "\n";
 }
 
 void write_extrinsics_yaml(const std::filesystem::path& file, const ExtrinsicsDocument& document) {
@@ -166,6 +211,7 @@ ExtrinsicsDocument read_extrinsics_document(const std::filesystem::path& file) {
         for (std::size_t i = 0; i < doc["sensors"].size(); ++i) {
             out.sensors.push_back(read_sensor(doc["sensors"][i], "sensors[" + std::to_string(i) + "]"));
         }
+        if (doc["world"]) out.world = read_world(doc["world"]);
         if (doc["pairs"]) {
             if (!doc["pairs"].IsSequence()) throw std::runtime_error("pairs: expected a list");
             for (std::size_t i = 0; i < doc["pairs"].size(); ++i) {
@@ -181,12 +227,12 @@ ExtrinsicsDocument read_extrinsics_document(const std::filesystem::path& file) {
 }
 
 std::string extrinsics_to_yaml(const std::string& root, const std::vector<ExtrinsicsEntry>& sensors) {
-    return extrinsics_to_yaml(ExtrinsicsDocument{"", root, sensors, {}});
+    return extrinsics_to_yaml(ExtrinsicsDocument{"", root, sensors, {}, std::nullopt});
 }
 
 void write_extrinsics_yaml(const std::filesystem::path& file, const std::string& root,
                            const std::vector<ExtrinsicsEntry>& sensors) {
-    write_extrinsics_yaml(file, ExtrinsicsDocument{"", root, sensors, {}});
+    write_extrinsics_yaml(file, ExtrinsicsDocument{"", root, sensors, {}, std::nullopt});
 }
 
 std::vector<ExtrinsicsEntry> read_extrinsics_yaml(const std::filesystem::path& file, std::string* root) {

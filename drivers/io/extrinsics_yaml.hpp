@@ -19,6 +19,7 @@
 #include <Eigen/Geometry>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,11 +42,32 @@ struct ExtrinsicsPair {
     std::map<std::string, double> figures;
 };
 
+// The world frame the station publishes in (station.yaml `world:`, core/world_frame.hpp),
+// written by lidarfused:
+//   world:
+//     frame: road                       (road | geo | sensor)
+//     fused_frame: lidarfuse/fused      (the fused frame's tf name)
+//     T_fused_root: {translation: [...], rotation_wxyz: [...]}
+//     world_frame: utm                  (geo only: the tf parent of the fused frame ...)
+//     T_world_fused: {...}              (... and the static transform to it: the offset)
+//     figures: {residual_rms_m: 0.012, ...}
+// With it, every registered sensor also carries T_fused_sensor = T_fused_root *
+// T_root_sensor (its pose in the published frame); T_root_sensor keeps its meaning.
+struct ExtrinsicsWorld {
+    std::string frame;
+    std::string fused_frame;  // omitted when empty
+    Eigen::Isometry3d T_fused_root = Eigen::Isometry3d::Identity();
+    std::string world_frame;  // omitted (with T_world_fused) when empty
+    Eigen::Isometry3d T_world_fused = Eigen::Isometry3d::Identity();
+    std::map<std::string, double> figures;
+};
+
 struct ExtrinsicsDocument {
     std::string station;  // omitted when empty
     std::string root;
     std::vector<ExtrinsicsEntry> sensors;
     std::vector<ExtrinsicsPair> pairs;  // omitted when empty
+    std::optional<ExtrinsicsWorld> world;  // omitted when absent
 };
 
 std::string extrinsics_to_yaml(const ExtrinsicsDocument& document);

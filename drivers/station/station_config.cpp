@@ -23,9 +23,9 @@ std::string join_problems(const std::string& source, const std::vector<std::stri
 }
 
 // Sections owned by later stages; accepted here and validated by their owners.
-const std::set<std::string> kTopLevelKeys = {"station", "root", "sensors", "sync", "network",
-                                             "registration", "dynamics", "output",  "dds",
-                                             "logging",      "health"};
+const std::set<std::string> kTopLevelKeys = {"station", "root",         "sensors",  "sync",
+                                             "network", "registration", "dynamics", "output",
+                                             "dds",     "logging",      "health",   "world"};
 const std::set<std::string> kSensorKeys = {"name",           "udp_port", "metadata",
                                            "source_address", "time_offset_ns", "enabled"};
 

@@ -78,23 +78,64 @@ TEST(Evaluation, KnownErrorOnOneSensorIsMeasured) {
     EXPECT_GT(l2.rmse_rot_deg, 0.2);
 }
 
-// A rigid error of the whole estimate (a wrong root pose) is removed by the fitted
-// T_coord but counted by the strict metric.
-TEST(Evaluation, RigidOffsetIsRemovedByAlignmentOnly) {
+// A rigid transform of the whole estimate is its frame (world.frame road or geo), not an
+// error: removed by the fitted T_coord and by the strict metric's re-expression relative to
+// the root's first pose. A jump of the whole estimate half-way through is an error, which
+// the strict metric counts in full (the fitted T_coord spreads it).
+TEST(Evaluation, WholeEstimateInAnotherFrameIsNoErrorButAJumpIs) {
     const auto gt = world_truth();
     auto est = perfect_estimate(gt);
-    const Eigen::Isometry3d offset = pose(0.5, -0.2, 0.1, 3.0);
+    const Eigen::Isometry3d offset = pose(0.5, -0.2, 6.1, 3.0, 17.0);
     for (auto& [name, samples] : est) {
         for (auto& s : samples) s.pose = offset * s.pose;
     }
     EvaluationParams params;
     params.root_sensor = "lidar0";
-    const auto result = evaluate_trajectories(gt, est, params);
+    auto result = evaluate_trajectories(gt, est, params);
     ASSERT_TRUE(result.ok);
     EXPECT_LT(result.mean_rmse_trans_m, 1e-6);
     EXPECT_LT(result.mean_rmse_rot_deg, 1e-4);
-    EXPECT_GT(result.mean_strict_rmse_trans_m, 0.3);
-    EXPECT_NEAR(result.mean_strict_rmse_rot_deg, 3.0, 1e-6);
+    EXPECT_LT(result.mean_strict_rmse_trans_m, 1e-6);
+    EXPECT_LT(result.mean_strict_rmse_rot_deg, 1e-4);
+    // The root found without being named: the one nearest the frame's z axis.
+    result = evaluate_trajectories(gt, est, {});
+    EXPECT_EQ(result.root_sensor, "lidar0");
+
+    const Eigen::Isometry3d jump = pose(0.3, 0, 0, 1.0);
+    for (auto& [name, samples] : est) {
+        for (auto& s : samples) {
+            if (s.frame >= 50) s.pose = jump * s.pose;
+        }
+    }
+    result = evaluate_trajectories(gt, est, params);
+    ASSERT_TRUE(result.ok);
+    EXPECT_GT(result.mean_strict_rmse_trans_m, 0.2);
+    EXPECT_NEAR(result.mean_strict_rmse_rot_deg, std::sqrt(0.5), 1e-3);
+}
+
+// world = road: each sensor's height and up direction in the estimate's own frame.
+TEST(Evaluation, RoadWorldFiguresAreHeightAndUpDirection) {
+    const auto gt = world_truth();
+    Trajectories est;
+    // A road-aligned estimate: the truth rotated about z and shifted horizontally, with
+    // lidar2 2 cm too high.
+    const Eigen::Isometry3d yaw_shift = pose(-3, 7, 0, 40);
+    for (const auto& [name, samples] : gt) {
+        for (const auto& s : samples) {
+            Eigen::Isometry3d p = yaw_shift * s.pose;
+            if (name == "lidar2") p.translation().z() += 0.02;
+            est[name].push_back({s.frame, s.t_ns, p});
+        }
+    }
+    EvaluationParams params;
+    params.root_sensor = "lidar0";
+    params.world = EvaluationParams::World::kRoad;
+    const auto result = evaluate_trajectories(gt, est, params);
+    ASSERT_TRUE(result.ok);
+    for (const auto& s : result.sensors) {
+        EXPECT_NEAR(s.world_rmse_trans_m, s.sensor == "lidar2" ? 0.02 : 0.0, 1e-9) << s.sensor;
+        EXPECT_LT(s.world_rmse_rot_deg, 1e-6) << s.sensor;
+    }
 }
 
 TEST(Evaluation, DriftShowsInTheLastTenth) {

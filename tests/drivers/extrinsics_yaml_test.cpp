@@ -4,6 +4,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <fstream>
 
@@ -126,6 +127,55 @@ TEST(ExtrinsicsYaml, DamagedFilesAreRefusedNamingTheKey) {
     expect_refused("sensors: []\npairs: [{source: a, target: b, status: ok, inliers: many}]\n",
                    "pairs[0].inliers: expected a number");
     expect_refused("sensors: [\n", "broken.yaml");
+}
+
+// The world block lidarfused writes (road or geo) reads back exactly, and every registered
+// sensor gets T_fused_sensor = T_fused_root * T_root_sensor beside its unchanged T_root_sensor.
+TEST(ExtrinsicsYaml, WorldBlockRoundTripAndFusedPoses) {
+    test::TempDir dir("extrinsics-world");
+    const auto file = dir.path() / "extrinsics.yaml";
+    ExtrinsicsDocument doc = sample_document();
+    ExtrinsicsWorld w;
+    w.frame = "geo";
+    w.fused_frame = "lidarfuse/fused";
+    w.T_fused_root.linear() =
+        Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.1, 0.2, 1).normalized()).toRotationMatrix();
+    w.T_fused_root.translation() = Eigen::Vector3d(0.4, -0.25, 0.2);
+    w.world_frame = "utm";
+    w.T_world_fused.translation() = Eigen::Vector3d(691234, 5335012, 512);
+    w.figures["residual_rms_m"] = 0.0123;
+    w.figures["residual_max_m"] = 0.0456;
+    doc.world = w;
+    write_extrinsics_yaml(file, doc);
+    const ExtrinsicsDocument back = read_extrinsics_document(file);
+    ASSERT_TRUE(back.world.has_value());
+    EXPECT_EQ(back.world->frame, "geo");
+    EXPECT_EQ(back.world->fused_frame, "lidarfuse/fused");
+    EXPECT_EQ(back.world->world_frame, "utm");
+    EXPECT_TRUE(back.world->T_fused_root.isApprox(w.T_fused_root, 1e-8));
+    EXPECT_EQ(back.world->T_world_fused.translation(),
+              w.T_world_fused.translation());  // whole metres, exact
+    EXPECT_DOUBLE_EQ(back.world->figures.at("residual_max_m"), 0.0456);
+    ASSERT_EQ(back.sensors.size(), doc.sensors.size());
+    EXPECT_TRUE(back.sensors[1].T_root_sensor.isApprox(doc.sensors[1].T_root_sensor, 1e-8));
+    // T_fused_sensor is in the file as the published pose.
+    const YAML::Node yaml = YAML::LoadFile(file.string());
+    const auto t = yaml["sensors"][1]["T_fused_sensor"]["translation"].as<std::vector<double>>();
+    const Eigen::Vector3d expected = (w.T_fused_root * doc.sensors[1].T_root_sensor).translation();
+    EXPECT_NEAR((Eigen::Vector3d(t[0], t[1], t[2]) - expected).norm(), 0.0, 1e-6);
+    EXPECT_FALSE(yaml["sensors"][2]["T_fused_sensor"]);  // not registered: no pose at all
+
+    // road: no world_frame; a file without a world block reads back without one.
+    doc.world->frame = "road";
+    doc.world->world_frame.clear();
+    write_extrinsics_yaml(file, doc);
+    const auto road = read_extrinsics_document(file);
+    ASSERT_TRUE(road.world.has_value());
+    EXPECT_TRUE(road.world->world_frame.empty());
+    EXPECT_TRUE(road.world->T_world_fused.isApprox(Eigen::Isometry3d::Identity()));
+    doc.world.reset();
+    write_extrinsics_yaml(file, doc);
+    EXPECT_FALSE(read_extrinsics_document(file).world.has_value());
 }
 
 }  // namespace

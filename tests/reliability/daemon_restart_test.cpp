@@ -48,6 +48,10 @@ protected:
                             << "  - {name: lidar1, udp_port: " << base_port(slot) + 1
                             << ", metadata: " << (sim_->path() / "lidar1.json").string() << "}\n"
                             << "network: {bind_address: 127.0.0.1}\nregistration: {threads: 1}\n"
+                            // The root frame: every fused frame is written from frame 0 on (a
+                            // road frame would hold them until the initial registration), so
+                            // "registered from scratch" shows as rows starting again at 0.
+                            << "world: {frame: sensor}\n"
                             << "output: {directory: " << (out_.path() / "out").string()
                             << ", extrinsics_interval_frames: 1, dds: {enabled: false}}\n";
         return file;

@@ -1,0 +1,146 @@
+#pragma once
+// The world frame (station.yaml `world:`): which frame the fused cloud and the poses are
+// expressed in. FusionEngine works in the root frame (the root sensor at its first frame,
+// tilted with its pole); a WorldFrame maps it to the frame people use:
+//
+//   road    z along the road plane's normal, origin on the road below the root sensor, x
+//           the root's x axis projected onto the road. The plane: every registered
+//           sensor's road plane from the initial registration (ground_plane.hpp, mapped
+//           into the root frame with the registered poses, weighted by their inliers),
+//           refined on the static points of the fused cloud of the frame that applied it
+//           (a shrinking band around the plane: sidewalks 15 cm up and cars stay out).
+//   geo     geo-referenced: T_world_root fitted by SVD (Kabsch, no scale, the paper's
+//           T_coord) from the sensors' positions in the root frame to their known positions
+//           in a projected system (UTM or a local ENU), or given. The fused frame is that
+//           world frame shifted by a whole-metre offset (T_world_fused, a pure translation,
+//           published as a static transform) so float32 clouds keep millimetres.
+//   sensor  the root frame itself (T_fused_root = identity).
+//
+// Poses out: T_fused_sensor = T_fused_root * T_root_sensor. Units: metres. Deterministic,
+// single-threaded; no allocation per frame once fixed (apply() works in place).
+
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/ground_plane.hpp"
+#include "core/pipeline/fusion_types.hpp"
+
+namespace lidarfuse::core {
+
+enum class WorldFrameKind { kRoad, kGeo, kSensor };
+const char* to_string(WorldFrameKind kind);
+
+// A sensor's known position in the world (geo) frame, e.g. surveyed UTM easting, northing
+// and height of its optical centre (m).
+struct GeoAnchor {
+    std::size_t sensor = 0;  // index in the configuration
+    Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+};
+
+struct RoadFrameParams {
+    // Refinement bands around the plane (m), applied in turn to the fused cloud's static
+    // points; each round refits the plane by PCA to the points inside the band.
+    std::vector<double> bands_m = {0.10, 0.06, 0.04};
+    // Fewer road points than this in a band: keep the plane from the sensors' planes.
+    std::size_t min_points = 200;
+};
+
+struct WorldFrameParams {
+    WorldFrameKind kind = WorldFrameKind::kRoad;
+    std::size_t root_sensor = 0;
+    RoadFrameParams road{};
+    // geo: at least 3 anchors (not in a line), or T_world_root given.
+    std::vector<GeoAnchor> anchors;
+    std::optional<Eigen::Isometry3d> T_world_root;
+    // geo: the offset is the fit's translation rounded to a multiple of this (m).
+    double offset_step_m = 1.0;
+    // road: the plane is estimated on the fused cloud of a frame at least this many frames
+    // after the root's first: with deskew, FusionEngine re-anchors the root's reference
+    // FusionParams::deskew_reference_after_frames after it, which tilts the root frame by the
+    // root's motion over half a sweep (measured: 3 cm of road height 60 m away), and the road
+    // must be found in the frame the poses are in from then on. Set it to
+    // deskew_reference_after_frames + 1 with deskew, 0 without (world_frame_settle_frames()).
+    int settle_frames = 0;
+};
+
+inline int world_frame_settle_frames(const FusionParams& fusion) {
+    return fusion.deskew ? fusion.deskew_reference_after_frames + 1 : 0;
+}
+
+struct WorldFrame {
+    WorldFrameKind kind = WorldFrameKind::kSensor;
+    bool fixed = false;  // false: not known yet (road: before the initial registration)
+    Eigen::Isometry3d T_fused_root = Eigen::Isometry3d::Identity();
+    // geo: the world -> fused static transform (a translation: the large offset); identity
+    // for road and sensor, whose fused frame is the world frame.
+    Eigen::Isometry3d T_world_fused = Eigen::Isometry3d::Identity();
+    // road: rms distance of the road points to the plane; geo (fit): rms and largest
+    // distance |T_world_root * p_root_i - p_world_i| over the anchors, and each anchor's.
+    double residual_rms_m = 0.0;
+    double residual_max_m = 0.0;
+    std::vector<double> anchor_residuals_m;  // geo fit: per anchor, in anchor order
+    std::size_t num_sensors = 0;             // road: sensor planes used; geo: anchors fitted
+    std::size_t num_road_points = 0;         // road: points of the last refinement band
+    double root_height_m = 0.0;              // road: the root sensor above the road plane
+    std::int64_t frame_index = -1;           // the frame it was fixed at (-1: from the config)
+    std::string note;                        // how it was fixed, or why it fell back
+};
+
+// The road frame from the registered sensors' road planes (sensor frames) and poses (root
+// frame), refined on `cloud` (root frame; may be null). `root_pose` is the root's pose in
+// the root frame at the registration's frame. fixed = false when no plane was found.
+struct RoadPlaneObservation {
+    Eigen::Isometry3d T_root_sensor = Eigen::Isometry3d::Identity();
+    GroundPlane ground;
+};
+WorldFrame estimate_road_frame(const std::vector<RoadPlaneObservation>& sensors,
+                               const Eigen::Isometry3d& root_pose, const FusedCloud* cloud,
+                               const RoadFrameParams& params = {});
+
+// geo from positions: T_world_root by Kabsch from positions_root[i] -> positions_world[i].
+// fixed = false (and a note) with fewer than 3 positions or positions in a line.
+WorldFrame fit_geo_frame(const std::vector<Eigen::Vector3d>& positions_root,
+                         const std::vector<Eigen::Vector3d>& positions_world,
+                         double offset_step_m = 1.0);
+// geo from a given T_world_root.
+WorldFrame geo_frame_from(const Eigen::Isometry3d& T_world_root, double offset_step_m = 1.0);
+
+// Follows FusionEngine's output frame by frame and fixes the world frame once:
+//   sensor, geo with T_world_root: at construction;
+//   road: from the first initial registration applied (FrameOutput::applied_registration;
+//     the root is never registered again within an engine's life, so it is never
+//     re-estimated): its sensors' planes, refined on the fused cloud of that frame or, when
+//     the root started fewer than settle_frames before, of the first frame that many after
+//     it; no road plane found at all: the sensor frame, with a note; a station of one
+//     sensor (no registration to apply): the root's own plane, from its cloud, at once;
+//   geo with anchors: at the first frame with no initial registration pending in which at
+//     least 3 anchors have a pose (after the first registration was applied).
+// Not thread safe: one thread calls update() and apply().
+class WorldFrameTracker {
+public:
+    WorldFrameTracker(const WorldFrameParams& params, std::size_t num_sensors);
+
+    // True when the frame became fixed in this call.
+    bool update(const FrameOutput& out);
+    const WorldFrame& frame() const { return frame_; }
+    bool fixed() const { return frame_.fixed; }
+
+    // Re-expresses `out` in the fused frame: every T_root_sensor becomes T_fused_sensor and
+    // the cloud's points move with it. Identity (nothing done) until fixed, and for sensor.
+    void apply(FrameOutput* out) const;
+
+private:
+    WorldFrameParams params_;
+    std::size_t num_sensors_;
+    bool registration_applied_ = false;
+    std::int64_t root_first_frame_ = -1;  // the first frame the root had a pose
+    // road: the applied registration's planes (root frame) and root pose, until settled.
+    std::optional<std::pair<std::vector<RoadPlaneObservation>, Eigen::Isometry3d>> road_planes_;
+    WorldFrame frame_;
+};
+
+}  // namespace lidarfuse::core

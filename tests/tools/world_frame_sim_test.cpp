@@ -1,0 +1,157 @@
+// The road world frame (world.frame: road, the default) on the simulator, through the built
+// `lidarfuse sim` and `lidarfuse fuse`: the simulated road (z = 0 in ground_truth.csv's
+// world) lies at z = 0 of the fused frame, every sensor's height is its true one, and
+// `lidarfuse eval` measures the same registration error in the road and the sensor frame.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "core/evaluation.hpp"
+#include "drivers/io/cloud_file.hpp"
+#include "drivers/io/extrinsics_yaml.hpp"
+#include "drivers/io/pose_csv.hpp"
+#include "tests/support/test_data.hpp"
+
+namespace lidarfuse {
+namespace {
+
+using ::testing::HasSubstr;
+
+core::Trajectories trajectories(const std::vector<io::PoseRecord>& rows) {
+    core::Trajectories out;
+    for (const auto& r : rows) out[r.sensor].push_back({r.frame, r.t_ns, r.pose});
+    return out;
+}
+
+class WorldFrameSim : public ::testing::Test {
+protected:
+    static void SetUpTestSuite() {
+        dir_ = new test::TempDir("world-sim");
+        const std::string d = dir_->path().string();
+        std::string out;
+        ASSERT_EQ(
+            test::run_command(
+                tool_ + " sim --scenario curve --seed 1 --seconds 2 --out " + d + "/sim", &out),
+            0)
+            << out;
+        ASSERT_EQ(test::run_command(tool_ + " fuse " + d + "/sim/capture.pcap --config " + d +
+                                        "/sim/station.yaml --out " + d + "/road --save-cloud 20",
+                                    &road_output_),
+                  0)
+            << road_output_;
+    }
+    static void TearDownTestSuite() {
+        delete dir_;
+        dir_ = nullptr;
+    }
+    static inline test::TempDir* dir_ = nullptr;
+    static inline const std::string tool_ = test::tool_path();
+    static inline std::string road_output_;
+};
+
+// The simulated road lies at z = 0 within 2 cm: in every 10 m x 10 m cell of the fused cloud
+// with road points (static points within 8 cm of z = 0: sidewalks, 15 cm up, stay out), the
+// median height.
+TEST_F(WorldFrameSim, RoadLiesAtZeroInTheFusedCloud) {
+    const std::string& out = road_output_;
+    EXPECT_THAT(out, HasSubstr("fuse_world_frame road frame"));
+    // Fixed once the root's reference scan is deskewed (frame 3 + 1), every frame written.
+    EXPECT_EQ(test::figure(out, "fuse_world_fixed_at"), 4) << out;
+    EXPECT_EQ(test::figure(out, "fuse_world_frames_unwritten"), 0) << out;
+    EXPECT_EQ(test::figure(out, "fuse_world_road_sensors"), 4) << out;
+    const auto cloud = io::read_cloud_file(dir_->path() / "road" / "fused_20.ply");
+    std::map<std::pair<int, int>, std::vector<double>> cells;
+    for (const auto& p : cloud.cloud.points) {
+        if (std::abs(p.z()) > 0.08) continue;
+        cells[{static_cast<int>(std::floor(p.x() / 10)), static_cast<int>(std::floor(p.y() / 10))}]
+            .push_back(p.z());
+    }
+    std::size_t checked = 0;
+    double worst = 0;
+    for (auto& [cell, z] : cells) {
+        if (z.size() < 30) continue;
+        std::nth_element(z.begin(), z.begin() + static_cast<long>(z.size() / 2), z.end());
+        const double median = z[z.size() / 2];
+        worst = std::max(worst, std::abs(median));
+        EXPECT_LT(std::abs(median), 0.02) << "cell " << cell.first << "," << cell.second;
+        ++checked;
+    }
+    EXPECT_GE(checked, 20u);
+    std::printf("road frame: %zu cells of road, worst median height %.4f m\n", checked, worst);
+}
+
+// Each sensor's height matches ground_truth.csv (its z in the simulator's road-aligned world)
+// within 2 cm: at the frame the road frame was fixed and as an RMSE over every frame (the
+// simulator's frame numbers are the capture's, as fuse's are here); and the
+// sensors' up direction within 0.1 deg.
+TEST_F(WorldFrameSim, SensorHeightsMatchGroundTruth) {
+    const auto truth = io::read_pose_csv(dir_->path() / "sim" / "ground_truth.csv");
+    const auto poses = io::read_pose_csv(dir_->path() / "road" / "poses.csv");
+    std::map<std::pair<std::int64_t, std::string>, double> true_z;
+    for (const auto& r : truth) true_z[{r.frame, r.sensor}] = r.pose.translation().z();
+    const std::int64_t fixed_at =
+        static_cast<std::int64_t>(test::figure(road_output_, "fuse_world_fixed_at").value_or(-1));
+    std::size_t at_fix = 0;
+    for (const auto& r : poses) {
+        if (r.frame != fixed_at) continue;
+        ++at_fix;
+        EXPECT_NEAR(r.pose.translation().z(), true_z.at({fixed_at, r.sensor}), 0.02) << r.sensor;
+    }
+    EXPECT_EQ(at_fix, 4u);
+    core::EvaluationParams params;
+    params.world = core::EvaluationParams::World::kRoad;
+    const auto result =
+        core::evaluate_trajectories(trajectories(truth), trajectories(poses), params);
+    ASSERT_TRUE(result.ok) << result.error;
+    EXPECT_EQ(result.root_sensor, "lidar0");  // found in the road frame too
+    for (const auto& s : result.sensors) {
+        EXPECT_GE(s.matched, 35u) << s.sensor;
+        EXPECT_LT(s.world_rmse_trans_m, 0.02) << s.sensor;
+        EXPECT_LT(s.world_rmse_rot_deg, 0.1) << s.sensor;
+        std::printf("road frame: %s height RMSE %.4f m (max %.4f), up %.4f deg\n", s.sensor.c_str(),
+                    s.world_rmse_trans_m, s.world_max_trans_m, s.world_rmse_rot_deg);
+    }
+    // extrinsics.yaml carries the road frame: the root above the road at its true height.
+    const auto doc = io::read_extrinsics_document(dir_->path() / "road" / "extrinsics.yaml");
+    ASSERT_TRUE(doc.world.has_value());
+    EXPECT_EQ(doc.world->frame, "road");
+    EXPECT_NEAR(doc.world->figures.at("root_height_m"), true_z.at({0, "lidar0"}), 0.02);
+}
+
+// eval compares correctly in every frame: the aligned and strict figures of the road frame's
+// poses.csv equal those of the sensor frame's (the frames differ by one rigid transform), and
+// the sensor frame's root starts at identity as before.
+TEST_F(WorldFrameSim, EvalGivesTheSameErrorsInTheRoadAndTheSensorFrame) {
+    const std::string d = dir_->path().string();
+    std::string out;
+    ASSERT_EQ(test::run_command(tool_ + " fuse " + d + "/sim/capture.pcap --config " + d +
+                                    "/sim/station.yaml --out " + d + "/sensor --world sensor",
+                                &out),
+              0)
+        << out;
+    const auto sensor_poses = io::read_pose_csv(dir_->path() / "sensor" / "poses.csv");
+    ASSERT_FALSE(sensor_poses.empty());
+    EXPECT_TRUE(sensor_poses.front().pose.isApprox(Eigen::Isometry3d::Identity(), 1e-9));
+    std::string road_eval, sensor_eval;
+    ASSERT_EQ(test::run_command(tool_ + " eval --gt " + d + "/sim/ground_truth.csv --poses " + d +
+                                    "/road/poses.csv",
+                                &road_eval),
+              0);
+    ASSERT_EQ(test::run_command(tool_ + " eval --gt " + d + "/sim/ground_truth.csv --poses " + d +
+                                    "/sensor/poses.csv",
+                                &sensor_eval),
+              0);
+    for (const char* name : {"eval_mean_rmse_trans", "eval_mean_rmse_rot",
+                             "eval_mean_strict_rmse_trans", "eval_mean_strict_rmse_rot"}) {
+        const auto road = test::figure(road_eval, name), sensor = test::figure(sensor_eval, name);
+        ASSERT_TRUE(road && sensor) << name;
+        EXPECT_NEAR(*road, *sensor, 2e-5) << name;  // poses.csv keeps 1e-6 m
+    }
+    EXPECT_LT(*test::figure(road_eval, "eval_mean_strict_rmse_trans"), 0.03);
+}
+
+}  // namespace
+}  // namespace lidarfuse
