@@ -75,26 +75,21 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
     if (n == 0) return stats;
 
     const std::size_t k = static_cast<std::size_t>(std::max(3, params.k_neighbors));
-    // The search goes on past the covariance's k to fill the whole neighbour list: a list
-    // shorter than kList certifies fewer of G-ICP's correspondences (gicp.hpp), and each
-    // certificate saves a k-d tree search in every iteration of every edge to this cloud.
-    const std::size_t k_search = lists ? std::max(k, kList + 1) : k;
     const long long count = static_cast<long long>(n);
     std::size_t degenerate = 0;
 #pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1) \
     reduction(+ : degenerate)
     {
-        std::vector<std::uint32_t> idx(k_search);
-        std::vector<double> d2(k_search);
+        std::vector<std::uint32_t> idx(k);
+        std::vector<double> d2(k);
         Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
 #pragma omp for schedule(static)
         for (long long i = 0; i < count; ++i) {
             const Eigen::Vector3d& p = cloud->points[i];
-            const std::size_t found_listed = tree.knn(p, k_search, idx.data(), d2.data());
+            const std::size_t found = tree.knn(p, k, idx.data(), d2.data());
             if (lists)
-                record_neighbor_list(static_cast<std::uint32_t>(i), idx.data(), d2.data(),
-                                     found_listed, n, cloud);
-            const std::size_t found = std::min(found_listed, k);
+                record_neighbor_list(static_cast<std::uint32_t>(i), idx.data(), d2.data(), found, n,
+                                     cloud);
             if (found < 3) {
                 ++degenerate;
                 if (params.compute_normals) cloud->normals[i].setZero();

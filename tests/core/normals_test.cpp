@@ -126,44 +126,6 @@ TEST(Normals, NeighbourListsComeWithTheCovariances) {
     EXPECT_FALSE(normals_only.has_neighbor_lists());
 }
 
-// A covariance of fewer neighbours than the list holds (k = 6 at a 1 m voxel) still fills
-// the whole list, and its covariances are those of its own k nearest, not of the list.
-TEST(Normals, ShortCovarianceNeighbourhoodsStillFillTheList) {
-    constexpr std::size_t kList = PointCloud::kNeighborListSize;
-    std::mt19937 rng(12);
-    PointCloud cloud;
-    cloud.points = test::make_structured_scene(rng, 1.0);
-    NormalParams params;
-    params.k_neighbors = 4;
-    estimate_normals_covariances(&cloud, params);
-    ASSERT_TRUE(cloud.has_neighbor_lists());
-    const std::size_t n = cloud.size();
-    for (std::size_t i = 0; i < n; ++i) {
-        std::vector<std::pair<double, std::size_t>> by_distance;
-        for (std::size_t j = 0; j < n; ++j) {
-            by_distance.emplace_back((cloud.points[j] - cloud.points[i]).squaredNorm(), j);
-        }
-        std::sort(by_distance.begin(), by_distance.end());
-        // by_distance[0] is the point itself.
-        for (std::size_t r = 0; r < kList; ++r) {
-            ASSERT_DOUBLE_EQ(
-                (cloud.points[cloud.neighbor_list[i * kList + r]] - cloud.points[i]).squaredNorm(),
-                by_distance[r + 1].first)
-                << "point " << i << " rank " << r;
-        }
-        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-        for (std::size_t r = 0; r < 4; ++r) mean += cloud.points[by_distance[r].second];
-        mean /= 4.0;
-        Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
-        for (std::size_t r = 0; r < 4; ++r) {
-            const Eigen::Vector3d d = cloud.points[by_distance[r].second] - mean;
-            C += d * d.transpose();
-        }
-        const Eigen::Matrix3d expected = regularize_plane_covariance(C / 4.0, params.gicp_epsilon);
-        ASSERT_LT((cloud.covariances[i] - expected).norm(), 1e-9) << "point " << i;
-    }
-}
-
 TEST(Normals, TinyCloudsAreDegenerateButFinite) {
     PointCloud cloud;
     cloud.points = {{0, 0, 0}, {1, 0, 0}};
