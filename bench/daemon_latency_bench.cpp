@@ -3,9 +3,9 @@
 // Prints `name value unit` lines per N:
 //   latency from the last packet of a frame (the send of the last datagram of the frame's
 //     last-completed scan) to its fused cloud arriving at the DDS reader: median and p99
-//   CPU per stage over the replay (% of one core, from /proc/<pid>/task: lf-recv-*, lf-sync,
-//     lf-fusion (with the threads it starts: initial registration, OpenMP), lf-output,
-//     Cyclone's threads, the rest)
+//   CPU and minor page faults per stage over the replay (% of one core and faults/s, from
+//     /proc/<pid>/task: lf-recv-*, lf-sync, lf-fusion (with the threads it starts: initial
+//     registration, OpenMP), lf-output, Cyclone's threads, the rest), and the peak RSS
 //   packets sent, received (diagnostics), lost; frames in the capture, fused, published
 // and at the end the largest N with zero packet loss and the largest N that also fused at
 // least 95 % of the capture's frames (real time).
@@ -192,9 +192,14 @@ void replay(const fs::path& capture, std::vector<SensorReplay>* sensors) {
     }
 }
 
-// Thread CPU (s) of a process, grouped by the pipeline's thread names.
-std::map<std::string, double> cpu_by_stage(pid_t pid) {
-    std::map<std::string, double> out;
+// Thread CPU (s) and minor page faults of a process, grouped by the pipeline's thread names.
+struct StageUsage {
+    double cpu_s = 0.0;
+    double minor_faults = 0.0;
+};
+
+std::map<std::string, StageUsage> usage_by_stage(pid_t pid) {
+    std::map<std::string, StageUsage> out;
     const double tick = static_cast<double>(::sysconf(_SC_CLK_TCK));
     std::error_code ec;
     for (const auto& task : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task", ec)) {
@@ -205,8 +210,9 @@ std::map<std::string, double> cpu_by_stage(pid_t pid) {
         const std::string comm = text.substr(open + 1, close - open - 1);
         std::istringstream rest(text.substr(close + 2));
         std::string field;
-        double utime = 0, stime = 0;
+        double utime = 0, stime = 0, minflt = 0;
         for (int i = 3; i <= 15 && rest >> field; ++i) {
+            if (i == 10) minflt = std::stod(field);
             if (i == 14) utime = std::stod(field);
             if (i == 15) stime = std::stod(field);
         }
@@ -223,9 +229,25 @@ std::map<std::string, double> cpu_by_stage(pid_t pid) {
             stage = "main";
         else
             stage = "dds";  // Cyclone's recv, tev, dq.*, gc, ... threads
-        out[stage] += (utime + stime) / tick;
+        out[stage].cpu_s += (utime + stime) / tick;
+        out[stage].minor_faults += minflt;
     }
     return out;
+}
+
+// The peak resident set of a process (VmHWM, MiB), 0 when unreadable.
+double peak_rss_mib(pid_t pid) {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+    std::string key;
+    while (in >> key) {
+        if (key == "VmHWM:") {
+            double kib = 0;
+            in >> kib;
+            return kib / 1024.0;
+        }
+        std::getline(in, key);
+    }
+    return 0.0;
 }
 
 double percentile(std::vector<double> v, double p) {
@@ -280,12 +302,13 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
     for (int i = 0; i < 1000 && !matched.load(); ++i)
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
-    const auto cpu0 = cpu_by_stage(pid);
+    const auto cpu0 = usage_by_stage(pid);
     const std::int64_t t0 = monotonic_ns();
     replay(sim / "capture.pcap", &sensors);
     const double wall_s = static_cast<double>(monotonic_ns() - t0) * 1e-9;
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // fusion catches up
-    const auto cpu1 = cpu_by_stage(pid);
+    const auto cpu1 = usage_by_stage(pid);
+    const double rss_mib = peak_rss_mib(pid);
     ::kill(pid, SIGTERM);
     int status = 0;
     ::waitpid(pid, &status, 0);
@@ -330,10 +353,14 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
     std::printf("daemon_latency_p99_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.99));
     std::printf("daemon_latency_samples_%s %zu frames\n", tag.c_str(), latency_ms.size());
     for (const char* stage : {"receive", "sync", "fusion", "output", "dds", "main"}) {
-        const double cpu =
-            cpu1.count(stage) ? cpu1.at(stage) - (cpu0.count(stage) ? cpu0.at(stage) : 0.0) : 0.0;
-        std::printf("daemon_cpu_%s_%s %.1f %%\n", stage, tag.c_str(), 100.0 * cpu / (wall_s + 1.5));
+        const StageUsage before = cpu0.count(stage) ? cpu0.at(stage) : StageUsage{};
+        const StageUsage after = cpu1.count(stage) ? cpu1.at(stage) : before;
+        std::printf("daemon_cpu_%s_%s %.1f %%\n", stage, tag.c_str(),
+                    100.0 * (after.cpu_s - before.cpu_s) / (wall_s + 1.5));
+        std::printf("daemon_page_faults_%s_%s %.0f faults/s\n", stage, tag.c_str(),
+                    (after.minor_faults - before.minor_faults) / (wall_s + 1.5));
     }
+    std::printf("daemon_peak_rss_%s %.1f MiB\n", tag.c_str(), rss_mib);
     const std::uint64_t lost = sent > received_packets ? sent - received_packets : 0;
     std::printf("daemon_packets_sent_%s %llu packets\n", tag.c_str(),
                 static_cast<unsigned long long>(sent));
