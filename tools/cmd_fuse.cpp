@@ -270,6 +270,7 @@ int run_fuse(int argc, char** argv) {
         std::printf("fuse_world_geo_offset %.3f,%.3f,%.3f m\n", o.x(), o.y(), o.z());
         std::printf("fuse_world_geo_residual_rms %.4f m\n", wf.residual_rms_m);
         std::printf("fuse_world_geo_residual_max %.4f m\n", wf.residual_max_m);
+        std::printf("fuse_world_geo_frames_averaged %zu frames\n", wf.num_frames);
     }
     if (!wf.note.empty()) std::fprintf(stderr, "world frame: %s\n", wf.note.c_str());
     std::printf("fuse_frames %lld frames\n", frames);
