@@ -251,9 +251,15 @@ ExtrinsicsWorld extrinsics_world(const core::WorldFrame& frame, const std::strin
         w.world_frame = world_frame_id;
         w.T_world_fused = frame.T_world_fused;
     }
-    if (frame.kind != core::WorldFrameKind::kSensor) {
+    // road without road points (the planes alone, e.g. calibrate's): no residual measured,
+    // none written rather than a 0 that reads as a perfect fit.
+    const bool measured = frame.kind == core::WorldFrameKind::kGeo ||
+                          (frame.kind == core::WorldFrameKind::kRoad && frame.num_road_points > 0);
+    if (measured) {
         w.figures["residual_rms_m"] = frame.residual_rms_m;
         w.figures["residual_max_m"] = frame.residual_max_m;
+    }
+    if (frame.kind != core::WorldFrameKind::kSensor) {
         w.figures["sensors_used"] = static_cast<double>(frame.num_sensors);
     }
     if (frame.kind == core::WorldFrameKind::kRoad) {

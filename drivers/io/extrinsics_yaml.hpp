@@ -66,8 +66,9 @@ struct ExtrinsicsWorld {
 
 // The block of a fixed world frame, as lidarfused, `lidarfuse fuse` and `lidarfuse calibrate`
 // write it: `fused_frame` (may be empty: omitted), geo's `world_frame_id` and offset, and
-// the estimate's figures (road and geo: residual_rms_m, residual_max_m, sensors_used; road:
-// root_height_m, road_points; a geo fit: frames_averaged).
+// the estimate's figures (road and geo: sensors_used, and residual_rms_m, residual_max_m
+// when measured: geo, and road refined on road points; road: root_height_m, road_points; a
+// geo fit: frames_averaged).
 ExtrinsicsWorld extrinsics_world(const core::WorldFrame& frame, const std::string& fused_frame,
                                  const std::string& world_frame_id);
 

@@ -204,6 +204,9 @@ TEST(ExtrinsicsYaml, WorldBlockFromAWorldFrame) {
     EXPECT_TRUE(road.world_frame.empty());  // geo only
     EXPECT_TRUE(road.fused_frame.empty());
     EXPECT_EQ(road.figures.at("root_height_m"), 6.1);
+    EXPECT_EQ(road.figures.count("residual_rms_m"), 0u);  // planes alone: not measured
+    f.num_road_points = 5000;
+    EXPECT_EQ(extrinsics_world(f, "", "utm").figures.at("residual_rms_m"), 0.03);
     EXPECT_EQ(road.figures.count("frames_averaged"), 0u);
     f.kind = core::WorldFrameKind::kSensor;
     EXPECT_TRUE(extrinsics_world(f, "", "utm").figures.empty());
