@@ -178,7 +178,10 @@ WorldFrame geo_frame_from(const Eigen::Isometry3d& T_world_root, double offset_s
 }
 
 WorldFrameTracker::WorldFrameTracker(const WorldFrameParams& params, std::size_t num_sensors)
-    : params_(params), num_sensors_(num_sensors) {
+    : params_(params),
+      num_sensors_(num_sensors),
+      anchor_sum_m_(params.anchors.size(), Eigen::Vector3d::Zero()),
+      anchor_frames_(params.anchors.size(), 0) {
     frame_.kind = params.kind;
     if (params.kind == WorldFrameKind::kSensor) {
         frame_.fixed = true;
@@ -249,15 +252,26 @@ bool WorldFrameTracker::update(const FrameOutput& out) {
             registration_applied_ || out.applied_registration.has_value() ||
             (num_sensors_ == 1 && root < out.health.size() && out.health[root].pose_valid);
         if (!registration_applied_ || out.initial_registration_pending) return false;
-        std::vector<Eigen::Vector3d> in_root, in_world;
-        for (const auto& a : params_.anchors) {
-            if (a.sensor >= out.health.size() || !out.health[a.sensor].pose_valid) continue;
-            in_root.push_back(out.T_root_sensor[a.sensor].translation());
-            in_world.push_back(a.position_m);
+        for (std::size_t i = 0; i < params_.anchors.size(); ++i) {
+            const std::size_t s = params_.anchors[i].sensor;
+            if (s >= out.health.size() || !out.health[s].pose_valid) continue;
+            anchor_sum_m_[i] += out.T_root_sensor[s].translation();
+            ++anchor_frames_[i];
         }
-        if (in_root.size() < 3) return false;
+        ++geo_frames_;
+        if (geo_frames_ < std::max(1, params_.geo_average_frames)) return false;
+        std::vector<Eigen::Vector3d> in_root, in_world;
+        for (std::size_t i = 0; i < params_.anchors.size(); ++i) {
+            // Tracked in fewer than half the frames: its mean is biased by its sway.
+            if (anchor_frames_[i] == 0 || 2 * anchor_frames_[i] < geo_frames_) continue;
+            in_root.push_back(anchor_sum_m_[i] / anchor_frames_[i]);
+            in_world.push_back(params_.anchors[i].position_m);
+        }
+        if (in_root.size() < 3) return false;  // keep averaging until 3 anchors are tracked
         WorldFrame f = fit_geo_frame(in_root, in_world, params_.offset_step_m);
         if (!f.fixed) return false;
+        f.num_frames = static_cast<std::size_t>(geo_frames_);
+        f.note += " averaged over " + std::to_string(geo_frames_) + " frames";
         // anchor_residuals_m in the order of params_.anchors when every anchor was used.
         f.frame_index = out.frame_index;
         frame_ = std::move(f);

@@ -58,6 +58,17 @@ struct WorldFrameParams {
     std::optional<Eigen::Isometry3d> T_world_root;
     // geo: the offset is the fit's translation rounded to a multiple of this (m).
     double offset_step_m = 1.0;
+    // geo with anchors: the known positions are surveyed rest positions, so they are fitted
+    // to each anchor's position averaged over this many frames (those with no initial
+    // registration pending, from the first registration applied on), not to one frame's:
+    // a swaying pole's sensor is up to its sway amplitude off its rest position at any one
+    // frame. The average has to span at least one whole sway period to cancel: the paper's
+    // pole (an inverted pendulum, 6 m) swings with 2 pi sqrt(6 m / 9.81 m/s^2) = 4.9 s, so
+    // 100 frames (5 s at 20 Hz, 10 s at 10 Hz). Measured on the simulator (curve, seed 2):
+    // over 100 frames every sensor's mean is within 0.2-0.9 cm of its rest position, over
+    // 20 frames (1 s) 8-32 cm, no better than one frame (sway up to 36 cm). An anchor counts
+    // when it had a pose in at least half of the frames; 1: one frame's poses.
+    int geo_average_frames = 100;
     // road: the plane is estimated on the fused cloud of a frame at least this many frames
     // after the root's first: with deskew, FusionEngine re-anchors the root's reference
     // FusionParams::deskew_reference_after_frames after it, which tilts the root frame by the
@@ -84,6 +95,7 @@ struct WorldFrame {
     double residual_max_m = 0.0;
     std::vector<double> anchor_residuals_m;  // geo fit: per anchor, in anchor order
     std::size_t num_sensors = 0;             // road: sensor planes used; geo: anchors fitted
+    std::size_t num_frames = 0;              // geo fit: frames the anchors were averaged over
     std::size_t num_road_points = 0;         // road: points of the last refinement band
     double root_height_m = 0.0;              // road: the root sensor above the road plane
     std::int64_t frame_index = -1;           // the frame it was fixed at (-1: from the config)
@@ -117,8 +129,9 @@ WorldFrame geo_frame_from(const Eigen::Isometry3d& T_world_root, double offset_s
 //     the root started fewer than settle_frames before, of the first frame that many after
 //     it; no road plane found at all: the sensor frame, with a note; a station of one
 //     sensor (no registration to apply): the root's own plane, from its cloud, at once;
-//   geo with anchors: at the first frame with no initial registration pending in which at
-//     least 3 anchors have a pose (after the first registration was applied).
+//   geo with anchors: once geo_average_frames frames with no initial registration pending
+//     (from the first registration applied on) have been averaged and at least 3 anchors
+//     had a pose in at least half of them; the fit uses each anchor's mean position.
 // Not thread safe: one thread calls update() and apply().
 class WorldFrameTracker {
 public:
@@ -138,6 +151,11 @@ private:
     std::size_t num_sensors_;
     bool registration_applied_ = false;
     std::int64_t root_first_frame_ = -1;  // the first frame the root had a pose
+    // geo with anchors: per anchor (params_.anchors order), the sum of its positions in the
+    // root frame and the frames it had a pose in; the frames averaged so far.
+    std::vector<Eigen::Vector3d> anchor_sum_m_;
+    std::vector<int> anchor_frames_;
+    int geo_frames_ = 0;
     // road: the applied registration's planes (root frame) and root pose, until settled.
     std::optional<std::pair<std::vector<RoadPlaneObservation>, Eigen::Isometry3d>> road_planes_;
     WorldFrame frame_;

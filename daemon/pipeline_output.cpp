@@ -49,24 +49,8 @@ void Pipeline::Impl::output_loop() {
             world_now = world_frame;
         }
         if (!world_now.fixed || extrinsics.world) return;
-        io::ExtrinsicsWorld w;
-        w.frame = core::to_string(world_now.kind);
-        w.fused_frame = config.output.dds.frame_id;
-        w.T_fused_root = world_now.T_fused_root;
-        if (world_now.kind == core::WorldFrameKind::kGeo) {
-            w.world_frame = config.world.frame_id;
-            w.T_world_fused = world_now.T_world_fused;
-        }
-        if (world_now.kind != core::WorldFrameKind::kSensor) {
-            w.figures["residual_rms_m"] = world_now.residual_rms_m;
-            w.figures["residual_max_m"] = world_now.residual_max_m;
-            w.figures["sensors_used"] = static_cast<double>(world_now.num_sensors);
-        }
-        if (world_now.kind == core::WorldFrameKind::kRoad) {
-            w.figures["root_height_m"] = world_now.root_height_m;
-            w.figures["road_points"] = static_cast<double>(world_now.num_road_points);
-        }
-        extrinsics.world = std::move(w);
+        extrinsics.world =
+            io::extrinsics_world(world_now, config.output.dds.frame_id, config.world.frame_id);
     };
     std::int64_t frames_seen = 0;
     const auto diagnostics_period_ns =

@@ -10,19 +10,25 @@
 // Both run core::register_initial with the same parameters and write every sensor's
 // T_root_sensor plus the per-pair quality figures. Sensors that cannot be registered are
 // written with `registered: false` and the reason, never with a pose.
+// With a capture, the config's `world:` section is followed as lidarfused and `fuse` do:
+// extrinsics.yaml gets the same `world:` block and each sensor's T_fused_sensor (road, geo;
+// sensor, and --cloud files: the root frame only, as before).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 
 #include "core/initial_registration.hpp"
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/se3.hpp"
+#include "core/world_frame.hpp"
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/io/cloud_file.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/station/fusion_config.hpp"
+#include "drivers/station/world_config.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
 
@@ -51,6 +57,8 @@ struct CalibrationInput {
     std::vector<std::string> names;  // names[k] is the sensor of clouds[k]
     std::vector<core::PointCloud> clouds;
     std::vector<std::string> disabled;  // sensors of the config left out
+    std::vector<std::size_t> config_index;      // capture: the config's index of clouds[k]
+    std::optional<station::WorldConfig> world;  // capture: the config's `world:` section
 };
 
 // The enabled sensors' scans of one synchronised frame of a capture (the N-th complete one).
@@ -82,6 +90,8 @@ CalibrationInput input_from_capture(const Args& args) {
         }
     }
     for (std::size_t s : order) input.names.push_back(sensors[s].name);
+    input.config_index = order;
+    input.world = station::load_world_config(config_path, station_config);
     // The frame: the same grouping as `fuse` (core::FrameSynchroniser, members within one
     // frame period of the root's rate, capture time as the clock), over complete scans only;
     // the wanted-th frame that holds every enabled sensor.
@@ -238,6 +248,72 @@ void print_figures(const core::InitialRegistrationResult& result, double input_s
     std::printf("calibrate_registered %zu of %zu sensors\n", result.num_registered(), num_sensors);
 }
 
+// The world frame of the config's `world:` section from this one registration, as
+// core::WorldFrameTracker fixes it in lidarfused and `fuse`, with what calibrate has:
+//   road: every registered sensor's road plane from the registration (weighted by inliers),
+//     without the tracker's refinement on the fused cloud's static points, which needs a
+//     fused frame (and deskewed scans) that calibrate does not make;
+//   geo: from the registered anchors' positions of this one frame (the tracker averages
+//     them over world.average_frames: a swaying pole's sway is in this residual), or the
+//     given T_world_root.
+// Nothing (root frame only) for sensor, or when geo has fewer than 3 registered anchors.
+std::optional<core::WorldFrame> world_frame(const CalibrationInput& input,
+                                            const core::InitialRegistrationResult& result) {
+    if (!input.world) return std::nullopt;
+    const core::WorldFrameParams& p = input.world->params;
+    if (p.kind == core::WorldFrameKind::kRoad) {
+        std::vector<core::RoadPlaneObservation> planes;
+        for (std::size_t k = 0; k < result.sensors.size(); ++k) {
+            if (k != 0 && !result.sensors[k].registered) continue;  // k = 0: the root
+            planes.push_back({result.sensors[k].T_root_sensor, result.sensors[k].ground});
+        }
+        core::WorldFrame f =
+            core::estimate_road_frame(planes, Eigen::Isometry3d::Identity(), nullptr, p.road);
+        if (!f.fixed) {  // as the tracker: no road seen at all, the root frame, and why
+            f.note += "; the fused frame is the root sensor's (as world.frame: sensor)";
+            f.T_fused_root = Eigen::Isometry3d::Identity();
+            f.fixed = true;
+        }
+        return f;
+    }
+    if (p.kind == core::WorldFrameKind::kGeo && p.T_world_root) {
+        return core::geo_frame_from(*p.T_world_root, p.offset_step_m);
+    }
+    if (p.kind == core::WorldFrameKind::kGeo) {
+        std::vector<Eigen::Vector3d> in_root, in_world;
+        for (const auto& a : p.anchors) {
+            for (std::size_t k = 0; k < input.config_index.size(); ++k) {
+                if (input.config_index[k] != a.sensor || !result.sensors[k].registered) continue;
+                in_root.push_back(result.sensors[k].T_root_sensor.translation());
+                in_world.push_back(a.position_m);
+            }
+        }
+        core::WorldFrame f = core::fit_geo_frame(in_root, in_world, p.offset_step_m);
+        if (!f.fixed) {
+            std::fprintf(stderr, "world frame: %s; extrinsics.yaml in the root frame only\n",
+                         f.note.c_str());
+            return std::nullopt;
+        }
+        f.num_frames = 1;
+        return f;
+    }
+    return std::nullopt;
+}
+
+void print_world(const core::WorldFrame& f) {
+    std::printf("\ncalibrate_world_frame %s frame\n", core::to_string(f.kind));
+    if (f.kind == core::WorldFrameKind::kRoad) {
+        std::printf("calibrate_world_road_sensors %zu sensors\n", f.num_sensors);
+        std::printf("calibrate_world_root_height %.4f m\n", f.root_height_m);
+    } else if (f.kind == core::WorldFrameKind::kGeo) {
+        const Eigen::Vector3d o = f.T_world_fused.translation();
+        std::printf("calibrate_world_geo_offset %.3f,%.3f,%.3f m\n", o.x(), o.y(), o.z());
+        std::printf("calibrate_world_geo_residual_rms %.4f m\n", f.residual_rms_m);
+        std::printf("calibrate_world_geo_residual_max %.4f m\n", f.residual_max_m);
+    }
+    if (!f.note.empty()) std::fprintf(stderr, "world frame: %s\n", f.note.c_str());
+}
+
 int run_calibrate(int argc, char** argv) {
     const Args args(argc, argv, {"--config", "--out", "--frame", "--threads", "--cloud", "--root"},
                     {});
@@ -266,6 +342,12 @@ int run_calibrate(int argc, char** argv) {
     doc.root = input.names.front();
     report_sensors(input, result, &doc);
     report_pairs(input, result, &doc);
+    if (const auto world = world_frame(input, result)) {
+        print_world(*world);
+        // As lidarfused writes it, without the fused frame's tf name (output.dds.frame_id is
+        // the daemon's section, not read here).
+        doc.world = io::extrinsics_world(*world, "", input.world->frame_id);
+    }
     io::write_extrinsics_yaml(out_path, doc);
     print_figures(result, input_s,
                   std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),

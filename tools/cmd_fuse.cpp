@@ -228,17 +228,8 @@ int run_fuse(int argc, char** argv) {
     const core::WorldFrame& wf = world.frame();
     io::ExtrinsicsDocument extrinsics{station.station, station.root, last_poses, {}, std::nullopt};
     if (wf.fixed) {
-        io::ExtrinsicsWorld w;
-        w.frame = core::to_string(wf.kind);
-        w.T_fused_root = wf.T_fused_root;
-        if (wf.kind == core::WorldFrameKind::kGeo) {
-            w.world_frame = world_config.frame_id;
-            w.T_world_fused = wf.T_world_fused;
-        }
-        w.figures["residual_rms_m"] = wf.residual_rms_m;
-        w.figures["residual_max_m"] = wf.residual_max_m;
-        if (wf.kind == core::WorldFrameKind::kRoad) w.figures["root_height_m"] = wf.root_height_m;
-        extrinsics.world = std::move(w);
+        // As lidarfused writes it, without a fused frame name (fuse has no DDS output).
+        extrinsics.world = io::extrinsics_world(wf, "", world_config.frame_id);
     }
     io::write_extrinsics_yaml(out_dir / "extrinsics.yaml", extrinsics);
 
@@ -270,6 +261,7 @@ int run_fuse(int argc, char** argv) {
         std::printf("fuse_world_geo_offset %.3f,%.3f,%.3f m\n", o.x(), o.y(), o.z());
         std::printf("fuse_world_geo_residual_rms %.4f m\n", wf.residual_rms_m);
         std::printf("fuse_world_geo_residual_max %.4f m\n", wf.residual_max_m);
+        std::printf("fuse_world_geo_frames_averaged %zu frames\n", wf.num_frames);
     }
     if (!wf.note.empty()) std::fprintf(stderr, "world frame: %s\n", wf.note.c_str());
     std::printf("fuse_frames %lld frames\n", frames);

@@ -241,4 +241,35 @@ std::vector<ExtrinsicsEntry> read_extrinsics_yaml(const std::filesystem::path& f
     return std::move(document.sensors);
 }
 
+ExtrinsicsWorld extrinsics_world(const core::WorldFrame& frame, const std::string& fused_frame,
+                                 const std::string& world_frame_id) {
+    ExtrinsicsWorld w;
+    w.frame = core::to_string(frame.kind);
+    w.fused_frame = fused_frame;
+    w.T_fused_root = frame.T_fused_root;
+    if (frame.kind == core::WorldFrameKind::kGeo) {
+        w.world_frame = world_frame_id;
+        w.T_world_fused = frame.T_world_fused;
+    }
+    // road without road points (the planes alone, e.g. calibrate's): no residual measured,
+    // none written rather than a 0 that reads as a perfect fit.
+    const bool measured = frame.kind == core::WorldFrameKind::kGeo ||
+                          (frame.kind == core::WorldFrameKind::kRoad && frame.num_road_points > 0);
+    if (measured) {
+        w.figures["residual_rms_m"] = frame.residual_rms_m;
+        w.figures["residual_max_m"] = frame.residual_max_m;
+    }
+    if (frame.kind != core::WorldFrameKind::kSensor) {
+        w.figures["sensors_used"] = static_cast<double>(frame.num_sensors);
+    }
+    if (frame.kind == core::WorldFrameKind::kRoad) {
+        w.figures["root_height_m"] = frame.root_height_m;
+        w.figures["road_points"] = static_cast<double>(frame.num_road_points);
+    }
+    if (frame.kind == core::WorldFrameKind::kGeo && frame.num_frames > 0) {
+        w.figures["frames_averaged"] = static_cast<double>(frame.num_frames);
+    }
+    return w;
+}
+
 }  // namespace lidarfuse::io

@@ -23,6 +23,8 @@
 #include <string>
 #include <vector>
 
+#include "core/world_frame.hpp"
+
 namespace lidarfuse::io {
 
 struct ExtrinsicsEntry {
@@ -61,6 +63,14 @@ struct ExtrinsicsWorld {
     Eigen::Isometry3d T_world_fused = Eigen::Isometry3d::Identity();
     std::map<std::string, double> figures;
 };
+
+// The block of a fixed world frame, as lidarfused, `lidarfuse fuse` and `lidarfuse calibrate`
+// write it: `fused_frame` (may be empty: omitted), geo's `world_frame_id` and offset, and
+// the estimate's figures (road and geo: sensors_used, and residual_rms_m, residual_max_m
+// when measured: geo, and road refined on road points; road: root_height_m, road_points; a
+// geo fit: frames_averaged).
+ExtrinsicsWorld extrinsics_world(const core::WorldFrame& frame, const std::string& fused_frame,
+                                 const std::string& world_frame_id);
 
 struct ExtrinsicsDocument {
     std::string station;  // omitted when empty

@@ -66,7 +66,7 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
     p.root_sensor = station.root_index();
     const YAML::Node n = document["world"];
     if (!n || !r.optional_map(n, "world")) return;
-    r.only_keys(n, "world", {"frame", "frame_id", "positions", "T_world_root"});
+    r.only_keys(n, "world", {"frame", "frame_id", "positions", "T_world_root", "average_frames"});
     if (const auto frame = r.string(n["frame"], "world.frame", false)) {
         if (*frame == "road") {
             p.kind = core::WorldFrameKind::kRoad;
@@ -93,6 +93,12 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
     const bool geo = p.kind == core::WorldFrameKind::kGeo;
     const YAML::Node positions = n["positions"];
     const YAML::Node given = n["T_world_root"];
+    const YAML::Node average = n["average_frames"];
+    if (average && (!geo || !positions)) {
+        r.problems.push_back("world.average_frames: only used with world.frame: geo and positions");
+    } else if (const auto frames = r.integer(average, "world.average_frames", 1, 100000, false)) {
+        p.geo_average_frames = static_cast<int>(*frames);
+    }
     if (!geo) {
         // Given with another frame they would be ignored: refused, so that a forgotten
         // `frame: geo` does not silently publish an ungeoreferenced cloud.

@@ -11,6 +11,8 @@
 //     positions:                  # geo: known positions of >= 3 sensors (m), or ...
 //       north: [691234.512, 5335012.331, 512.20]
 //     T_world_root: {translation: [x, y, z], rotation_wxyz: [w, x, y, z]}  # ... this
+//     average_frames: 100         # geo with positions: frames the sensors' positions are
+//                                 # averaged over before the fit (geo_average_frames)
 
 #include <yaml-cpp/yaml.h>
 

@@ -204,5 +204,60 @@ TEST(WorldFrame, RoadTrackerOfASingleSensorUsesItsOwnCloud) {
                 0.0, 1e-3);
 }
 
+// geo from anchors on swaying poles: each anchor's position is averaged over
+// geo_average_frames frames (from the first registration applied, none pending) before the
+// fit, so a sway over one whole period cancels; one frame's poses carry the sway.
+TEST(WorldFrame, GeoTrackerFitsTheAnchorsMeanPositionsOverTheWindow) {
+    const Eigen::Isometry3d T_world_root = pose({691000.3, 5335000.7, 500}, {0.1, 0.2, 1}, 40);
+    const std::vector<Eigen::Vector3d> rest = {
+        {0, 0, 0}, {30, 5, 0.5}, {10, -25, -0.3}, {-5, 20, 1}};
+    WorldFrameParams p;
+    p.kind = WorldFrameKind::kGeo;
+    p.geo_average_frames = 40;
+    for (std::size_t s = 0; s < 3; ++s) p.anchors.push_back({s, T_world_root * rest[s]});
+    p.anchors.push_back({3, T_world_root * rest[3]});  // tracked in too few frames: left out
+    const auto run = [&](const WorldFrameParams& params) {
+        WorldFrameTracker geo(params, 4);
+        FrameOutput out;
+        out.T_root_sensor.assign(4, Eigen::Isometry3d::Identity());
+        out.health.resize(4);
+        for (auto& h : out.health) h.pose_valid = true;
+        out.initial_registration_pending = true;
+        for (std::int64_t f = 0;; ++f) {
+            out.frame_index = f;
+            if (f == 5) {  // the registration applied: counted from here on
+                out.applied_registration.emplace();
+                out.initial_registration_pending = false;
+            } else {
+                out.applied_registration.reset();
+            }
+            out.health[3].pose_valid = f >= 5 + 25;  // 15 of 40 frames
+            // Sway: 30 cm in x and 20 cm in y, a period of 40 frames; anchor 2 out of phase.
+            for (std::size_t s = 0; s < 4; ++s) {
+                const double phase = 2 * M_PI * static_cast<double>(f - 5) / 40 + (s == 2 ? 1 : 0);
+                out.T_root_sensor[s].translation() =
+                    rest[s] + Eigen::Vector3d(0.3 * std::sin(phase), 0.2 * std::cos(phase), 0);
+            }
+            if (geo.update(out)) return geo.frame();
+            EXPECT_LT(f, 200);
+            if (f >= 200) return WorldFrame{};
+        }
+    };
+    const WorldFrame f = run(p);
+    ASSERT_TRUE(f.fixed);
+    EXPECT_EQ(f.frame_index, 5 + 40 - 1);  // the 40th frame from the registration's
+    EXPECT_EQ(f.num_frames, 40u);
+    EXPECT_EQ(f.num_sensors, 3u);  // anchor 3 had a pose in 15 of the 40 frames
+    EXPECT_LT(f.residual_max_m, 1e-6);
+    const Eigen::Isometry3d fitted = f.T_world_fused * f.T_fused_root;
+    EXPECT_TRUE(fitted.isApprox(T_world_root, 1e-9));
+
+    p.geo_average_frames = 1;  // one frame's poses: the sway is in the residual
+    const WorldFrame one = run(p);
+    ASSERT_TRUE(one.fixed);
+    EXPECT_EQ(one.frame_index, 5);
+    EXPECT_GT(one.residual_max_m, 0.1);
+}
+
 }  // namespace
 }  // namespace lidarfuse::core

@@ -30,8 +30,11 @@ TEST(LidarfusedWorld, GeoFromThreePerturbedPositionsIsWithinTheReportedResidual)
     test::TempDir dir("lfd-geo");
     const auto d = dir.path();
     std::string out;
-    // Poles at rest (--no-motion): the fit uses the sensors' poses at one frame, and the
-    // simulator's sway (up to 0.3 m at the sensors) would otherwise dominate its residual.
+    // Poles at rest (--no-motion): the fit averages the sensors' positions over
+    // world.average_frames frames, which must span a whole sway period (5 s, the default 100
+    // frames) to cancel the simulator's sway; at rest 10 frames do, and the 3 s capture
+    // replayed here keeps frames coming for that long after the initial registration.
+    // (Swaying poles: world_frame_sim_test's GeoOnSwayingPoles, through `lidarfuse fuse`.)
     ASSERT_EQ(
         test::run_command(test::tool_path() +
                               " sim --scenario curve --seed 2 --seconds 3 --no-motion --out " +
@@ -69,7 +72,7 @@ TEST(LidarfusedWorld, GeoFromThreePerturbedPositionsIsWithinTheReportedResidual)
     yaml << "network: {bind_address: 127.0.0.1}\noutput:\n  directory: " << (d / "out").string()
          << "\n  dds: {domain_id: " << domain
          << ", frame_id: station_world, diagnostics_period_ms: 200}\n"
-         << "world:\n  frame: geo\n  positions:\n";
+         << "world:\n  frame: geo\n  average_frames: 10\n  positions:\n";
     for (const auto& [name, p] : given)
         yaml << "    " << name << ": [" << p.x() << ", " << p.y() << ", " << p.z() << "]\n";
     yaml.close();
@@ -109,14 +112,15 @@ TEST(LidarfusedWorld, GeoFromThreePerturbedPositionsIsWithinTheReportedResidual)
     // The world poses: poses.csv plus the offset, against the truth plus the same UTM shift.
     const auto poses = io::read_pose_csv(d / "out" / "poses.csv");
     ASSERT_FALSE(poses.empty()) << text;
-    // At the frame it was fixed, each anchor sits exactly its reported residual from its
-    // given position (the published poses are the fitted ones).
+    // At the frame it was fixed, each anchor sits its reported residual from its given
+    // position (the fit is to its mean position over the window: at rest, within 1 cm of
+    // tracking jitter of it).
     const std::int64_t first_frame = poses.front().frame;
     std::size_t anchors_seen = 0;
     for (const auto& r : poses) {
         if (r.frame != first_frame || !given.count(r.sensor)) continue;
         ++anchors_seen;
-        EXPECT_LE((r.pose.translation() + offset - given[r.sensor]).norm(), residual_max + 1e-3)
+        EXPECT_LE((r.pose.translation() + offset - given[r.sensor]).norm(), residual_max + 0.01)
             << r.sensor;
     }
     EXPECT_EQ(anchors_seen, 3u);

@@ -178,5 +178,39 @@ TEST(ExtrinsicsYaml, WorldBlockRoundTripAndFusedPoses) {
     EXPECT_FALSE(read_extrinsics_document(file).world.has_value());
 }
 
+// The block every writer (lidarfused, fuse, calibrate) makes from a core::WorldFrame.
+TEST(ExtrinsicsYaml, WorldBlockFromAWorldFrame) {
+    core::WorldFrame f;
+    f.kind = core::WorldFrameKind::kGeo;
+    f.fixed = true;
+    f.T_fused_root.translation() = Eigen::Vector3d(1, 2, 3);
+    f.T_world_fused.translation() = Eigen::Vector3d(691000, 5335000, 500);
+    f.residual_rms_m = 0.03;
+    f.residual_max_m = 0.04;
+    f.num_sensors = 3;
+    f.num_frames = 100;
+    const ExtrinsicsWorld geo = extrinsics_world(f, "lidarfuse/fused", "utm");
+    EXPECT_EQ(geo.frame, "geo");
+    EXPECT_EQ(geo.fused_frame, "lidarfuse/fused");
+    EXPECT_EQ(geo.world_frame, "utm");
+    EXPECT_EQ(geo.T_world_fused.translation(), f.T_world_fused.translation());
+    EXPECT_EQ(geo.figures.at("residual_max_m"), 0.04);
+    EXPECT_EQ(geo.figures.at("sensors_used"), 3);
+    EXPECT_EQ(geo.figures.at("frames_averaged"), 100);
+    EXPECT_EQ(geo.figures.count("root_height_m"), 0u);
+    f.kind = core::WorldFrameKind::kRoad;
+    f.root_height_m = 6.1;
+    const ExtrinsicsWorld road = extrinsics_world(f, "", "utm");
+    EXPECT_TRUE(road.world_frame.empty());  // geo only
+    EXPECT_TRUE(road.fused_frame.empty());
+    EXPECT_EQ(road.figures.at("root_height_m"), 6.1);
+    EXPECT_EQ(road.figures.count("residual_rms_m"), 0u);  // planes alone: not measured
+    f.num_road_points = 5000;
+    EXPECT_EQ(extrinsics_world(f, "", "utm").figures.at("residual_rms_m"), 0.03);
+    EXPECT_EQ(road.figures.count("frames_averaged"), 0u);
+    f.kind = core::WorldFrameKind::kSensor;
+    EXPECT_TRUE(extrinsics_world(f, "", "utm").figures.empty());
+}
+
 }  // namespace
 }  // namespace lidarfuse::io

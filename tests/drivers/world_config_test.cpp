@@ -69,7 +69,13 @@ TEST_F(WorldConfigTest, GeoFromPositionsOrAGivenTransform) {
         << sensors_ << "world: {frame: geo, positions: {a: [0, 0, 0], "
         << "b: [10, 0, 0], c: [0, 10, 0]}}\n";
     const auto station = load_station_config(dir_.path() / "w.yaml");
-    EXPECT_EQ(load_world_config(dir_.path() / "w.yaml", station).params.anchors.size(), 3u);
+    const auto w = load_world_config(dir_.path() / "w.yaml", station);
+    EXPECT_EQ(w.params.anchors.size(), 3u);
+    EXPECT_EQ(w.params.geo_average_frames, 100);  // the default: one sway period (5 s)
+    EXPECT_EQ(parse("world: {frame: geo, average_frames: 20, positions: {a: [0, 0, 0], "
+                    "b: [10, 0, 0], c: [0, 10, 0]}}\n")
+                  .world.params.geo_average_frames,
+              20);
 }
 
 TEST_F(WorldConfigTest, BadInputIsRefusedWithTheKeyNamed) {
@@ -96,6 +102,11 @@ TEST_F(WorldConfigTest, BadInputIsRefusedWithTheKeyNamed) {
                 HasSubstr("world.T_world_root.rotation_wxyz: expected a unit quaternion"));
     EXPECT_THAT(problems("world: {frame: geo, T_world_root: {translation: [1, 2]}}\n"),
                 HasSubstr("world.T_world_root.translation: expected [x, y, z]"));
+    EXPECT_THAT(problems("world: {frame: geo, average_frames: 0, positions: {a: [0, 0, 0], "
+                         "b: [10, 0, 0], c: [0, 10, 0]}}\n"),
+                HasSubstr("world.average_frames:"));
+    EXPECT_THAT(problems("world: {frame: road, average_frames: 20}\n"),
+                HasSubstr("world.average_frames: only used with world.frame: geo and positions"));
     EXPECT_THAT(problems("world: {frame: [road]}\n"), HasSubstr("world.frame:"));
     EXPECT_THAT(problems("world: road\n"), HasSubstr("world: expected a mapping"));
     EXPECT_THAT(problems("world: {frame: road, fram_id: x}\n"),
