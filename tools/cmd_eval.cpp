@@ -16,12 +16,6 @@ namespace lidarfuse::tools {
 
 namespace {
 
-core::Trajectories to_trajectories(const std::vector<io::PoseRecord>& records) {
-    core::Trajectories out;
-    for (const auto& r : records) out[r.sensor].push_back({r.frame, r.t_ns, r.pose});
-    return out;
-}
-
 void write_plot(const std::filesystem::path& file, const core::EvaluationResult& result,
                 const std::string& title, const std::string& unit,
                 std::vector<double> core::SensorErrors::*errors) {
@@ -63,8 +57,8 @@ int run_eval(int argc, char** argv) {
         return 0;
     }
     if (args.value("--cloud") && !args.value("--plot")) throw UsageError("--cloud needs --plot DIR");
-    const auto truth = to_trajectories(io::read_pose_csv(args.required("--gt")));
-    const auto estimate = to_trajectories(io::read_pose_csv(args.required("--poses")));
+    const auto truth = io::to_trajectories(io::read_pose_csv(args.required("--gt")));
+    const auto estimate = io::to_trajectories(io::read_pose_csv(args.required("--poses")));
     core::EvaluationParams params;
     params.root_sensor = args.value("--root").value_or("");
     params.match_tolerance_ns =

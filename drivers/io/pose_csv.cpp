@@ -123,4 +123,15 @@ void write_pose_csv(const std::filesystem::path& file, const std::vector<PoseRec
     std::filesystem::rename(temporary, file);
 }
 
+core::Trajectories to_trajectories(const std::vector<PoseRecord>& records,
+                                   const Eigen::Vector3d& offset_m) {
+    core::Trajectories out;
+    for (const auto& r : records) {
+        Eigen::Isometry3d pose = r.pose;
+        pose.translation() += offset_m;
+        out[r.sensor].push_back({r.frame, r.t_ns, pose});
+    }
+    return out;
+}
+
 }  // namespace lidarfuse::io

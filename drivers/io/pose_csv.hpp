@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "core/evaluation.hpp"
+
 namespace lidarfuse::io {
 
 inline constexpr const char* kPoseCsvHeader = "frame,sensor,t_ns,x,y,z,qw,qx,qy,qz";
@@ -27,6 +29,12 @@ struct PoseRecord {
 // wrong column count, a field that is not a number, a quaternion far from unit length).
 std::vector<PoseRecord> read_pose_csv(const std::filesystem::path& file);
 std::vector<PoseRecord> parse_pose_csv(std::istream& in, const std::string& source_name);
+
+// The records as per-sensor trajectories for core::evaluate_trajectories, every position
+// moved by `offset_m` (e.g. geo's whole-metre offset, to put fused-frame poses in the
+// world frame of a ground truth).
+core::Trajectories to_trajectories(const std::vector<PoseRecord>& records,
+                                   const Eigen::Vector3d& offset_m = Eigen::Vector3d::Zero());
 
 // Writes the header (when asked) and rows with micrometre / 1e-9 quaternion precision.
 void write_pose_csv_header(std::ostream& out);

@@ -52,6 +52,27 @@ void expect_error(const std::string& text, const std::string& expected) {
     }
 }
 
+// Rows become per-sensor trajectories in file order, each position moved by the offset and
+// each rotation kept.
+TEST(PoseCsv, RecordsBecomeTrajectoriesShiftedByTheOffset) {
+    std::vector<PoseRecord> records(3);
+    records[0] = {4, "b", 400, Eigen::Isometry3d::Identity()};
+    records[1] = {5, "a", 500, Eigen::Isometry3d::Identity()};
+    records[2] = {6, "b", 600, Eigen::Isometry3d::Identity()};
+    records[2].pose.linear() = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    records[2].pose.translation() = Eigen::Vector3d(1, 2, 3);
+    const Eigen::Vector3d offset(500000, 5400000, 100);
+    const core::Trajectories t = to_trajectories(records, offset);
+    ASSERT_EQ(t.size(), 2u);
+    ASSERT_EQ(t.at("b").size(), 2u);
+    ASSERT_EQ(t.at("a").size(), 1u);
+    EXPECT_EQ(t.at("b")[1].frame, 6);
+    EXPECT_EQ(t.at("b")[1].t_ns, 600);
+    EXPECT_TRUE(t.at("b")[1].pose.translation().isApprox(Eigen::Vector3d(500001, 5400002, 103)));
+    EXPECT_TRUE(t.at("b")[1].pose.linear().isApprox(records[2].pose.linear()));
+    EXPECT_TRUE(to_trajectories(records).at("a")[0].pose.translation().isZero());
+}
+
 TEST(PoseCsv, BadInputNamesFileLineAndColumn) {
     const std::string header = "frame,sensor,t_ns,x,y,z,qw,qx,qy,qz\n";
     expect_error("", "x.csv:1: empty file");

@@ -23,12 +23,6 @@ namespace {
 
 using ::testing::HasSubstr;
 
-core::Trajectories trajectories(const std::vector<io::PoseRecord>& rows) {
-    core::Trajectories out;
-    for (const auto& r : rows) out[r.sensor].push_back({r.frame, r.t_ns, r.pose});
-    return out;
-}
-
 class WorldFrameSim : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
@@ -107,7 +101,7 @@ TEST_F(WorldFrameSim, SensorHeightsMatchGroundTruth) {
     core::EvaluationParams params;
     params.world = core::EvaluationParams::World::kRoad;
     const auto result =
-        core::evaluate_trajectories(trajectories(truth), trajectories(poses), params);
+        core::evaluate_trajectories(io::to_trajectories(truth), io::to_trajectories(poses), params);
     ASSERT_TRUE(result.ok) << result.error;
     EXPECT_EQ(result.root_sensor, "lidar0");  // found in the road frame too
     for (const auto& s : result.sensors) {
@@ -234,20 +228,11 @@ TEST(WorldFrameSimGeo, GeoOnSwayingPoles) {
     const auto doc = io::read_extrinsics_document(dir.path() / "geo" / "extrinsics.yaml");
     ASSERT_TRUE(doc.world.has_value());
     const Eigen::Vector3d offset = doc.world->T_world_fused.translation();
-    const auto shifted = [](const std::vector<io::PoseRecord>& rows, const Eigen::Vector3d& by) {
-        core::Trajectories t;
-        for (const auto& r : rows) {
-            Eigen::Isometry3d p = r.pose;
-            p.translation() += by;
-            t[r.sensor].push_back({r.frame, r.t_ns, p});
-        }
-        return t;
-    };
     core::EvaluationParams params;
     params.world = core::EvaluationParams::World::kGeo;
     const auto result = core::evaluate_trajectories(
-        shifted(io::read_pose_csv(dir.path() / "sim" / "ground_truth.csv"), utm),
-        shifted(io::read_pose_csv(dir.path() / "geo" / "poses.csv"), offset), params);
+        io::to_trajectories(io::read_pose_csv(dir.path() / "sim" / "ground_truth.csv"), utm),
+        io::to_trajectories(io::read_pose_csv(dir.path() / "geo" / "poses.csv"), offset), params);
     ASSERT_TRUE(result.ok) << result.error;
     for (const auto& s : result.sensors) {
         EXPECT_GE(s.matched, 100u) << s.sensor;
