@@ -34,9 +34,13 @@ TEST(Lidarfused, TfResolvesEveryCloudWithASensorSilencedAndHostStamps) {
     std::ofstream(d / "sim" / "daemon.yaml")
         << "station: tf2\nsensors:\n"
         << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"
-        << "  - {name: lidar1, udp_port: " << p0 + 2 << ", metadata: lidar1.json}\n"
-        << "network: {bind_address: 127.0.0.1}\noutput:\n  directory: " << (d / "out").string()
-        << "\n  stamp: host\n"
+        << "  - {name: lidar1, udp_port: " << p0 + 2
+        << ", metadata: lidar1.json}\n"
+        // The world frame is not what this test is about: in the sensor frame every frame is
+        // published from the first, so lidar1's silence falls inside what is seen. Under the
+        // road default a loaded machine fixed the road only 3 frames before the end.
+        << "network: {bind_address: 127.0.0.1}\nworld: {frame: sensor}\noutput:\n  directory: "
+        << (d / "out").string() << "\n  stamp: host\n"
         << "  dds: {domain_id: " << domain
         << ", frame_id: station_world, diagnostics_period_ms: 200}\n";
     DaemonReaders readers(domain);
@@ -50,9 +54,6 @@ TEST(Lidarfused, TfResolvesEveryCloudWithASensorSilencedAndHostStamps) {
         12000, &readers, &seen, &run));
     const std::int64_t stopped_ns = daemon::realtime_ns();
     const std::string text = read_text(d / "daemon.log");
-    if (seen.frames.empty() && world_frame_never_fixed(text)) {
-        GTEST_SKIP() << "the initial registration outlasted the replay: no road frame, nothing published";
-    }
     ASSERT_FALSE(seen.frames.empty()) << text;
     const std::size_t misses = expect_every_cloud_resolves(seen);
     EXPECT_LE(misses, 1u);  // at most lidar1's first frame on tf (the root's is its own stamp)
