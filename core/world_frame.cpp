@@ -22,6 +22,13 @@ const char* to_string(WorldFrameKind kind) {
     return "unknown";
 }
 
+std::optional<WorldFrameKind> world_frame_kind_from(const std::string& name) {
+    for (const auto kind : {WorldFrameKind::kRoad, WorldFrameKind::kGeo, WorldFrameKind::kSensor}) {
+        if (name == to_string(kind)) return kind;
+    }
+    return std::nullopt;
+}
+
 namespace {
 
 // The fused frame of a plane n . x + d = 0 (root frame, n unit and up): z = n, origin the

@@ -33,6 +33,8 @@ namespace lidarfuse::core {
 
 enum class WorldFrameKind { kRoad, kGeo, kSensor };
 const char* to_string(WorldFrameKind kind);
+// The kind named by to_string(); nullopt for any other name.
+std::optional<WorldFrameKind> world_frame_kind_from(const std::string& name);
 
 // A sensor's known position in the world (geo) frame, e.g. surveyed UTM easting, northing
 // and height of its optical centre (m).

@@ -97,19 +97,14 @@ int run_fuse(int argc, char** argv) {
     station::WorldConfig world_config =
         station::load_world_config(args.required("--config"), station);
     if (const auto w = args.value("--world")) {
-        if (*w == "road") {
-            world_config.params.kind = core::WorldFrameKind::kRoad;
-        } else if (*w == "sensor") {
-            world_config.params.kind = core::WorldFrameKind::kSensor;
-        } else if (*w == "geo") {
-            if (world_config.params.anchors.empty() && !world_config.params.T_world_root) {
-                throw UsageError(
-                    "--world geo needs world.positions or world.T_world_root in the config");
-            }
-            world_config.params.kind = core::WorldFrameKind::kGeo;
-        } else {
-            throw UsageError("--world: expected road, sensor or geo, got \"" + *w + "\"");
+        const auto kind = core::world_frame_kind_from(*w);
+        if (!kind) throw UsageError("--world: expected road, sensor or geo, got \"" + *w + "\"");
+        if (*kind == core::WorldFrameKind::kGeo && world_config.params.anchors.empty() &&
+            !world_config.params.T_world_root) {
+            throw UsageError(
+                "--world geo needs world.positions or world.T_world_root in the config");
         }
+        world_config.params.kind = *kind;
     }
     world_config.params.settle_frames = core::world_frame_settle_frames(params);
     core::WorldFrameTracker world(world_config.params, n);

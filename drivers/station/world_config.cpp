@@ -68,12 +68,8 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
     if (!n || !r.optional_map(n, "world")) return;
     r.only_keys(n, "world", {"frame", "frame_id", "positions", "T_world_root", "average_frames"});
     if (const auto frame = r.string(n["frame"], "world.frame", false)) {
-        if (*frame == "road") {
-            p.kind = core::WorldFrameKind::kRoad;
-        } else if (*frame == "geo") {
-            p.kind = core::WorldFrameKind::kGeo;
-        } else if (*frame == "sensor") {
-            p.kind = core::WorldFrameKind::kSensor;
+        if (const auto kind = core::world_frame_kind_from(*frame)) {
+            p.kind = *kind;
         } else {
             r.problems.push_back("world.frame: expected road, geo or sensor, got \"" + *frame +
                                  "\"");

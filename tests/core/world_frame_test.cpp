@@ -54,6 +54,15 @@ struct RoadStation {
     }
 };
 
+TEST(WorldFrame, KindNamesRoundTripAndNothingElseIsAKind) {
+    for (const auto kind : {WorldFrameKind::kRoad, WorldFrameKind::kGeo, WorldFrameKind::kSensor}) {
+        EXPECT_EQ(world_frame_kind_from(to_string(kind)), kind);
+    }
+    EXPECT_FALSE(world_frame_kind_from("Road"));
+    EXPECT_FALSE(world_frame_kind_from("unknown"));
+    EXPECT_FALSE(world_frame_kind_from(""));
+}
+
 TEST(WorldFrame, RoadFrameHasZUpTheRoadAtZeroAndXAlongTheRoot) {
     const RoadStation st;
     // The planes disagree by +-3 cm in height; the fused cloud's road points fix that.
