@@ -141,6 +141,29 @@ WorldFrame estimate_road_frame(const std::vector<RoadPlaneObservation>& sensors,
     return f;
 }
 
+std::vector<RoadPlaneObservation> road_planes_of(const InitialRegistrationResult& result,
+                                                 const Eigen::Isometry3d& T_root0_root) {
+    std::vector<RoadPlaneObservation> planes;
+    for (std::size_t k = 0; k < result.sensors.size(); ++k) {
+        const auto& r = result.sensors[k];
+        if (k != 0 && !r.registered) continue;  // k = 0: the root
+        planes.push_back({T_root0_root * r.T_root_sensor, r.ground});
+    }
+    return planes;
+}
+
+WorldFrame road_frame_or_root_frame(const std::vector<RoadPlaneObservation>& sensors,
+                                    const Eigen::Isometry3d& root_pose, const FusedCloud* cloud,
+                                    const RoadFrameParams& params) {
+    WorldFrame f = estimate_road_frame(sensors, root_pose, cloud, params);
+    if (!f.fixed) {
+        f.note += "; the fused frame is the root sensor's (as world.frame: sensor)";
+        f.T_fused_root = Eigen::Isometry3d::Identity();
+        f.fixed = true;
+    }
+    return f;
+}
+
 WorldFrame fit_geo_frame(const std::vector<Eigen::Vector3d>& positions_root,
                          const std::vector<Eigen::Vector3d>& positions_world,
                          double offset_step_m) {
@@ -208,14 +231,8 @@ bool WorldFrameTracker::update(const FrameOutput& out) {
         const auto& applied = out.applied_registration;
         if (!road_planes_ && applied && applied->job && applied->job->done() &&
             !applied->job->result().sensors.empty()) {  // empty: cancelled or failed, wait
-            const auto& result = applied->job->result();
-            std::vector<RoadPlaneObservation> planes;
-            for (std::size_t k = 0; k < result.sensors.size() && k < applied->order.size(); ++k) {
-                const auto& r = result.sensors[k];
-                if (k != 0 && !r.registered) continue;  // order[0] is the root: T_root0_root
-                planes.push_back({applied->T_root0_root * r.T_root_sensor, r.ground});
-            }
-            road_planes_.emplace(std::move(planes), applied->T_root0_root);
+            road_planes_.emplace(road_planes_of(applied->job->result(), applied->T_root0_root),
+                                 applied->T_root0_root);
         }
         if (root_first_frame_ < 0 || out.frame_index < root_first_frame_ + params_.settle_frames) {
             return false;
@@ -241,15 +258,9 @@ bool WorldFrameTracker::update(const FrameOutput& out) {
                                  Eigen::Isometry3d::Identity());
         }
         if (!road_planes_) return false;
-        WorldFrame f = estimate_road_frame(road_planes_->first, road_planes_->second, &out.cloud,
-                                           params_.road);
+        WorldFrame f = road_frame_or_root_frame(road_planes_->first, road_planes_->second,
+                                                &out.cloud, params_.road);
         road_planes_.reset();
-        if (!f.fixed) {
-            // No road seen at all: the fused frame stays the root frame, and says why.
-            f.note += "; the fused frame is the root sensor's (as world.frame: sensor)";
-            f.T_fused_root = Eigen::Isometry3d::Identity();
-            f.fixed = true;
-        }
         f.frame_index = out.frame_index;
         frame_ = std::move(f);
         return true;

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "core/ground_plane.hpp"
+#include "core/initial_registration.hpp"
 #include "core/pipeline/fusion_types.hpp"
 
 namespace lidarfuse::core {
@@ -114,6 +115,16 @@ struct RoadPlaneObservation {
 WorldFrame estimate_road_frame(const std::vector<RoadPlaneObservation>& sensors,
                                const Eigen::Isometry3d& root_pose, const FusedCloud* cloud,
                                const RoadFrameParams& params = {});
+// The road planes of the root (result.sensors[0]) and of every sensor the registration
+// placed, with their poses mapped by T_root0_root (the root's pose at the registration's
+// frame; identity for a registration on its own).
+std::vector<RoadPlaneObservation> road_planes_of(const InitialRegistrationResult& result,
+                                                 const Eigen::Isometry3d& T_root0_root);
+// estimate_road_frame, or, when no sensor saw a road, the root frame itself (fixed, as
+// world.frame: sensor), with the reason in its note.
+WorldFrame road_frame_or_root_frame(const std::vector<RoadPlaneObservation>& sensors,
+                                    const Eigen::Isometry3d& root_pose, const FusedCloud* cloud,
+                                    const RoadFrameParams& params = {});
 
 // geo from positions: T_world_root by Kabsch from positions_root[i] -> positions_world[i].
 // fixed = false (and a note) with fewer than 3 positions or positions in a line.

@@ -262,19 +262,9 @@ std::optional<core::WorldFrame> world_frame(const CalibrationInput& input,
     if (!input.world) return std::nullopt;
     const core::WorldFrameParams& p = input.world->params;
     if (p.kind == core::WorldFrameKind::kRoad) {
-        std::vector<core::RoadPlaneObservation> planes;
-        for (std::size_t k = 0; k < result.sensors.size(); ++k) {
-            if (k != 0 && !result.sensors[k].registered) continue;  // k = 0: the root
-            planes.push_back({result.sensors[k].T_root_sensor, result.sensors[k].ground});
-        }
-        core::WorldFrame f =
-            core::estimate_road_frame(planes, Eigen::Isometry3d::Identity(), nullptr, p.road);
-        if (!f.fixed) {  // as the tracker: no road seen at all, the root frame, and why
-            f.note += "; the fused frame is the root sensor's (as world.frame: sensor)";
-            f.T_fused_root = Eigen::Isometry3d::Identity();
-            f.fixed = true;
-        }
-        return f;
+        return core::road_frame_or_root_frame(
+            core::road_planes_of(result, Eigen::Isometry3d::Identity()),
+            Eigen::Isometry3d::Identity(), nullptr, p.road);
     }
     if (p.kind == core::WorldFrameKind::kGeo && p.T_world_root) {
         return core::geo_frame_from(*p.T_world_root, p.offset_step_m);

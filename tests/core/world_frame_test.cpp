@@ -105,6 +105,34 @@ TEST(WorldFrame, RoadFrameFromPlanesAloneWithoutCloudAndNoneWithoutPlanes) {
     EXPECT_FALSE(estimate_road_frame({none}, Eigen::Isometry3d::Identity(), nullptr).fixed);
 }
 
+// A registration's planes: the root's and the placed sensors', moved by T_root0_root; with no
+// road seen the fused frame is the root frame, fixed, and says why.
+TEST(WorldFrame, RoadPlanesOfARegistrationAndTheRootFrameWithoutARoad) {
+    const RoadStation st;
+    InitialRegistrationResult result;
+    result.sensors.resize(3);
+    for (std::size_t k = 0; k < 3; ++k) {
+        const RoadPlaneObservation o = st.observe(k % 2);
+        result.sensors[k].T_root_sensor = o.T_root_sensor;
+        result.sensors[k].ground = o.ground;
+    }
+    result.sensors[1].registered = true;  // sensor 2 was not placed
+    const Eigen::Isometry3d T_root0_root = pose({1, 2, 3}, {0, 0, 1}, 10);
+    const auto planes = road_planes_of(result, T_root0_root);
+    ASSERT_EQ(planes.size(), 2u);
+    EXPECT_TRUE(planes[1].T_root_sensor.isApprox(T_root0_root * result.sensors[1].T_root_sensor));
+
+    RoadPlaneObservation none = st.observe(1);
+    none.ground.found = false;
+    const WorldFrame f = road_frame_or_root_frame({none}, Eigen::Isometry3d::Identity(), nullptr);
+    EXPECT_TRUE(f.fixed);
+    EXPECT_TRUE(f.T_fused_root.isApprox(Eigen::Isometry3d::Identity()));
+    EXPECT_NE(f.note.find("the fused frame is the root sensor's"), std::string::npos) << f.note;
+    const WorldFrame road =
+        road_frame_or_root_frame({st.observe(0)}, Eigen::Isometry3d::Identity(), nullptr);
+    EXPECT_NEAR(road.root_height_m, 6.0, 1e-9);
+}
+
 TEST(WorldFrame, GeoFitReportsResidualsAndSplitsTheOffset) {
     // World = UTM-like coordinates; the root frame is sensor 0's.
     const Eigen::Isometry3d T_world_root = pose({691234.5, 5335012.25, 512.2}, {0.1, 0.2, 1}, 40);
