@@ -12,6 +12,7 @@
 //
 // Usage: daemon_latency_bench [--sensors 2,4,6,8] [--seconds 5] [--scenario curve]
 //                             [--queue-depth 4]   (sync.queue_depth of the daemon)
+//                             [--keep 1]          (leave the folder: daemon logs, outputs)
 // Needs the built `lidarfuse` (sim) and `lidarfused` beside it (build/tools, build/daemon).
 // The replay runs in this process (one thread); the machine's other load shares the cores.
 #include <dds/dds.h>
@@ -392,6 +393,7 @@ int main(int argc, char** argv) {
     double seconds = 5.0;
     std::string scenario = "curve";
     int queue_depth = 4;
+    bool keep = false;  // --keep 1: leave the capture, configs, daemon logs and outputs
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string arg = argv[i];
         if (arg == "--sensors") {
@@ -405,6 +407,8 @@ int main(int argc, char** argv) {
             queue_depth = std::stoi(argv[i + 1]);
         } else if (arg == "--scenario") {
             scenario = argv[i + 1];
+        } else if (arg == "--keep") {
+            keep = argv[i + 1] == std::string("1");
         }
     }
     const int max_n = *std::max_element(counts.begin(), counts.end());
@@ -432,6 +436,10 @@ int main(int argc, char** argv) {
     }
     std::printf("daemon_max_sensors_zero_packet_loss %d sensors\n", max_zero_loss);
     std::printf("daemon_max_sensors_realtime_95pct_fused %d sensors\n", max_realtime);
+    if (keep) {
+        std::fprintf(stderr, "daemon_latency_bench: kept %s (daemon logs, outputs)\n", sim.c_str());
+        return 0;
+    }
     std::error_code ec;
     fs::remove_all(sim, ec);
     return 0;
