@@ -1,25 +1,35 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package lidarfuse needs to build, test and run. Idempotent and
 # non-interactive; uses sudo when not run as root. Nothing is downloaded outside apt.
-# Usage: scripts/setup.sh [--with-pcl]   (--with-pcl: also libpcl-dev, for the PCL
-# comparison in bench/ built with -DLIDARFUSE_WITH_PCL=ON; nothing else needs PCL)
+# Usage: scripts/setup.sh [--demo] [--with-pcl]
+#   --demo      only what building and running `lidarfuse` and `lidarfused` needs (the
+#               README's first command): no test, benchmark or fuzzing tools
+#   --with-pcl  also libpcl-dev, for the PCL comparison in bench/ built with
+#               -DLIDARFUSE_WITH_PCL=ON; nothing else needs PCL
 set -euo pipefail
 
+# Building and running the tools and the daemon.
 packages=(
-    build-essential cmake ninja-build ccache pkg-config git clang libclang-rt-dev
+    build-essential cmake ninja-build ccache pkg-config
     libeigen3-dev libnanoflann-dev libceres-dev
     libpcap-dev nlohmann-json3-dev libembree-dev libssl-dev liblzf-dev
     libspdlog-dev libyaml-cpp-dev
-    cyclonedds-dev cyclonedds-tools libsystemd-dev systemd
-    libgtest-dev libgmock-dev libbenchmark-dev
-    iproute2 procps
+    cyclonedds-dev libsystemd-dev procps
 )
+# Tests, sanitizers, fuzzers and benchmarks on top.
+test_packages=(
+    git clang libclang-rt-dev cyclonedds-tools systemd
+    libgtest-dev libgmock-dev libbenchmark-dev iproute2
+)
+demo=0
 for arg in "$@"; do
     case "$arg" in
+        --demo) demo=1 ;;
         --with-pcl) packages+=(libpcl-dev) ;;
-        *) echo "setup: unknown option $arg (expected --with-pcl)" >&2; exit 2 ;;
+        *) echo "setup: unknown option $arg (expected --demo or --with-pcl)" >&2; exit 2 ;;
     esac
 done
+[ "$demo" -eq 1 ] || packages+=("${test_packages[@]}")
 
 sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
