@@ -154,6 +154,12 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
     const auto cancelled = [&] {
         return params.cancel != nullptr && params.cancel->load(std::memory_order_acquire);
     };
+    // One report at a time: the callback need not be thread-safe.
+    const auto report = [&](const char* stage, std::size_t done, std::size_t total) {
+        if (!params.on_progress) return;
+#pragma omp critical(lidarfuse_initial_registration_progress)
+        params.on_progress(stage, done, total);
+    };
     // A cancelled run registers nothing (never a half-checked pose).
     const auto give_up = [&] {
         for (SensorRegistration& sr : result.sensors) {
@@ -168,6 +174,8 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
     // Steps 2-4 per sensor, sensors in parallel.
     auto start = Clock::now();
     std::vector<SensorFeatures> features(n);
+    std::atomic<std::size_t> done{0};
+    report("features", 0, n);
     {
         const int outer = std::min<int>(threads, static_cast<int>(n));
         SensorFeatureParams feature_params = params.features;
@@ -176,6 +184,7 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
         for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
             if (cancelled()) continue;
             features[i] = compute_sensor_features(clouds[i], feature_params, params.min_keypoints);
+            report("features", ++done, n);
         }
     }
     result.timings.features_s = seconds_since(start);
@@ -191,6 +200,8 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
             result.pairs.push_back(pair);
         }
     }
+    done = 0;
+    report("pairs", 0, result.pairs.size());
     {
         const auto n_pairs = static_cast<std::int64_t>(result.pairs.size());
         const int outer = static_cast<int>(std::max<std::int64_t>(1, std::min<std::int64_t>(threads, n_pairs)));
@@ -202,6 +213,7 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
             const int i = result.pairs[e].source;
             const int j = result.pairs[e].target;
             result.pairs[e] = register_pair(features[i], features[j], i, j, pair_params);
+            report("pairs", ++done, result.pairs.size());
         }
     }
     result.timings.pairs_s = seconds_since(start);
@@ -209,6 +221,7 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
 
     // Step 9: pose graph over the good pairs, root fixed; drop edges that break cycle
     // consistency, one at a time (the worst first), and solve again.
+    report("pose graph", 0, 1);
     start = Clock::now();
     std::vector<bool> edge_ok(result.pairs.size());
     for (std::size_t e = 0; e < result.pairs.size(); ++e) {

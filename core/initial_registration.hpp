@@ -26,6 +26,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "core/edge_consensus.hpp"
@@ -69,6 +70,10 @@ struct InitialRegistrationParams {
     // job is cancelled when the daemon stops): once set, the remaining work is skipped
     // and no sensor is registered (status kCancelled). Must outlive the call.
     const std::atomic<bool>* cancel = nullptr;
+    // Optional progress report (a command line's progress): the stage ("features", "pairs",
+    // "pose graph"), how many of its items are done and how many there are. Called from
+    // the worker threads, one call at a time.
+    std::function<void(const char* stage, std::size_t done, std::size_t total)> on_progress;
 };
 
 // Sets the parameters the paper ties together: r_c = the largest octree voxel size.

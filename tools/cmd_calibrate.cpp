@@ -31,6 +31,7 @@
 #include "drivers/station/world_config.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
+#include "tools/progress.hpp"
 
 namespace lidarfuse::tools {
 
@@ -38,10 +39,12 @@ namespace {
 
 const char* kUsage =
     "usage: lidarfuse calibrate CAPTURE.pcap --config station.yaml --out extrinsics.yaml\n"
-    "                           [--frame N] [--threads N]\n"
+    "                           [--frame N] [--threads N] [--quiet]\n"
     "       lidarfuse calibrate --cloud NAME=FILE --cloud NAME=FILE [--cloud NAME=FILE ...]\n"
     "                           [--root NAME] --out extrinsics.yaml [--config station.yaml]\n"
-    "                           [--threads N]\n"
+    "                           [--threads N] [--quiet]\n"
+    "On a terminal, a progress line on stderr per stage (reading, features, pairs, pose\n"
+    "graph); --quiet: none.\n"
     "Finds every sensor's pose relative to the root sensor with no initial guess, from one\n"
     "synchronised frame of a capture (the first complete one, or the N-th complete one\n"
     "counting from 0), or from one point-cloud file per sensor (PCD or PLY, any LiDAR, each\n"
@@ -306,7 +309,7 @@ void print_world(const core::WorldFrame& f) {
 
 int run_calibrate(int argc, char** argv) {
     const Args args(argc, argv, {"--config", "--out", "--frame", "--threads", "--cloud", "--root"},
-                    {});
+                    {"--quiet"});
     if (args.help()) {
         std::printf("%s", kUsage);
         return 0;
@@ -319,13 +322,22 @@ int run_calibrate(int argc, char** argv) {
     const auto config = args.value("--config");
     core::InitialRegistrationParams params = config ? station::load_fusion_params(*config).initial
                                                     : core::default_initial_registration_params();
+    ProgressLine progress("calibrate", progress_wanted(args));
+    progress.update({from_files ? "reading the clouds" : "reading the capture", 0, 0, "", -1, 0});
     const CalibrationInput input =
         from_files ? input_from_cloud_files(args) : input_from_capture(args);
     const double input_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
     params.num_threads = static_cast<int>(args.integer("--threads", 2));
+    params.on_progress = [&](const char* stage, std::size_t done, std::size_t total) {
+        const bool sensors = std::string(stage) == "features";
+        progress.update({stage, static_cast<double>(done), static_cast<double>(total),
+                         sensors ? "sensors" : (std::string(stage) == "pairs" ? "pairs" : ""),
+                         total > 0 ? static_cast<double>(done) / static_cast<double>(total) : -1.0, 0});
+    };
     const core::InitialRegistrationResult result = core::register_initial(input.clouds, params);
+    progress.finish();
 
     io::ExtrinsicsDocument doc;
     doc.station = input.station;

@@ -18,6 +18,7 @@
 #include "drivers/station/world_config.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
+#include "tools/progress.hpp"
 
 namespace lidarfuse::tools {
 
@@ -43,13 +44,15 @@ const char* kUsage =
     "                      [--window K] [--threads N] [--save-cloud FRAME ...] [--max-frames N]\n"
     "                      [--no-deskew] [--no-dynamic] [--reference-voxel M]\n"
     "                      [--reference-target-voxel M] [--sensor-grid] [--world road|sensor|geo]\n"
+    "                      [--quiet]\n"
     "Decodes the capture with the production ingest, groups one scan per sensor into frames,\n"
     "and runs the FusionEngine on every frame. Writes DIR/poses.csv (T_fused_sensor per sensor\n"
     "and frame, in the config's world frame, world.frame, as lidarfused publishes it; header\n"
     "frame,sensor,t_ns,x,y,z,qw,qx,qy,qz), DIR/extrinsics.yaml (the last frame's poses and the\n"
     "world frame), DIR/timing.csv (ms per stage per frame) and DIR/fused_<FRAME>.ply (fused\n"
     "frame) for each --save-cloud frame. --world overrides world.frame (geo needs the config's\n"
-    "world.positions or world.T_world_root).\n"
+    "world.positions or world.T_world_root). On a terminal, a progress line on stderr (frames,\n"
+    "share of the file, rate, time left); --quiet: none.\n"
     "Parameters: the config's registration and dynamics sections, as lidarfused reads them\n"
     "(config/station.schema.md); the options override them (--threads: default 2).\n"
     "Accuracy knobs (core/pipeline/fusion_types.hpp): --no-deskew: no per-column motion\n"
@@ -62,7 +65,7 @@ int run_fuse(int argc, char** argv) {
     const Args args(argc, argv,
                     {"--config", "--out", "--voxel-size", "--window", "--threads", "--save-cloud",
                      "--max-frames", "--reference-voxel", "--reference-target-voxel", "--world"},
-                    {"--no-deskew", "--no-dynamic", "--sensor-grid"});
+                    {"--no-deskew", "--no-dynamic", "--sensor-grid", "--quiet"});
     if (args.help()) {
         std::printf("%s", kUsage);
         return 0;
@@ -74,6 +77,7 @@ int run_fuse(int argc, char** argv) {
 
     capture::StationCapture capture(station, args.positionals()[0]);
     const std::size_t n = station.sensors.size();
+    ProgressLine progress("fuse", progress_wanted(args));
     // The config's registration and dynamics sections, as lidarfused reads them; the
     // options below override them.
     core::FusionParams params = station::load_fusion_params(args.required("--config"));
@@ -164,6 +168,7 @@ int run_fuse(int argc, char** argv) {
         for (std::size_t s = 0; s < n; ++s) {
             const auto& h = out.health[s];
             if (!h.event.empty() && h.event != last_event[s]) {
+                progress.finish();  // the message on a line of its own; redrawn below it
                 std::fprintf(stderr, "frame %lld: %s: %s\n", frames, station.sensors[s].name.c_str(),
                              h.event.c_str());
             }
@@ -194,6 +199,14 @@ int run_fuse(int argc, char** argv) {
         ++frames;
     };
 
+    std::error_code size_error;  // no size: the progress line shows no share
+    const auto size = std::filesystem::file_size(args.positionals()[0], size_error);
+    const double file_bytes = size_error ? 0.0 : static_cast<double>(size);
+    const auto show_progress = [&] {
+        const double read = static_cast<double>(capture.pcap_stats().bytes_read);
+        progress.update({"fusing", static_cast<double>(frames), 0, "frames",
+                         file_bytes > 0 ? read / file_bytes : -1.0, 0});
+    };
     capture.run([&](const capture::CaptureScan& scan) {
         PendingScan pending;
         pending.t_ns = scan.t_ns;
@@ -205,6 +218,7 @@ int run_fuse(int argc, char** argv) {
             auto frame = synchroniser.poll(scan.capture_time_ns);
             if (!frame) break;
             fuse_frame(std::move(*frame));
+            show_progress();
         }
         return frames < max_frames;
     });
@@ -213,6 +227,7 @@ int run_fuse(int argc, char** argv) {
         if (!frame) break;
         fuse_frame(std::move(*frame));
     }
+    progress.finish();
     if (!waiting.empty()) {
         std::fprintf(
             stderr,

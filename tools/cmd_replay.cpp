@@ -6,12 +6,14 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <string>
 
 #include "drivers/net/ipv4_address.hpp"
 #include "drivers/pcap/replay.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
+#include "tools/progress.hpp"
 
 namespace lidarfuse::tools {
 
@@ -37,18 +39,20 @@ std::uint16_t parse_port(const std::string& text, const std::string& option) {
 
 int run_replay(int argc, char** argv) {
     const Args args(argc, argv, {"--to", "--port-map", "--rate", "--passes", "--duration"},
-                    {"--max-rate", "--loop"});
+                    {"--max-rate", "--loop", "--quiet"});
     if (args.help()) {
         std::printf(
             "usage: lidarfuse replay CAPTURE.pcap [--to HOST] [--port-map ORIG:NEW ...]\n"
             "                        [--rate R | --max-rate] [--loop [--passes N]] [--duration S]\n"
+            "                        [--quiet]\n"
             "Sends every UDP datagram of the capture (lidar and IMU; IP fragments reassembled)\n"
             "to HOST (default 127.0.0.1) on its original destination port, or NEW for a port\n"
             "mapped with --port-map ORIG:NEW (repeatable). Timing follows the capture clock,\n"
             "sped up by --rate R (2 = twice as fast), or --max-rate sends as fast as possible.\n"
             "--loop starts over at the end until Ctrl-C, --passes N or --duration S (seconds).\n"
             "Each original sender gets its own source port. Prints a summary as `name value "
-            "unit`.\n");
+            "unit`.\nOn a terminal, a progress line on stderr (datagrams, share of the file or "
+            "pass,\nrate, time left); --quiet: none.\n");
         return 0;
     }
     if (args.positionals().size() != 1) {
@@ -88,7 +92,23 @@ int run_replay(int argc, char** argv) {
     sigaction(SIGTERM, &action, nullptr);
     params.stop = &g_stop;
 
+    ProgressLine progress("replay", progress_wanted(args));
+    std::error_code size_error;  // no size: the progress line shows no share
+    const auto size = std::filesystem::file_size(file, size_error);
+    const double file_bytes = size_error ? 0.0 : static_cast<double>(size);
+    params.on_progress = [&](std::uint64_t pass, std::uint64_t sent, std::uint64_t bytes_read) {
+        // One pass: the share of the file; looping: the share of the passes asked for.
+        double fraction = file_bytes > 0 ? static_cast<double>(bytes_read) / file_bytes : -1.0;
+        if (params.loop) {
+            fraction = params.max_passes > 0 && fraction >= 0
+                           ? (static_cast<double>(pass) + fraction) / static_cast<double>(params.max_passes)
+                           : -1.0;
+        }
+        progress.update({params.loop ? "pass " + std::to_string(pass + 1) : "sending",
+                         static_cast<double>(sent), 0, "datagrams", fraction, 0});
+    };
     const auto s = pcap::replay_capture(file, params);
+    progress.finish();
     if (!s.warning.empty())
         std::fprintf(stderr, "lidarfuse replay: warning: %s\n", s.warning.c_str());
     if (s.send_errors > 0) {

@@ -1,6 +1,7 @@
 // `lidarfuse sim --scenario {curve|straight|intersection} --out DIR ...`: virtual OS1-64
 // sensors in a synthetic roadside scene; writes capture.pcap, <sensor>.json,
 // ground_truth.csv and station.yaml (drivers/sim/sim_outputs.hpp).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -10,6 +11,7 @@
 #include "drivers/sim/simulator.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
+#include "tools/progress.hpp"
 
 namespace lidarfuse::tools {
 
@@ -21,7 +23,7 @@ constexpr const char* kUsage =
     "                     [--profile LEGACY|RNG19_RFL8_SIG16_NIR16|RNG15_RFL8_NIR8]\n"
     "                     [--seed 1] [--no-motion] [--no-traffic] [--noise-sigma-m 0.0333]\n"
     "                     [--whole-datagrams] [--threads N] [--fault SPEC]...\n"
-    "                     [--live --to HOST[:PORT]]\n"
+    "                     [--live --to HOST[:PORT]] [--quiet]\n"
     "Virtual Ouster OS1-64 sensors (6 m poles, tilted 17 deg down, swaying as inverted\n"
     "spherical pendulums) in a synthetic street with traffic. Writes into DIR:\n"
     "  capture.pcap      all sensors' lidar packets; sensor k sends from 169.254.10.(11+k)\n"
@@ -38,6 +40,8 @@ constexpr const char* kUsage =
     "  --live --to HOST[:PORT]  send the packets over UDP in real time to HOST instead of\n"
     "                     writing capture.pcap (sensor k to PORT+2k, default PORT 7502);\n"
     "                     DIR still gets the metadata, station.yaml and ground_truth.csv\n"
+    "  --quiet            no progress line (on a terminal, stderr shows frames done, rate\n"
+    "                     and time left)\n"
     "Faults (--fault SPEC, repeatable; SENSOR = lidar0, lidar1, ...):\n"
     "  drop:SHARE[:SENSOR]          drop that share (0..1) of packets\n"
     "  reorder:SHARE[:SENSOR]       swap that share of packets with the sensor's next one\n"
@@ -88,7 +92,7 @@ int run_sim(int argc, char** argv) {
     const Args args(argc, argv,
                     {"--scenario", "--out", "--sensors", "--seconds", "--mode", "--profile",
                      "--seed", "--noise-sigma-m", "--threads", "--fault", "--to"},
-                    {"--no-motion", "--no-traffic", "--whole-datagrams", "--live"});
+                    {"--no-motion", "--no-traffic", "--whole-datagrams", "--live", "--quiet"});
     if (args.help()) {
         std::printf("%s", kUsage);
         return 0;
@@ -111,6 +115,12 @@ int run_sim(int argc, char** argv) {
     }
     const auto wall0 = std::chrono::steady_clock::now();
     sim::Simulator simulator(params);
+    ProgressLine progress("sim", progress_wanted(args));
+    simulator.set_on_frame([&](int done, int total) {
+        progress.update({live_host.empty() ? "rendering" : "sending live", static_cast<double>(done),
+                         static_cast<double>(total), "frames",
+                         static_cast<double>(done) / static_cast<double>(std::max(1, total)), 0});
+    });
     sim::OutputOptions options;
     options.fragment = !args.flag("--whole-datagrams");
     sim::SimStats stats;
@@ -125,6 +135,7 @@ int run_sim(int argc, char** argv) {
     } else {
         stats = sim::write_simulation(simulator, out, options);
     }
+    progress.finish();
     const double wall =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     std::printf("sim_rays %llu rays\n", static_cast<unsigned long long>(stats.rays));

@@ -75,6 +75,9 @@ bool PcapReader::next(UdpDatagram* out) {
             return false;
         }
         ++stats_.records;
+        // A classic pcap record: 16 bytes of header and the captured bytes (pcapng's blocks
+        // are a little longer: an estimate there, for progress only).
+        stats_.bytes_read += 16 + header->caplen;
         if (header->caplen < header->len) {
             ++stats_.truncated_records;
             continue;

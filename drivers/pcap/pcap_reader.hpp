@@ -26,6 +26,7 @@ struct PcapReaderParams {
 
 struct PcapReaderStats {
     std::uint64_t records = 0;              // capture records read
+    std::uint64_t bytes_read = 0;           // of the file, about (progress: against its size)
     std::uint64_t udp_datagrams = 0;        // datagrams delivered by next()
     std::uint64_t non_ipv4 = 0;             // records skipped: not IPv4 (ARP, IPv6, LLC, ...)
     std::uint64_t non_udp = 0;              // records skipped: IPv4 but not UDP

@@ -109,6 +109,9 @@ ReplaySummary replay_capture(const std::filesystem::path& file, const ReplayPara
             if (sender.send_to(params.host_ip, port, d.data, d.size)) {
                 ++summary.datagrams_sent;
                 summary.bytes_sent += d.size;
+                if (params.on_progress && summary.datagrams_sent % 256 == 0) {
+                    params.on_progress(summary.passes, summary.datagrams_sent, reader.stats().bytes_read);
+                }
             } else {
                 if (summary.send_errors++ == 0) summary.first_send_errno = sender.last_errno();
             }

@@ -15,6 +15,7 @@
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 
@@ -33,6 +34,10 @@ struct ReplayParams {
     std::size_t max_source_sockets = 64;      // further sources share the last socket
     const std::atomic<bool>* stop = nullptr;  // optional: set from another thread or a signal
     PcapReaderParams reader;
+    // Optional, called from the replaying thread after every 256th datagram sent: the pass
+    // (from 0), datagrams sent so far (all passes) and bytes of the file read in this pass.
+    std::function<void(std::uint64_t pass, std::uint64_t datagrams_sent, std::uint64_t bytes_read)>
+        on_progress;
 };
 
 struct ReplaySummary {

@@ -243,6 +243,7 @@ SimStats Simulator::run(DatagramSink& sink) {
         std::int64_t boundary = INT64_MAX;
         for (int k = 0; k < n; ++k) boundary = std::min(boundary, column_time_ns(k, f + 1, 0));
         flush(boundary);
+        if (on_frame_) on_frame_(f + 1, frames_);
     }
     for (auto& h : held) {
         if (h) pending.push_back(std::move(*h));

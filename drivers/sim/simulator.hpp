@@ -90,6 +90,9 @@ public:
 
     // Renders every frame and passes the datagrams to `sink` in capture order.
     SimStats run(DatagramSink& sink);
+    // Optional: called by run() on its thread after each frame slot went to the sink, with
+    // the slots done and their total (progress).
+    void set_on_frame(std::function<void(int done, int total)> on_frame) { on_frame_ = std::move(on_frame); }
 
 private:
     struct Impl;
@@ -98,6 +101,7 @@ private:
     std::vector<SensorRig> rigs_;
     std::unique_ptr<Traffic> traffic_;
     int frames_ = 0;
+    std::function<void(int, int)> on_frame_;
     std::unique_ptr<Impl> impl_;
 };
 
