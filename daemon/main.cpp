@@ -15,9 +15,11 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <vector>
 
 #include "daemon/daemon_config.hpp"
 #include "daemon/pipeline.hpp"
+#include "daemon/status_line.hpp"
 #include "daemon/systemd_notify.hpp"
 #include "drivers/build_info.hpp"
 #include "drivers/process_env.hpp"
@@ -28,22 +30,6 @@ const char* kUsage =
     "usage: lidarfused --config STATION.yaml [--check] [--output-dir DIR]\n"
     "  --check        validate the config (and metadata) and exit\n"
     "  --output-dir   override output.directory\n";
-
-std::string status_line(const lidarfuse::daemon::PipelineStats& st) {
-    std::size_t ok = 0;
-    for (const auto& s : st.sensors) ok += s.state == lidarfuse::daemon::SensorState::kOk;
-    char buffer[320];
-    // Frames fused before the world frame was known (road: the initial registration) are
-    // not published: "N unpublished" says how many.
-    std::snprintf(
-        buffer, sizeof(buffer),
-        "fused %llu frames, %zu/%zu sensors OK, %.1f ms/frame, %llu dropped, %llu unpublished "
-        "(before the %s world frame)",
-        static_cast<unsigned long long>(st.frames_fused), ok, st.sensors.size(), st.mean_fusion_ms,
-        static_cast<unsigned long long>(st.frame_queue_drops + st.scan_queue_drops),
-        static_cast<unsigned long long>(st.frames_before_world_frame), st.world_frame.c_str());
-    return buffer;
-}
 
 }  // namespace
 
@@ -135,7 +121,7 @@ int main(int argc, char** argv) {
         if (now - last_report >= std::chrono::seconds(1)) {
             last_report = now;
             const auto st = pipeline->stats();
-            notifier.status(status_line(st));
+            notifier.status(lidarfuse::daemon::status_line(st));
             for (const auto& s : st.sensors) {
                 log->debug("{}: {} packets {} scans {} bad {} late {} completeness {:.3f} track {}", s.name,
                            lidarfuse::daemon::to_string(s.state), s.packets, s.scans, s.bad_packets,
@@ -145,7 +131,7 @@ int main(int argc, char** argv) {
     }
     pipeline->stop();
     const auto st = pipeline->stats();
-    log->info("stopped: {}", status_line(st));
+    log->info("stopped: {}", lidarfuse::daemon::status_line(st));
     if (pipeline->dds_domain_id() >= 0) {
         log->info("DDS: {} samples written, {} writes failed ({} timed out)", st.dds_samples_written,
                   st.dds_write_failures, st.dds_write_timeouts);

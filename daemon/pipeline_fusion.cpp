@@ -83,8 +83,10 @@ void Pipeline::Impl::fusion_loop() {
             auto job = init_jobs.pop_wait(std::chrono::milliseconds(100));
             if (job) {
                 (*job)->run();
-                fusion_log->info("initial registration done in {:.0f} ms{}", (*job)->run_ms(),
-                                 (*job)->error().empty() ? "" : ": " + (*job)->error());
+                const std::string& error = (*job)->error();
+                fusion_log->log(error.empty() ? spdlog::level::info : spdlog::level::warn,
+                                "initial registration done in {:.0f} ms{}", (*job)->run_ms(),
+                                error.empty() ? "" : ": " + error);
             } else if (init_jobs.closed()) {
                 break;
             }
@@ -112,9 +114,10 @@ void Pipeline::Impl::fusion_loop() {
             init_jobs.push(last_job);
         }
         for (std::size_t s = 0; s < sensors.size(); ++s) {
-            if (!out.health[s].event.empty()) {
-                fusion_log->warn("frame {}: {}: {}", out.frame_index, sensors[s]->name, out.health[s].event);
-            }
+            const auto& h = out.health[s];
+            if (h.event.empty()) continue;
+            fusion_log->log(h.event_is_problem ? spdlog::level::warn : spdlog::level::info,
+                            "frame {}: {}: {}", out.frame_index, sensors[s]->name, h.event);
         }
         const bool world_fixed_now = world->update(out);
         if (world_fixed_now) log_world_frame(world->frame());

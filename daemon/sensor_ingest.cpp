@@ -74,7 +74,7 @@ void report_mode_change(Receiver* r, SensorIngest* s) {
             "profile changed on the sensor?): {}",
             s->name, seen);
     } else {
-        r->log->warn(
+        r->log->info(  // a recovery: normal life again
             "{}: data matches its metadata ({} {}) again after {} disagreeing frames: fusing it "
             "again",
             s->name, check.expected().lidar_mode, check.expected().profile,

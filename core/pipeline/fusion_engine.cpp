@@ -82,6 +82,7 @@ FrameOutput FusionEngine::Impl::process(const FrameInput& in) {
         out.health[s].included = usable[s] != 0;
         out.health[s].points_in = scan.points.size();
         if (scan.present && !usable[s]) {
+            out.health[s].event_is_problem = true;
             out.health[s].event = "scan with " + std::to_string(scan.points.size()) +
                                   " points skipped (fewer than " +
                                   std::to_string(params.min_scan_points) + ")";
@@ -294,6 +295,7 @@ FrameOutput FusionEngine::Impl::process(const FrameInput& in) {
         if (suspicious[s] >= params.divergence_frames) {
             needs_reinit[s] = true;
             h.event = "diverged: registering again from scratch";
+            h.event_is_problem = true;
         }
     }
 

@@ -62,6 +62,7 @@ void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<st
         const bool is_root = s == params.root_sensor;
         if (is_root && tracks[s]->initialised()) continue;  // only a reference here
         if (k >= result.sensors.size() || !result.sensors[k].registered) {
+            out->health[s].event_is_problem = true;
             out->health[s].event =
                 std::string("initial registration failed: ") +
                 (k < result.sensors.size() ? to_string(result.sensors[k].status) : p.job->error().c_str());

@@ -150,6 +150,9 @@ struct SensorHealth {
     double min_hessian_eigenvalue = 0.0;  // of the reference edge (conditioning)
     double max_edge_residual_sigma = 0.0; // worst whitened edge residual after optimisation
     std::string event;  // non-empty when something happened (reinitialised, failed, ...)
+    // The event is a problem (a scan skipped, a divergence, a refused registration), not
+    // normal life (initialised, registration started): logs put it at warning, not info.
+    bool event_is_problem = false;
 };
 
 // The fused cloud of one frame, in the root frame.

@@ -137,6 +137,10 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     // frames, counted); what must hold is that every fused frame has its root pose written.
     const auto fused = test::line_after(text, "stopped: fused ");
     ASSERT_TRUE(fused.has_value()) << text;
+    // Normal life is logged at info, and the stop line says each sensor's state.
+    EXPECT_NE(text.find("[fusion] [info] frame 0: lidar0: initialised"), std::string::npos) << text;
+    EXPECT_EQ(text.find("[warning] frame 0: lidar0: initialised"), std::string::npos) << text;
+    EXPECT_NE(fused->find("; sensors: "), std::string::npos) << *fused;
     const auto poses = io::read_pose_csv(d / "out" / "poses.csv");
     std::size_t root_rows = 0;
     for (const auto& p : poses) root_rows += p.sensor == "lidar0";
