@@ -6,8 +6,6 @@
 #include <unistd.h>
 
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "tests/support/test_data.hpp"
@@ -16,13 +14,6 @@ namespace lidarfuse {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string file_text(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
 
 class DebianPackage : public ::testing::Test {
 protected:
@@ -73,7 +64,7 @@ TEST_F(DebianPackage, IsNamedAfterItsVersionAndHoldsWhatAStationNeeds) {
         EXPECT_TRUE(fs::is_regular_file(root / path)) << path;
     }
     // The unit starts the packaged binary, not the build tree's or /usr/local's.
-    EXPECT_NE(file_text(root / "usr/lib/systemd/system/lidarfused.service")
+    EXPECT_NE(test::file_text(root / "usr/lib/systemd/system/lidarfused.service")
                   .find("ExecStart=/usr/bin/lidarfused --config /etc/lidarfuse/station.yaml"),
               std::string::npos);
 }

@@ -8,6 +8,8 @@
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 namespace lidarfuse::test {
@@ -61,6 +63,13 @@ std::string md5_hex(const void* data, std::size_t size) {
 
 std::string tool_path() { return LIDARFUSE_TOOL_PATH; }
 std::string daemon_path() { return LIDARFUSED_PATH; }
+
+std::string file_text(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
 
 int run_command(const std::string& command, std::string* output) {
     FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");

@@ -40,6 +40,9 @@ std::string md5_hex(const void* data, std::size_t size);
 std::string tool_path();    // lidarfuse
 std::string daemon_path();  // lidarfused
 
+// A file's whole content (bytes as they are); empty when it cannot be read.
+std::string file_text(const std::filesystem::path& path);
+
 // Runs a shell command, captures stdout+stderr into `output`, returns the exit status.
 int run_command(const std::string& command, std::string* output);
 

@@ -11,8 +11,6 @@
 #include <cerrno>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "tests/support/test_data.hpp"
@@ -114,13 +112,6 @@ std::string run_on_terminal(const std::string& command, int* status) {
     return shown;
 }
 
-std::string file_text(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 class ProgressCommands : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
@@ -149,7 +140,7 @@ TEST_F(ProgressCommands, SimDrawsOnATerminalAndKeepsStdoutClean) {
     ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << shown;
     EXPECT_NE(shown.find("\rsim: rendering "), std::string::npos) << shown;
     EXPECT_NE(shown.find("/6 frames"), std::string::npos) << shown;
-    const std::string stdout_text = file_text(out);
+    const std::string stdout_text = test::file_text(out);
     EXPECT_NE(stdout_text.find("sim_rays "), std::string::npos);
     EXPECT_EQ(stdout_text.find('\r'), std::string::npos) << "stdout must carry only figures";
 }
