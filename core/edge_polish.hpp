@@ -4,24 +4,15 @@
 //
 // register_pair refines every candidate with a correspondence bound of 0.5 m, and its
 // checks (overlap share, p2p error, free space) are tuned on those results: a tighter
-// bound there drops right candidates for low overlap (measured on 30 simulated 4-sensor
-// captures: at 0.25 m, 116 of 120 sensors registered instead of 120). Once a pair is
+// bound there drops right candidates for low overlap. Once a pair is
 // chosen, a tighter bound only has to sharpen it: the correspondences that a 0.5 m bound
 // admits across neighbouring surfaces (a pole next to a wall, the kerb next to the road)
 // pull the two clouds' voxel centroids towards each other and leave a bias of 1-3 cm.
 //
 // The runs use each sensor's finer polish cloud (SensorFeatureParams::polish_voxel_size_m,
-// 0.25 m) when it has one. Measured on 30 simulated 4-sensor captures (3 scenes x seeds 1-5
-// x pole motion on/off, registration_diagnose_bench ... truth_shift_s=0.025), error of the
-// 90 non-root sensors against the mid-sweep truth, median / p90 / worst:
-//   no polish                      0.85 / 2.2 / 3.12 cm, worst rotation 0.044 deg
-//   0.5 m cloud, bound 0.3 m       0.70 / 1.9 / 2.53 cm, 0.043 deg
-//   0.25 m cloud, bound 0.3 m      0.60 / 1.3 / 2.51 cm, 0.069 deg
-//   0.25 m cloud, bound 0.4 m      0.60 / 1.3 / 2.33 cm, 0.043 deg   (the default)
-//   0.25 m cloud, bound 0.5 m      0.70 / 1.4 / 2.57 cm, 0.040 deg
-//   0.2 m cloud, bound 0.4 m       0.70 / 1.3 / 2.47 cm, 0.053 deg
-// Cost: about 0.1 s of register_initial (0.92 -> 1.03 s on 2 threads), mostly the polish
-// clouds' covariances.
+// 0.25 m) when it has one. The cloud and bound were chosen on the 30 simulated captures,
+// for a smaller worst error at the same median; the table and the cost are in
+// bench/BENCHMARK.md ("Measured behind the defaults").
 //
 // A polished edge replaces the pair's transform and information (and the figures that
 // describe them: G-ICP inliers and Hessian eigenvalues, and the p2p error recomputed on

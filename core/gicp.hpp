@@ -27,10 +27,8 @@
 // neighbours (PointCloud::neighbor_list, filled by the covariances' k-NN). The nearest of
 // them is the nearest of all when it is closer than reach(j) - |Ta - j|, since every
 // unlisted point is at least that far (triangle inequality); otherwise the k-d tree is
-// searched, bounded by that candidate's distance. Measured on simulated OS1-64 pairs
-// (gicp_pcl_bench), alignment alone: 5.3 -> 3.3 ms at 1 m and 12.3 -> 8.4 ms at 0.5 m
-// together with forming M in the source frame; a list of 8 beat 4 and 12, and a gap-only
-// certificate (the nearest other point) skipped 58-65 % of the searches.
+// searched, bounded by that candidate's distance. What it saves, and why the list holds 8:
+// bench/BENCHMARK.md ("Measured behind the defaults").
 //
 // M_i in closed form: when both clouds carry plane covariances (covariance_axes,
 // point_cloud.hpp), C = I - beta a a^T, and the inverse of the pair's sum is a rank-2
@@ -40,8 +38,8 @@
 // its own H, b and error sums, added at the end in a fixed order (results do not depend on
 // scheduling beyond floating-point summation order per thread block, which is static).
 // num_threads = 1 runs serially without touching the OpenMP pool. On a loaded machine,
-// libgomp's default active spin-waiting makes 2 threads far slower than 1 (measured 60 ms
-// vs 2 ms per registration at load 6 on 2 cores); processes that pass num_threads > 1
+// libgomp's default active spin-waiting makes 2 threads far slower than 1 (bench/BENCHMARK.md,
+// "Measured behind the defaults"); processes that pass num_threads > 1
 // should run with OMP_WAIT_POLICY=passive (it is read at program start).
 
 #include <Eigen/Core>

@@ -46,12 +46,8 @@ struct FusionParams {
     // k of the G-ICP covariances (the point itself included); 0: from each cloud's voxel
     // size v, round(6 / sqrt(v)) clamped to 4..16 (v = 0.5 m: 8, 1 m: 6, 3 m: 4). Too many
     // neighbours describe the street rather than the surface (10 voxels of 3 m span its
-    // width), too few a line rather than a plane. Measured, rotation RMSE (aligned), k = 10 /
-    // 8 / 6 / 5 / 4: 20 s captures at 3 m, straight seed 2 0.106 / 0.081 / 0.057 / 0.054 /
-    // 0.053 deg, intersection seed 1 0.072 / 0.056 / 0.048 / 0.039 / 0.033; at 1 m straight
-    // seed 2 0.027 / - / 0.022 / 0.026 / 0.045, intersection seed 1 0.018 / - / 0.015 /
-    // 0.017 / 0.032; the synthetic street at 0.5 m (fusion_engine_test, worst frame) k = 10 /
-    // 8 / 7 / 6: 0.011 / 0.028 / 0.037 / 0.052 deg.
+    // width), too few a line rather than a plane (the k sweep behind the rule: "Measured
+    // behind the defaults" in bench/BENCHMARK.md).
     int covariance_neighbors = 0;
     // G-ICP per edge; max correspondence distance = this factor * voxel_size_m.
     GicpParams gicp{};
@@ -69,9 +65,8 @@ struct FusionParams {
     // the feedback between velocity and registration). Without it a rigid fit of a swaying
     // sensor's sweep lands near its mid-sweep pose, T/2 after t_ns. The reference (first)
     // scan is deskewed once its motion is known, deskew_reference_after_frames later, and
-    // the reference poses re-anchored to the scan timestamps (engine). Measured on the
-    // simulated 8 s captures (curve / straight / intersection, seed 1, voxel 1 m): rotation
-    // RMSE 0.051 / 0.095 / 0.048 deg without, 0.023 / 0.061 / 0.025 deg with.
+    // the reference poses re-anchored to the scan timestamps (engine). It halves the
+    // rotation error at 1 m (bench/BENCHMARK.md, "Measured behind the defaults").
     bool deskew = true;
     double deskew_max_span_s = 0.3;        // poses further apart: no velocity, no deskew
     double deskew_max_rate_deg_s = 30.0;   // faster (a knock, a glitch): no deskew
@@ -87,12 +82,8 @@ struct FusionParams {
     // The reference (first-frame) target every frame registers against is downsampled at
     // min(this, voxel_size_m): built once (and when vehicles of the first frame leave), so a
     // finer target costs little, while the per-frame sources stay at voxel_size_m. At 3 m a
-    // 3 m target's centroids move with the sway relative to the surfaces they stand for.
-    // Measured at 3 m (20 s captures, rotation RMSE aligned, target 1 m -> 0.5 m): straight
-    // seeds 1-3 0.126 / 0.114 / 0.050 -> 0.088 / 0.106 / 0.055 deg, curve seed 1 0.026 ->
-    // 0.024, intersection seed 1 0.072 -> 0.072 with 3.2 -> 2.9 cm; at 1 m no change (straight
-    // seeds 1-2 0.023 / 0.025 -> 0.021 / 0.027 deg), and no frame takes longer.
-    // <= 0: voxel_size_m.
+    // 3 m target's centroids move with the sway relative to the surfaces they stand for
+    // (bench/BENCHMARK.md, "Measured behind the defaults"). <= 0: voxel_size_m.
     double reference_target_voxel_size_m = 0.5;
     // Voxel grids fixed in the root frame (points mapped with the predicted pose, centroids
     // mapped back) instead of each sensor's own frame: as a pole sways, a grid that moves
