@@ -262,8 +262,8 @@ TEST(IngestFaults, ModeChangeOnOneSensorIsReportedNotFusedAndItResumesWhenItFits
     EXPECT_GE(static_cast<double>(cleared->frames_synchronised - flagged->frames_synchronised),
               0.5 * 20.0 * flagged_s);
     EXPECT_GT(st.frames_fused, 0u);
-    // Reported: an ERROR naming the sensor and what was seen, an INFO when it fits again (normal life),
-    // and the diagnostics message while it was flagged.
+    // Reported: an ERROR naming the sensor and what was seen, an INFO when it fits again
+    // (normal life again), and the diagnostics message while it was flagged.
     EXPECT_NE(log_text.str().find(
                   "[error] lidar1: data does not match its metadata, not fused until it does"),
               std::string::npos);
