@@ -199,9 +199,7 @@ int run_fuse(int argc, char** argv) {
         ++frames;
     };
 
-    std::error_code size_error;  // no size: the progress line shows no share
-    const auto size = std::filesystem::file_size(args.positionals()[0], size_error);
-    const double file_bytes = size_error ? 0.0 : static_cast<double>(size);
+    const double file_bytes = progress_file_bytes(args.positionals()[0]);  // 0: no share shown
     const auto show_progress = [&] {
         const double read = static_cast<double>(capture.pcap_stats().bytes_read);
         progress.update({"fusing", static_cast<double>(frames), 0, "frames",

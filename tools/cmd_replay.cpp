@@ -6,7 +6,6 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
 #include <string>
 
 #include "drivers/net/ipv4_address.hpp"
@@ -93,9 +92,7 @@ int run_replay(int argc, char** argv) {
     params.stop = &g_stop;
 
     ProgressLine progress("replay", progress_wanted(args));
-    std::error_code size_error;  // no size: the progress line shows no share
-    const auto size = std::filesystem::file_size(file, size_error);
-    const double file_bytes = size_error ? 0.0 : static_cast<double>(size);
+    const double file_bytes = progress_file_bytes(file);  // 0: no share shown
     params.on_progress = [&](std::uint64_t pass, std::uint64_t sent, std::uint64_t bytes_read) {
         // One pass: the share of the file; looping: the share of the passes asked for.
         double fraction = file_bytes > 0 ? static_cast<double>(bytes_read) / file_bytes : -1.0;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 
 #include "tools/args.hpp"
 
@@ -32,6 +33,12 @@ std::string number_text(double value) {
 }  // namespace
 
 bool progress_wanted(const Args& args) { return !args.flag("--quiet") && ::isatty(STDERR_FILENO) == 1; }
+
+double progress_file_bytes(const std::string& path) {
+    std::error_code error;
+    const auto size = std::filesystem::file_size(path, error);
+    return error ? 0.0 : static_cast<double>(size);
+}
 
 std::string format_progress(const std::string& command, const ProgressState& state) {
     std::string line = command + ":";

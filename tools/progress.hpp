@@ -14,6 +14,9 @@ class Args;
 // stderr is a terminal and the command was not given --quiet.
 bool progress_wanted(const Args& args);
 
+// The size of the file a command reads through, for its share done; 0 when unknown.
+double progress_file_bytes(const std::string& path);
+
 // What one redraw shows. fraction in [0, 1], or negative when the total is unknown (then
 // no share and no time left are shown).
 struct ProgressState {
