@@ -18,6 +18,7 @@
 #include <dds/dds.h>
 #include <netinet/in.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -288,8 +289,13 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
            << ", frame_id: station, diagnostics_period_ms: 500}\n";
     config.close();
 
+    const pid_t bench_pid = ::getpid();
     const pid_t pid = ::fork();
     if (pid == 0) {
+        // A bench killed (or its output pipe closed) must not leave a daemon replaying
+        // into the next measurement.
+        ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+        if (::getppid() != bench_pid) ::_exit(1);  // died before prctl took effect
         const std::string cfg = (sim / ("daemon" + std::to_string(n) + ".yaml")).string();
         const std::string log = (sim / ("daemon" + std::to_string(n) + ".log")).string();
         std::freopen(log.c_str(), "w", stderr);
