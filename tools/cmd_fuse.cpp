@@ -40,12 +40,13 @@ double process_cpu_ms() {
 }
 
 const char* kUsage =
-    "usage: lidarfuse fuse CAPTURE.pcap --config station.yaml --out DIR [--voxel-size M]\n"
+    "usage: lidarfuse fuse CAPTURE.pcap|RECORDING --config station.yaml --out DIR [--voxel-size M]\n"
     "                      [--window K] [--threads N] [--save-cloud FRAME ...] [--max-frames N]\n"
     "                      [--no-deskew] [--no-dynamic] [--reference-voxel M]\n"
     "                      [--reference-target-voxel M] [--sensor-grid] [--world road|sensor|geo]\n"
     "                      [--quiet]\n"
-    "Decodes the capture with the production ingest, groups one scan per sensor into frames,\n"
+    "Decodes the capture (a pcap file, or a recording folder of lidarfused: its files in\n"
+    "order) with the production ingest, groups one scan per sensor into frames,\n"
     "and runs the FusionEngine on every frame. Writes DIR/poses.csv (T_fused_sensor per sensor\n"
     "and frame, in the config's world frame, world.frame, as lidarfused publishes it; header\n"
     "frame,sensor,t_ns,x,y,z,qw,qx,qy,qz), DIR/extrinsics.yaml (the last frame's poses and the\n"
@@ -70,7 +71,7 @@ int run_fuse(int argc, char** argv) {
         std::printf("%s", kUsage);
         return 0;
     }
-    if (args.positionals().size() != 1) throw UsageError("expected one CAPTURE.pcap\n" + std::string(kUsage));
+    if (args.positionals().size() != 1) throw UsageError("expected one CAPTURE.pcap or RECORDING folder\n" + std::string(kUsage));
     const auto station = station::load_station_config(args.required("--config"));
     const std::filesystem::path out_dir = args.required("--out");
     std::filesystem::create_directories(out_dir);

@@ -1,4 +1,4 @@
-// `lidarfuse replay CAPTURE.pcap [--to HOST] [--port-map ORIG:NEW ...] [--rate R | --max-rate]
+// `lidarfuse replay CAPTURE.pcap|RECORDING [--to HOST] [--port-map ORIG:NEW ...] [--rate R | --max-rate]
 //  [--loop [--passes N]] [--duration S]`: sends every UDP datagram of a capture to HOST.
 #include <signal.h>
 
@@ -41,10 +41,11 @@ int run_replay(int argc, char** argv) {
                     {"--max-rate", "--loop", "--quiet"});
     if (args.help()) {
         std::printf(
-            "usage: lidarfuse replay CAPTURE.pcap [--to HOST] [--port-map ORIG:NEW ...]\n"
+            "usage: lidarfuse replay CAPTURE.pcap|RECORDING [--to HOST] [--port-map ORIG:NEW ...]\n"
             "                        [--rate R | --max-rate] [--loop [--passes N]] [--duration S]\n"
             "                        [--quiet]\n"
             "Sends every UDP datagram of the capture (lidar and IMU; IP fragments reassembled)\n"
+            "or of a recording folder of lidarfused (output.record: its .pcap files in order)\n"
             "to HOST (default 127.0.0.1) on its original destination port, or NEW for a port\n"
             "mapped with --port-map ORIG:NEW (repeatable). Timing follows the capture clock,\n"
             "sped up by --rate R (2 = twice as fast), or --max-rate sends as fast as possible.\n"
@@ -55,9 +56,9 @@ int run_replay(int argc, char** argv) {
         return 0;
     }
     if (args.positionals().size() != 1) {
-        throw UsageError("expects exactly one capture file (see lidarfuse replay --help)");
+        throw UsageError("expects exactly one capture file or recording folder (see lidarfuse replay --help)");
     }
-    const std::string file = args.positionals()[0];
+    const auto files = pcap::capture_files(args.positionals()[0]);
     pcap::ReplayParams params;
     params.host_ip = net::resolve_ipv4(args.value("--to").value_or("127.0.0.1"));
     for (const auto& mapping : args.values("--port-map")) {
@@ -92,7 +93,7 @@ int run_replay(int argc, char** argv) {
     params.stop = &g_stop;
 
     ProgressLine progress("replay", progress_wanted(args));
-    const double file_bytes = progress_file_bytes(file);  // 0: no share shown
+    const double file_bytes = progress_file_bytes(args.positionals()[0]);  // 0: no share shown
     params.on_progress = [&](std::uint64_t pass, std::uint64_t sent, std::uint64_t bytes_read) {
         // One pass: the share of the file; looping: the share of the passes asked for.
         double fraction = file_bytes > 0 ? static_cast<double>(bytes_read) / file_bytes : -1.0;
@@ -104,7 +105,7 @@ int run_replay(int argc, char** argv) {
         progress.update({params.loop ? "pass " + std::to_string(pass + 1) : "sending",
                          static_cast<double>(sent), 0, "datagrams", fraction, 0});
     };
-    const auto s = pcap::replay_capture(file, params);
+    const auto s = pcap::replay_capture(files, params);
     progress.finish();
     if (!s.warning.empty())
         std::fprintf(stderr, "lidarfuse replay: warning: %s\n", s.warning.c_str());

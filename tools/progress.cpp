@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <vector>
 
+#include "drivers/pcap/pcap_reader.hpp"
 #include "tools/args.hpp"
 
 namespace lidarfuse::tools {
@@ -35,9 +37,20 @@ std::string number_text(double value) {
 bool progress_wanted(const Args& args) { return !args.flag("--quiet") && ::isatty(STDERR_FILENO) == 1; }
 
 double progress_file_bytes(const std::string& path) {
-    std::error_code error;
-    const auto size = std::filesystem::file_size(path, error);
-    return error ? 0.0 : static_cast<double>(size);
+    std::vector<std::filesystem::path> files;
+    try {
+        files = pcap::capture_files(path);
+    } catch (const std::exception&) {
+        return 0.0;
+    }
+    double bytes = 0.0;
+    for (const auto& file : files) {
+        std::error_code error;
+        const auto size = std::filesystem::file_size(file, error);
+        if (error) return 0.0;
+        bytes += static_cast<double>(size);
+    }
+    return bytes;
 }
 
 std::string format_progress(const std::string& command, const ProgressState& state) {

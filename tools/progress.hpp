@@ -14,7 +14,8 @@ class Args;
 // stderr is a terminal and the command was not given --quiet.
 bool progress_wanted(const Args& args);
 
-// The size of the file a command reads through, for its share done; 0 when unknown.
+// The bytes of the capture a command reads through (a file, or a recording folder's files),
+// for its share done; 0 when unknown.
 double progress_file_bytes(const std::string& path);
 
 // What one redraw shows. fraction in [0, 1], or negative when the total is unknown (then

@@ -17,8 +17,8 @@ struct StationCapture::Sensor {
 };
 
 StationCapture::StationCapture(const station::StationConfig& station,
-                               const std::filesystem::path& pcap_file)
-    : station_(station), pcap_file_(pcap_file) {
+                               const std::filesystem::path& capture)
+    : station_(station) {
     std::vector<ouster::RoutedSensor> routed;
     std::vector<std::string> problems;
     for (std::size_t i = 0; i < station_.sensors.size(); ++i) {
@@ -50,7 +50,8 @@ StationCapture::StationCapture(const station::StationConfig& station,
         throw std::runtime_error(text);
     }
     router_ = std::make_unique<ouster::SensorRouter>(routed);
-    reader_ = std::make_unique<pcap::PcapReader>(pcap_file_);
+    files_ = pcap::capture_files(capture);
+    reader_ = std::make_unique<pcap::PcapReader>(files_.front());
 }
 
 StationCapture::~StationCapture() = default;
@@ -78,12 +79,21 @@ void StationCapture::run(const std::function<bool(const CaptureScan&)>& on_scan)
             });
     }
     pcap::UdpDatagram datagram{};
-    while (keep_going && reader_->next(&datagram)) {
-        capture_time_ns = datagram.timestamp_ns;
-        const int routed = router_->route(datagram.src_ip, datagram.dst_port, datagram.data, datagram.size);
-        if (routed < 0) continue;
-        sensors_[static_cast<std::size_t>(routed)]->assembler->add_packet(datagram.data, datagram.size);
+    for (std::size_t file = 0; keep_going && file < files_.size(); ++file) {
+        if (file > 0) {
+            stats_ += reader_->stats();
+            reader_ = std::make_unique<pcap::PcapReader>(files_[file]);
+        }
+        while (keep_going && reader_->next(&datagram)) {
+            capture_time_ns = datagram.timestamp_ns;
+            const int routed = router_->route(datagram.src_ip, datagram.dst_port, datagram.data, datagram.size);
+            if (routed < 0) continue;
+            sensors_[static_cast<std::size_t>(routed)]->assembler->add_packet(datagram.data, datagram.size);
+        }
+        if (!reader_->warning().empty()) warning_ = files_[file].string() + ": " + reader_->warning();
     }
+    stats_ += reader_->stats();
+    reader_.reset();
     for (auto& sensor : sensors_) {
         if (keep_going) sensor->assembler->flush();
     }
@@ -98,7 +108,11 @@ const ouster::AssemblyCounters& StationCapture::counters(std::size_t sensor) con
 }
 
 const ouster::RouterCounters& StationCapture::router_counters() const { return router_->counters(); }
-const pcap::PcapReaderStats& StationCapture::pcap_stats() const { return reader_->stats(); }
-const std::string& StationCapture::pcap_warning() const { return reader_->warning(); }
+pcap::PcapReaderStats StationCapture::pcap_stats() const {
+    pcap::PcapReaderStats all = stats_;
+    if (reader_) all += reader_->stats();
+    return all;
+}
+const std::string& StationCapture::pcap_warning() const { return warning_; }
 
 }  // namespace lidarfuse::capture

@@ -3,7 +3,8 @@
 // metadata -> pcap (with IP reassembly) -> sensor routing (port, source address, serial)
 // -> per-sensor scan assembly -> xyz projection. Hands every completed scan to a callback,
 // in capture order. `lidarfuse fuse` and `lidarfuse calibrate` run on it; the daemon runs
-// the same assembler and projection on live sockets.
+// the same assembler and projection on live sockets. A capture is one pcap file or a
+// recording folder of the daemon (output.record: its files in order, as one capture).
 
 #include <cstdint>
 #include <filesystem>
@@ -35,8 +36,9 @@ struct CaptureScan {
 
 class StationCapture {
 public:
-    // Loads every enabled sensor's metadata; throws naming the sensor and file on errors.
-    StationCapture(const station::StationConfig& station, const std::filesystem::path& pcap_file);
+    // Loads every enabled sensor's metadata and opens the (first) capture file; throws naming
+    // the sensor and file on errors.
+    StationCapture(const station::StationConfig& station, const std::filesystem::path& capture);
     ~StationCapture();
 
     // Decodes the capture to its end (or until on_scan returns false), then flushes the
@@ -47,17 +49,19 @@ public:
     const std::vector<ouster::SensorInfo>& infos() const { return infos_; }
     const ouster::AssemblyCounters& counters(std::size_t sensor) const;
     const ouster::RouterCounters& router_counters() const;
-    const pcap::PcapReaderStats& pcap_stats() const;
+    pcap::PcapReaderStats pcap_stats() const;  // of the files read so far
     const std::string& pcap_warning() const;
 
 private:
     struct Sensor;
     station::StationConfig station_;
-    std::filesystem::path pcap_file_;
+    std::vector<std::filesystem::path> files_;
     std::vector<ouster::SensorInfo> infos_;
     std::vector<std::unique_ptr<Sensor>> sensors_;
     std::unique_ptr<ouster::SensorRouter> router_;
-    std::unique_ptr<pcap::PcapReader> reader_;
+    std::unique_ptr<pcap::PcapReader> reader_;  // of the file being read
+    pcap::PcapReaderStats stats_;               // of the files read before it
+    std::string warning_;
 };
 
 }  // namespace lidarfuse::capture

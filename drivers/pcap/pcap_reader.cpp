@@ -2,6 +2,7 @@
 
 #include <pcap/pcap.h>
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "drivers/pcap/frame_decoder.hpp"
@@ -141,6 +142,39 @@ bool PcapReader::next(UdpDatagram* out) {
         ++stats_.udp_datagrams;
         return true;
     }
+}
+
+PcapReaderStats& PcapReaderStats::operator+=(const PcapReaderStats& o) {
+    records += o.records;
+    bytes_read += o.bytes_read;
+    udp_datagrams += o.udp_datagrams;
+    non_ipv4 += o.non_ipv4;
+    non_udp += o.non_udp;
+    malformed += o.malformed;
+    truncated_records += o.truncated_records;
+    fragments += o.fragments;
+    reassembled += o.reassembled;
+    dropped_incomplete += o.dropped_incomplete;
+    discarded_fragments += o.discarded_fragments;
+    cut_off += o.cut_off;
+    read_errors += o.read_errors;
+    return *this;
+}
+
+std::vector<std::filesystem::path> capture_files(const std::filesystem::path& path) {
+    std::error_code error;
+    if (std::filesystem::is_regular_file(path, error)) return {path};
+    if (!std::filesystem::is_directory(path, error)) {
+        throw std::runtime_error(path.string() + ": no such capture file or recording folder");
+    }
+    std::vector<std::filesystem::path> files;
+    for (const auto& entry : std::filesystem::directory_iterator(path, error)) {
+        if (entry.is_regular_file() && entry.path().extension() == ".pcap") files.push_back(entry.path());
+    }
+    if (error) throw std::runtime_error(path.string() + ": cannot list the folder: " + error.message());
+    if (files.empty()) throw std::runtime_error(path.string() + ": a folder without any .pcap file");
+    std::sort(files.begin(), files.end());
+    return files;
 }
 
 }  // namespace lidarfuse::pcap

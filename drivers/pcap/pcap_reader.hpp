@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "drivers/pcap/ipv4_reassembler.hpp"
 #include "drivers/pcap/udp_datagram.hpp"
@@ -39,6 +40,8 @@ struct PcapReaderStats {
     std::uint64_t discarded_fragments = 0;  // fragments that never became a datagram
     std::uint64_t cut_off = 0;              // 1 when the file ends in the middle of a record
     std::uint64_t read_errors = 0;          // 1 when libpcap reported another read error
+
+    PcapReaderStats& operator+=(const PcapReaderStats& o);  // several files as one capture
 };
 
 class PcapReader {
@@ -74,5 +77,10 @@ private:
     std::string warning_;
     bool finished_ = false;
 };
+
+// The files of a capture: `path` itself when it is a file; for a folder (a recording of
+// lidarfused's output.record), its *.pcap files in name order, which is the order they were
+// written. Throws std::runtime_error naming the path when it is neither, or a folder without any.
+std::vector<std::filesystem::path> capture_files(const std::filesystem::path& path);
 
 }  // namespace lidarfuse::pcap

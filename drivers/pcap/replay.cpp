@@ -64,11 +64,17 @@ private:
     std::vector<std::unique_ptr<net::UdpSender>> senders_;
 };
 
+
 }  // namespace
 
 ReplaySummary replay_capture(const std::filesystem::path& file, const ReplayParams& params) {
+    return replay_capture(std::vector<std::filesystem::path>{file}, params);
+}
+
+ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files, const ReplayParams& params) {
+    const std::string name = files.empty() ? std::string("no file") : files.front().string();
     if (!params.max_rate && !(params.rate > 0.0 && std::isfinite(params.rate))) {
-        throw std::invalid_argument("replay of " + file.string() + ": rate must be > 0");
+        throw std::invalid_argument("replay of " + name + ": rate must be > 0");
     }
     ReplaySummary summary;
     SourceSockets sockets(params.max_source_sockets);
@@ -79,45 +85,51 @@ ReplaySummary replay_capture(const std::filesystem::path& file, const ReplayPara
             : INT64_MAX;
     // Capture-time offset (ns, before dividing by rate) at which the current pass starts.
     double pass_offset_ns = 0.0;
-    for (;;) {
-        PcapReader reader(file, params.reader);
-        UdpDatagram d;
+    while (!files.empty()) {
         std::int64_t first_ts = 0, last_ts = 0;
-        std::uint64_t in_pass = 0;
-        while (reader.next(&d)) {
-            if (in_pass == 0) first_ts = d.timestamp_ns;
-            last_ts = std::max(last_ts, d.timestamp_ns);
-            ++in_pass;
-            if (!params.max_rate) {
-                const double offset_ns =
-                    pass_offset_ns + static_cast<double>(d.timestamp_ns - first_ts);
-                const std::int64_t deadline =
-                    start_ns + static_cast<std::int64_t>(offset_ns / params.rate);
-                if (deadline > end_ns || !sleep_until(deadline, params)) {
+        std::uint64_t in_pass = 0, bytes_before = 0;
+        summary.reader_stats = PcapReaderStats{};
+        for (const auto& file : files) {
+            PcapReader reader(file, params.reader);
+            UdpDatagram d;
+            while (reader.next(&d)) {
+                if (in_pass == 0) first_ts = d.timestamp_ns;
+                last_ts = std::max(last_ts, d.timestamp_ns);
+                ++in_pass;
+                if (!params.max_rate) {
+                    const double offset_ns =
+                        pass_offset_ns + static_cast<double>(d.timestamp_ns - first_ts);
+                    const std::int64_t deadline =
+                        start_ns + static_cast<std::int64_t>(offset_ns / params.rate);
+                    if (deadline > end_ns || !sleep_until(deadline, params)) {
+                        summary.stopped = true;
+                        break;
+                    }
+                } else if (stop_requested(params) ||
+                           (params.max_duration_s > 0 && monotonic_ns() >= end_ns)) {
                     summary.stopped = true;
                     break;
                 }
-            } else if (stop_requested(params) ||
-                       (params.max_duration_s > 0 && monotonic_ns() >= end_ns)) {
-                summary.stopped = true;
-                break;
-            }
-            const auto mapped = params.port_map.find(d.dst_port);
-            const std::uint16_t port =
-                mapped == params.port_map.end() ? d.dst_port : mapped->second;
-            auto& sender = sockets.for_source(d.src_ip, d.src_port);
-            if (sender.send_to(params.host_ip, port, d.data, d.size)) {
-                ++summary.datagrams_sent;
-                summary.bytes_sent += d.size;
-                if (params.on_progress && summary.datagrams_sent % 256 == 0) {
-                    params.on_progress(summary.passes, summary.datagrams_sent, reader.stats().bytes_read);
+                const auto mapped = params.port_map.find(d.dst_port);
+                const std::uint16_t port =
+                    mapped == params.port_map.end() ? d.dst_port : mapped->second;
+                auto& sender = sockets.for_source(d.src_ip, d.src_port);
+                if (sender.send_to(params.host_ip, port, d.data, d.size)) {
+                    ++summary.datagrams_sent;
+                    summary.bytes_sent += d.size;
+                    if (params.on_progress && summary.datagrams_sent % 256 == 0) {
+                        params.on_progress(summary.passes, summary.datagrams_sent,
+                                           bytes_before + reader.stats().bytes_read);
+                    }
+                } else {
+                    if (summary.send_errors++ == 0) summary.first_send_errno = sender.last_errno();
                 }
-            } else {
-                if (summary.send_errors++ == 0) summary.first_send_errno = sender.last_errno();
             }
+            summary.reader_stats += reader.stats();
+            if (!reader.warning().empty()) summary.warning = file.string() + ": " + reader.warning();
+            bytes_before += reader.stats().bytes_read;
+            if (summary.stopped) break;
         }
-        summary.reader_stats = reader.stats();
-        summary.warning = reader.warning();
         if (summary.stopped) break;
         ++summary.passes;
         const std::int64_t span_ns = in_pass > 0 ? last_ts - first_ts : 0;

@@ -18,6 +18,7 @@
 #include <functional>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "drivers/pcap/pcap_reader.hpp"
 
@@ -50,7 +51,7 @@ struct ReplaySummary {
     double duration_s = 0.0;         // monotonic wall time of the whole run
     double capture_span_s = 0.0;     // capture time from first to last datagram of one pass
     bool stopped = false;            // ended by the stop flag or max_duration_s
-    PcapReaderStats reader_stats;    // of the last pass
+    PcapReaderStats reader_stats;    // of the last pass (its files added up)
     std::string warning;             // the reader's warning (e.g. file cut off), if any
 
     double datagrams_per_s() const { return duration_s > 0 ? datagrams_sent / duration_s : 0.0; }
@@ -60,5 +61,10 @@ struct ReplaySummary {
 // Replays `file`. Throws std::runtime_error / std::invalid_argument (naming the file) when it
 // cannot be read or the parameters are invalid; send failures are counted, not thrown.
 ReplaySummary replay_capture(const std::filesystem::path& file, const ReplayParams& params);
+
+// Replays several files as one capture (a recording cut into files): one pass runs through
+// them in order, on one time line (each datagram at its capture time after the pass's first).
+// ReplaySummary::reader_stats add up the last pass's files; warning names its file.
+ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files, const ReplayParams& params);
 
 }  // namespace lidarfuse::pcap
