@@ -95,11 +95,35 @@ void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
            &c->diagnostics_period_ms);
 }
 
+void read_record(YamlReader& r, const YAML::Node& n, const std::filesystem::path& base, RecordConfig* c) {
+    if (!n || !r.optional_map(n, "output.record")) return;
+    const std::string p = "output.record.";
+    r.only_keys(n, "output.record",
+                {"enabled", "directory", "max_file_mb", "max_file_s", "min_free_mb", "when_disk_low",
+                 "queue_mb"});
+    set_if(r.boolean(n["enabled"], p + "enabled"), &c->enabled);
+    if (auto d = r.string(n["directory"], p + "directory", false)) {
+        const std::filesystem::path dir = *d;
+        c->directory = dir.is_absolute() ? dir : (base / dir).lexically_normal();
+    }
+    set_if(r.number(n["max_file_mb"], p + "max_file_mb", 1, 1e6, false), &c->max_file_mb);
+    set_if(r.number(n["max_file_s"], p + "max_file_s", 1, 86400, false), &c->max_file_s);
+    set_if(r.number(n["min_free_mb"], p + "min_free_mb", 0, 1e9, false), &c->min_free_mb);
+    set_if(r.number(n["queue_mb"], p + "queue_mb", 1, 4096, false), &c->queue_mb);
+    if (auto policy = r.string(n["when_disk_low"], p + "when_disk_low", false)) {
+        if (*policy == "remove_oldest" || *policy == "stop") {
+            c->when_disk_low = *policy == "stop" ? LowDiskPolicy::kStop : LowDiskPolicy::kRemoveOldest;
+        } else {
+            r.problems.push_back(p + "when_disk_low: expected remove_oldest or stop, got \"" + *policy + "\"");
+        }
+    }
+}
+
 void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path& base, OutputConfig* c) {
     if (!n || !r.optional_map(n, "output")) return;
     r.only_keys(n, "output",
                 {"directory", "poses_csv", "extrinsics_yaml", "extrinsics_interval_frames",
-                 "record_clouds_every", "stamp", "dds"});
+                 "record_clouds_every", "stamp", "dds", "record"});
     if (auto d = r.string(n["directory"], "output.directory", false)) {
         const std::filesystem::path dir = *d;
         c->directory = dir.is_absolute() ? dir : (base / dir).lexically_normal();
@@ -118,6 +142,7 @@ void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path
         }
     }
     read_dds(r, n["dds"], &c->dds);
+    read_record(r, n["record"], base, &c->record);
 }
 
 // tf2 keeps one parent per frame: the fused frame must not be a sensor's frame too, or that

@@ -53,6 +53,26 @@ struct DdsConfig {
 // (kHost, sensors not synchronised with the host).
 enum class StampSource { kSensor, kHost };
 
+// output.record (daemon/recorder.hpp): every received datagram into rotating pcap files.
+enum class LowDiskPolicy { kRemoveOldest, kStop };
+
+struct RecordConfig {
+    bool enabled = false;
+    std::filesystem::path directory;  // empty: <output.directory>/recordings (after --output)
+    // A file is closed and the next begun at this size or after this much capture time. 1 GiB
+    // holds a minute of 4 OS1-64 at 1024x20 (16 MB/s each).
+    double max_file_mb = 1024.0;
+    double max_file_s = 300.0;
+    // Free space on the recording's file system below which the oldest file of this
+    // recording is removed (kRemoveOldest) or the recording stops (kStop); checked every
+    // second. Either way a counter, a warning in the log and WARN in the diagnostics.
+    double min_free_mb = 2048.0;
+    LowDiskPolicy when_disk_low = LowDiskPolicy::kRemoveOldest;
+    // Received datagrams waiting for the writer; when full they are dropped (counted), never
+    // waited for. 256 MiB is 4 s of 4 OS1-64: a long stall of the disk, not a fast disk.
+    double queue_mb = 256.0;
+};
+
 struct OutputConfig {
     std::filesystem::path directory = "/var/lib/lidarfuse";
     bool poses_csv = true;          // DIRECTORY/poses.csv, appended per frame
@@ -61,6 +81,7 @@ struct OutputConfig {
     int record_clouds_every = 0;    // every Nth fused cloud as PLY; 0 = none
     StampSource stamp = StampSource::kSensor;  // clouds, tf, poses and diagnostics on DDS
     DdsConfig dds;
+    RecordConfig record;
 };
 
 struct HealthConfig {

@@ -227,11 +227,12 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
     auto& p = status_.back();
     auto* v = &values_.back();
     const bool drops = stats.kernel_drops > 0 || stats.scan_queue_drops > 0;
-    p.level = drops ? diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN
-                    : diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_OK;
+    const std::string record_problem = stats.record.problem();
+    p.level = drops || !record_problem.empty() ? diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN
+                                                : diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_OK;
     strings_.push_back(prefix + "pipeline");
     p.name = c_str(strings_.back());
-    strings_.push_back(drops ? "packets or scans dropped" : "OK");
+    strings_.push_back(drops ? "packets or scans dropped" : record_problem.empty() ? "OK" : record_problem);
     p.message = c_str(strings_.back());
     strings_.push_back(frames_.station);
     p.hardware_id = c_str(strings_.back());
@@ -255,6 +256,18 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
     add(v, "frames_before_world_frame", std::to_string(stats.frames_before_world_frame));
     add(v, "world_residual_rms_m", number(stats.world_residual_rms_m, "%.4f"));
     add(v, "world_residual_max_m", number(stats.world_residual_max_m, "%.4f"));
+    if (stats.record.enabled) {
+        const auto& r = stats.record;
+        add(v, "record_state", r.recording ? "recording" : "stopped: " + r.stopped_because);
+        add(v, "record_folder", r.folder);
+        add(v, "record_file", r.file);
+        add(v, "record_datagrams", std::to_string(r.datagrams));
+        add(v, "record_bytes", std::to_string(r.bytes));
+        add(v, "record_files", std::to_string(r.files));
+        add(v, "record_files_removed", std::to_string(r.files_removed));
+        add(v, "record_queue_drops", std::to_string(r.queue_drops));
+        add(v, "record_write_errors", std::to_string(r.write_errors));
+    }
     for (std::size_t i = 0; i < status_.size(); ++i) {
         status_[i].values._buffer = values_[i].data();
         status_[i].values._length = status_[i].values._maximum =

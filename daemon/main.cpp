@@ -80,6 +80,8 @@ int main(int argc, char** argv) {
     sigaddset(&signals, SIGHUP);
     pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
+    // A check binds the ports but records nothing (no recording folder is made).
+    if (check_only) config.output.record.enabled = false;
     std::unique_ptr<lidarfuse::daemon::Pipeline> pipeline;
     try {
         pipeline = std::make_unique<lidarfuse::daemon::Pipeline>(config);
@@ -97,6 +99,7 @@ int main(int argc, char** argv) {
     for (auto p : pipeline->bound_ports()) ports += (ports.empty() ? "" : ",") + std::to_string(p);
     log->info("station {}: {} sensors, listening on UDP {}, output to {}", config.station.station,
               config.station.sensors.size(), ports, config.output.directory.string());
+    if (config.output.record.enabled) log->info("recording every datagram to {}", pipeline->stats().record.folder);
     if (pipeline->dds_domain_id() >= 0) {
         log->info("publishing on DDS domain {}: rt/tf, rt/diagnostics, rt/{}/{{points,poses}} in frame {}, "
                   "stamped on the {} clock",
@@ -132,6 +135,11 @@ int main(int argc, char** argv) {
     pipeline->stop();
     const auto st = pipeline->stats();
     log->info("stopped: {}", lidarfuse::daemon::status_line(st));
+    if (st.record.enabled) {
+        log->info("recorded {} datagrams ({:.1f} MB) in {} files to {}{}", st.record.datagrams,
+                  static_cast<double>(st.record.bytes) / 1e6, st.record.files, st.record.folder,
+                  st.record.problem().empty() ? "" : "; " + st.record.problem());
+    }
     if (pipeline->dds_domain_id() >= 0) {
         log->info("DDS: {} samples written, {} writes failed ({} timed out)", st.dds_samples_written,
                   st.dds_write_failures, st.dds_write_timeouts);

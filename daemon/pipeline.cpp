@@ -11,6 +11,7 @@
 #include <map>
 
 #include "daemon/pipeline_impl.hpp"
+#include "drivers/net/ipv4_address.hpp"
 
 namespace lidarfuse::daemon {
 
@@ -81,10 +82,19 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         for (const auto& p : problems) text += "\n  " + p;
         throw std::runtime_error(text);
     }
+    if (config.output.record.enabled) {
+        const std::uint32_t dst_ip = config.network.bind_address == "0.0.0.0"
+                                         ? 0
+                                         : net::parse_ipv4(config.network.bind_address);
+        RecordConfig record = config.output.record;
+        if (record.directory.empty()) record.directory = config.output.directory / "recordings";
+        recorder = std::make_unique<Recorder>(record, config.station, dst_ip, logger("record"));
+    }
     for (auto& [port, members] : by_port) {
         receivers.push_back(make_receiver(port, members, config.network, config.station,
                                           config.health.min_completeness));
         receivers.back()->log = ingest_log;
+        receivers.back()->recorder = recorder.get();
     }
     engine = std::make_unique<core::FusionEngine>(sensors.size(), config.fusion);
     core::WorldFrameParams world_params = config.world.params;
@@ -157,6 +167,7 @@ void Pipeline::stop() {
         if (r->thread.joinable()) r->thread.join();
         for (auto* s : r->sensors) publish_counters(s);
     }
+    if (m.recorder) m.recorder->stop();  // after the receivers: every datagram they offered
     if (m.sync_thread.joinable()) m.sync_thread.join();
     m.frames.close();
     if (m.fusion_thread.joinable()) m.fusion_thread.join();

@@ -8,6 +8,8 @@
 //       frame's poses and cloud re-expressed in the fused frame; frames before it is
 //       known are counted, not published) -> result queue; beats the heartbeat
 //   output thread: poses.csv, extrinsics.yaml, clouds, diagnostics log
+//   recorder thread (output.record): every received datagram, copied by the receivers,
+//       into rotating pcap files (daemon/recorder.hpp)
 //
 // The receiving side is daemon/sensor_ingest; this file wires the stages together.
 // Every queue is a DropOldestQueue: a slow stage costs its oldest input, counted, and a
@@ -22,6 +24,7 @@
 #include <vector>
 
 #include "daemon/daemon_config.hpp"
+#include "daemon/recorder.hpp"
 
 namespace lidarfuse::daemon {
 
@@ -71,6 +74,7 @@ struct PipelineStats {
     double world_residual_rms_m = 0.0, world_residual_max_m = 0.0;
     std::vector<int> granted_receive_buffers;
     std::vector<SensorStats> sensors;
+    RecorderStats record;  // output.record (enabled false when off)
 };
 
 class Pipeline {

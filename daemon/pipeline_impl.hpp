@@ -38,6 +38,7 @@ struct Pipeline::Impl {
     std::shared_ptr<spdlog::logger> ingest_log, sync_log, fusion_log, output_log;
 
     std::unique_ptr<DdsPublisher> dds;  // null when output.dds.enabled is false
+    std::unique_ptr<Recorder> recorder;  // null when output.record.enabled is false
 
     // When each synchronised frame's scans completed, for the output thread's latency
     // figure and host stamps: written by the sync thread, looked up by the members'

@@ -110,6 +110,7 @@ std::unique_ptr<Receiver> make_receiver(std::uint16_t port,
 
 void run_receiver(Receiver* r) {
     r->socket->run([r](const net::ReceivedDatagram& d) {
+        if (r->recorder) r->recorder->offer(d);
         const int routed = r->router->route(d.src_ip, d.local_port, d.data, d.size);
         if (routed < 0) {
             r->unassigned.fetch_add(1, std::memory_order_relaxed);

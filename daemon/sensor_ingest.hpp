@@ -18,6 +18,7 @@
 
 #include "daemon/daemon_config.hpp"
 #include "daemon/drop_oldest_queue.hpp"
+#include "daemon/recorder.hpp"
 #include "drivers/net/udp_receiver.hpp"
 #include "drivers/ouster/metadata.hpp"
 #include "drivers/ouster/projection.hpp"
@@ -71,6 +72,7 @@ struct Receiver {
     DropOldestQueue<ScanMessage> queue{8};
     std::atomic<std::uint64_t> unassigned{0};
     std::shared_ptr<spdlog::logger> log;  // mode mismatch flagged / cleared (rare events)
+    Recorder* recorder = nullptr;         // output.record: gets every datagram, routed or not
     std::thread thread;
 };
 

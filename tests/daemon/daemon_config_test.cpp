@@ -30,6 +30,34 @@ TEST_F(DaemonConfigTest, DefaultsWhenSectionsAreAbsent) {
     EXPECT_EQ(c.log_level, "info");
 }
 
+TEST_F(DaemonConfigTest, RecordIsOffByDefaultAndEveryKeyIsReadAndChecked) {
+    const auto off = parse_daemon_config(sensors_, "s.yaml", dir_.path());
+    EXPECT_FALSE(off.output.record.enabled);
+    EXPECT_TRUE(off.output.record.directory.empty());  // <output.directory>/recordings, after --output
+    const auto c = parse_daemon_config(sensors_ + R"(
+output:
+  record: {enabled: true, directory: rec, max_file_mb: 64, max_file_s: 60, min_free_mb: 500,
+           when_disk_low: stop, queue_mb: 32}
+)",
+                                       "s.yaml", dir_.path());
+    EXPECT_TRUE(c.output.record.enabled);
+    EXPECT_EQ(c.output.record.directory, dir_.path() / "rec");
+    EXPECT_DOUBLE_EQ(c.output.record.max_file_mb, 64.0);
+    EXPECT_DOUBLE_EQ(c.output.record.max_file_s, 60.0);
+    EXPECT_DOUBLE_EQ(c.output.record.min_free_mb, 500.0);
+    EXPECT_EQ(c.output.record.when_disk_low, LowDiskPolicy::kStop);
+    EXPECT_DOUBLE_EQ(c.output.record.queue_mb, 32.0);
+    try {
+        parse_daemon_config(sensors_ + "output:\n  record: {when_disk_low: pause, max_file_mb: 0, size: 3}\n",
+                            "s.yaml", dir_.path());
+        FAIL() << "no error";
+    } catch (const station::ConfigError& error) {
+        EXPECT_THAT(error.what(), HasSubstr("output.record.when_disk_low: expected remove_oldest or stop, got \"pause\""));
+        EXPECT_THAT(error.what(), HasSubstr("output.record.max_file_mb"));
+        EXPECT_THAT(error.what(), HasSubstr("size"));
+    }
+}
+
 TEST_F(DaemonConfigTest, EveryPaperParameterIsAKey) {
     const auto c = parse_daemon_config(sensors_ + R"(
 registration:

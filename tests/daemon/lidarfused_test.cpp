@@ -223,14 +223,8 @@ TEST(Lidarfused, FusesALiveSimulatedStationOntoDds) {
     test::use_loopback_dds();
     test::TempDir dir("lfd-live");
     const auto d = dir.path();
-    std::string out;
     // The metadata of the same virtual sensors, before the live run starts.
-    ASSERT_EQ(test::run_command(test::tool_path() +
-                                    " sim --scenario curve --sensors 2 --seconds 0.05 --out " +
-                                    (d / "meta").string(),
-                                &out),
-              0)
-        << out;
+    ASSERT_NO_FATAL_FAILURE(simulate_two_sensors(d / "meta", 0.05));
     const auto p0 = static_cast<std::uint16_t>(30000 + (::getpid() % 4000) * 4);
     const int domain = test::unique_domain_id();
     std::ofstream(d / "meta" / "daemon.yaml")

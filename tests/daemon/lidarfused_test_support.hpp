@@ -229,6 +229,17 @@ inline pid_t start_daemon(const std::filesystem::path& config, const std::filesy
     return pid;
 }
 
+// `lidarfuse sim` of the curve with two sensors, `seconds` long, into `out` (capture,
+// metadata, ground truth). Call through ASSERT_NO_FATAL_FAILURE.
+inline void simulate_two_sensors(const std::filesystem::path& out, double seconds) {
+    std::string text;
+    ASSERT_EQ(test::run_command(test::tool_path() + " sim --scenario curve --sensors 2 --seconds " +
+                                    std::to_string(seconds) + " --out " + out.string(),
+                                &text),
+              0)
+        << text;
+}
+
 inline std::string read_text(const std::filesystem::path& file) {
     std::ifstream in(file);
     return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
