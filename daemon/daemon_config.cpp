@@ -95,12 +95,13 @@ void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
            &c->diagnostics_period_ms);
 }
 
-void read_record(YamlReader& r, const YAML::Node& n, const std::filesystem::path& base, RecordConfig* c) {
+void read_record(YamlReader& r, const YAML::Node& n, const std::filesystem::path& base,
+                 RecordConfig* c) {
     if (!n || !r.optional_map(n, "output.record")) return;
     const std::string p = "output.record.";
     r.only_keys(n, "output.record",
-                {"enabled", "directory", "max_file_mb", "max_file_s", "min_free_mb", "when_disk_low",
-                 "queue_mb"});
+                {"enabled", "directory", "max_file_mb", "max_file_s", "min_free_mb",
+                 "when_disk_low", "queue_mb"});
     set_if(r.boolean(n["enabled"], p + "enabled"), &c->enabled);
     if (auto d = r.string(n["directory"], p + "directory", false)) {
         const std::filesystem::path dir = *d;
@@ -112,9 +113,11 @@ void read_record(YamlReader& r, const YAML::Node& n, const std::filesystem::path
     set_if(r.number(n["queue_mb"], p + "queue_mb", 1, 4096, false), &c->queue_mb);
     if (auto policy = r.string(n["when_disk_low"], p + "when_disk_low", false)) {
         if (*policy == "remove_oldest" || *policy == "stop") {
-            c->when_disk_low = *policy == "stop" ? LowDiskPolicy::kStop : LowDiskPolicy::kRemoveOldest;
+            c->when_disk_low =
+                *policy == "stop" ? LowDiskPolicy::kStop : LowDiskPolicy::kRemoveOldest;
         } else {
-            r.problems.push_back(p + "when_disk_low: expected remove_oldest or stop, got \"" + *policy + "\"");
+            r.problems.push_back(p + "when_disk_low: expected remove_oldest or stop, got \"" +
+                                 *policy + "\"");
         }
     }
 }

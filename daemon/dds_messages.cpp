@@ -228,11 +228,14 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
     auto* v = &values_.back();
     const bool drops = stats.kernel_drops > 0 || stats.scan_queue_drops > 0;
     const std::string record_problem = stats.record.problem();
-    p.level = drops || !record_problem.empty() ? diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN
-                                                : diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_OK;
+    p.level = drops || !record_problem.empty()
+                  ? diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN
+                  : diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_OK;
     strings_.push_back(prefix + "pipeline");
     p.name = c_str(strings_.back());
-    strings_.push_back(drops ? "packets or scans dropped" : record_problem.empty() ? "OK" : record_problem);
+    strings_.push_back(drops                    ? "packets or scans dropped"
+                       : record_problem.empty() ? "OK"
+                                                : record_problem);
     p.message = c_str(strings_.back());
     strings_.push_back(frames_.station);
     p.hardware_id = c_str(strings_.back());

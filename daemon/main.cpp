@@ -99,7 +99,8 @@ int main(int argc, char** argv) {
     for (auto p : pipeline->bound_ports()) ports += (ports.empty() ? "" : ",") + std::to_string(p);
     log->info("station {}: {} sensors, listening on UDP {}, output to {}", config.station.station,
               config.station.sensors.size(), ports, config.output.directory.string());
-    if (config.output.record.enabled) log->info("recording every datagram to {}", pipeline->stats().record.folder);
+    if (config.output.record.enabled)
+        log->info("recording every datagram to {}", pipeline->stats().record.folder);
     if (pipeline->dds_domain_id() >= 0) {
         log->info("publishing on DDS domain {}: rt/tf, rt/diagnostics, rt/{}/{{points,poses}} in frame {}, "
                   "stamped on the {} clock",

@@ -1,6 +1,7 @@
 #include "daemon/recorder.hpp"
 
 #include <pcap/pcap.h>
+#include <pthread.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -22,8 +23,16 @@ namespace {
 constexpr double kBytesPerMb = 1024.0 * 1024.0;
 // Larger than any Ethernet frame of one whole UDP datagram (65,507 + 42 bytes).
 constexpr int kSnapLength = 262144;
-// How often the writer looks at the free space and the file's age when idle.
+// How often the writer looks at the free space.
 constexpr auto kCheckPeriod = std::chrono::seconds(1);
+// How long a datagram may wait in the ring for the writer (when the ring is less than an
+// eighth full).
+constexpr auto kDrainPeriod = std::chrono::milliseconds(20);
+// The part of the ring used while the writer keeps up (a quarter second of 4 OS1-64): its
+// pages stay resident, the rest of the ring is touched only by a backlog.
+constexpr std::size_t kWarmRingBytes = 16u << 20;
+// stdio's buffer of a pcap file: a write(2) per 80 OS1-64 datagrams, not per datagram.
+constexpr std::size_t kFileBufferBytes = 1 << 20;
 
 // "20261124T153303Z" for ns since the Unix epoch.
 std::string utc_stamp(std::int64_t ns) {
@@ -76,7 +85,14 @@ struct Recorder::Impl {
 
     mutable std::mutex mutex;
     std::condition_variable wake;
-    std::vector<std::uint8_t> ring;
+    // Not initialised (unlike a vector's): a page becomes resident only when the head first
+    // reaches it (see kWarmRingBytes).
+    struct Bytes {
+        std::unique_ptr<std::uint8_t[]> bytes;
+        std::size_t count = 0;
+        std::uint8_t* data() { return bytes.get(); }
+        std::size_t size() const { return count; }
+    } ring;
     std::size_t head = 0, tail = 0, used = 0;  // used counts wrapped-over bytes too
     bool stopping = false;
     RecorderStats stats;  // under mutex
@@ -95,7 +111,7 @@ struct Recorder::Impl {
     bool failed = false;
 
     void run();
-    void write_record(const RecordHeader& h, const std::uint8_t* payload);
+    bool write_record(const RecordHeader& h, const std::uint8_t* payload);  // false: not written
     void open_file(std::int64_t first_ns);
     void close_file();
     void check_free_space();
@@ -118,24 +134,31 @@ Recorder::Recorder(const RecordConfig& config, const station::StationConfig& sta
     std::error_code error;
     fs::create_directories(folder_ / "metadata", error);
     if (error) {
-        throw std::runtime_error("output.record.directory: cannot create " + folder_.string() + ": " +
-                                 error.message());
+        throw std::runtime_error("output.record.directory: cannot create " + folder_.string() +
+                                 ": " + error.message());
     }
     // The snapshot: what a later run needs to read the packets the way this one did.
-    if (!station.source_file.empty()) fs::copy_file(station.source_file, folder_ / "station.yaml", error);
-    if (error) throw std::runtime_error("output.record: cannot copy " + station.source_file.string() +
-                                        " into " + folder_.string() + ": " + error.message());
+    if (!station.source_file.empty())
+        fs::copy_file(station.source_file, folder_ / "station.yaml", error);
+    if (error)
+        throw std::runtime_error("output.record: cannot copy " + station.source_file.string() +
+                                 " into " + folder_.string() + ": " + error.message());
     for (const auto& sensor : station.sensors) {
         if (!sensor.enabled || sensor.metadata.empty()) continue;
         fs::copy_file(sensor.metadata, folder_ / "metadata" / (sensor.name + ".json"), error);
-        if (error) throw std::runtime_error("output.record: cannot copy " + sensor.metadata.string() +
-                                            " into " + folder_.string() + ": " + error.message());
+        if (error)
+            throw std::runtime_error("output.record: cannot copy " + sensor.metadata.string() +
+                                     " into " + folder_.string() + ": " + error.message());
     }
-    m.ring.resize(static_cast<std::size_t>(config.queue_mb * kBytesPerMb) & ~std::size_t{7});
+    m.ring.count = static_cast<std::size_t>(config.queue_mb * kBytesPerMb) & ~std::size_t{7};
+    m.ring.bytes.reset(new std::uint8_t[m.ring.count]);  // default-initialised: untouched
     m.stats.enabled = true;
     m.stats.recording = true;
     m.stats.folder = folder_.string();
-    m.writer = std::thread([&m] { m.run(); });
+    m.writer = std::thread([&m] {
+        ::pthread_setname_np(::pthread_self(), "lf-record");
+        m.run();
+    });
 }
 
 Recorder::~Recorder() { stop(); }
@@ -146,11 +169,15 @@ void Recorder::offer(const net::ReceivedDatagram& d) {
     const std::size_t capacity = m.ring.size();
     std::lock_guard<std::mutex> lock(m.mutex);
     if (!m.stats.recording) return;
+    if (m.used == 0) m.head = m.tail = 0;
     const bool full = m.used > 0 && m.head == m.tail;
     std::size_t at = capacity;  // capacity: no room
     std::size_t wasted = 0;
     if (!full && m.head >= m.tail) {  // free: [head, capacity) and [0, tail)
-        if (capacity - m.head >= need) {
+        // Back to the start as soon as the writer has freed it and the head is past the
+        // first kWarmRingBytes: the ring reaches further only while the disk lags behind.
+        const bool early_wrap = m.head >= kWarmRingBytes && m.tail >= need;
+        if (capacity - m.head >= need && !early_wrap) {
             at = m.head;
         } else if (m.tail >= need) {  // wrap: the end of the ring stays unused
             wasted = capacity - m.head;
@@ -168,13 +195,18 @@ void Recorder::offer(const net::ReceivedDatagram& d) {
         wrap.size = kWrap;
         std::memcpy(m.ring.data() + m.head, &wrap, std::min(wasted, sizeof wrap));
     }
-    RecordHeader h{static_cast<std::uint32_t>(d.size), d.src_ip, d.src_port, d.local_port, 0,
+    RecordHeader h{static_cast<std::uint32_t>(d.size),
+                   d.src_ip,
+                   d.src_port,
+                   d.local_port,
+                   0,
                    d.receive_time_ns};
     std::memcpy(m.ring.data() + at, &h, sizeof h);
     std::memcpy(m.ring.data() + at + sizeof h, d.data, d.size);
     m.head = at + need;
+    const std::size_t before = m.used;
     m.used += need + wasted;
-    m.wake.notify_one();
+    if (before < capacity / 8 && m.used >= capacity / 8) m.wake.notify_one();
 }
 
 void Recorder::stop() {
@@ -196,7 +228,8 @@ std::string RecorderStats::problem() const {
     if (!enabled) return "";
     if (!recording) return "recording stopped: " + stopped_because;
     std::string text;
-    if (files_removed > 0) text = std::to_string(files_removed) + " recording files removed for free disk space";
+    if (files_removed > 0)
+        text = std::to_string(files_removed) + " recording files removed for free disk space";
     if (queue_drops > 0) {
         text += (text.empty() ? "" : "; ") + std::to_string(queue_drops) +
                 " datagrams not recorded (the disk did not keep up)";
@@ -204,37 +237,45 @@ std::string RecorderStats::problem() const {
     return text;
 }
 
+// Writes everything queued in one pass (no lock while writing), wakes when the ring is an
+// eighth full, every kDrainPeriod, or to stop: a wake-up per datagram would cost more than
+// writing it.
 void Recorder::Impl::run() {
     auto next_check = std::chrono::steady_clock::now();
     for (;;) {
-        RecordHeader h{};
-        const std::uint8_t* payload = nullptr;
-        std::size_t need = 0;
+        std::size_t pos = 0, available = 0;
         {
             std::unique_lock<std::mutex> lock(mutex);
-            wake.wait_until(lock, next_check, [this] { return used > 0 || stopping; });
-            while (used > 0) {
-                if (tail + sizeof(RecordHeader) > ring.size()) {  // only padding left at the end
-                    used -= ring.size() - tail;
-                    tail = 0;
-                    continue;
-                }
-                std::memcpy(&h, ring.data() + tail, sizeof h);
-                if (h.size != kWrap) break;
-                used -= ring.size() - tail;
-                tail = 0;
-            }
+            wake.wait_for(lock, kDrainPeriod,
+                          [this] { return used >= ring.size() / 8 || stopping; });
             if (used == 0 && stopping) break;
-            if (used > 0) {
-                payload = ring.data() + tail + sizeof h;
-                need = record_bytes(h.size);
-            }
+            pos = tail;
+            available = used;
         }
-        if (payload) {
-            if (!failed) write_record(h, payload);
+        std::size_t consumed = 0;
+        std::uint64_t datagrams = 0, bytes = 0;
+        while (consumed < available) {
+            RecordHeader h{};
+            if (pos + sizeof h <= ring.size()) std::memcpy(&h, ring.data() + pos, sizeof h);
+            if (pos + sizeof h > ring.size() ||
+                h.size == kWrap) {  // the rest of the ring is unused
+                consumed += ring.size() - pos;
+                pos = 0;
+                continue;
+            }
+            if (!failed && write_record(h, ring.data() + pos + sizeof h)) {
+                ++datagrams;
+                bytes += h.size;
+            }
+            pos += record_bytes(h.size);
+            consumed += record_bytes(h.size);
+        }
+        {
             std::lock_guard<std::mutex> lock(mutex);
-            tail += need;
-            used -= need;
+            tail = pos;
+            used -= consumed;
+            stats.datagrams += datagrams;
+            stats.bytes += bytes;
         }
         if (std::chrono::steady_clock::now() >= next_check) {
             next_check = std::chrono::steady_clock::now() + kCheckPeriod;
@@ -245,20 +286,25 @@ void Recorder::Impl::run() {
     close_file();
 }
 
-void Recorder::Impl::write_record(const RecordHeader& h, const std::uint8_t* payload) {
+bool Recorder::Impl::write_record(const RecordHeader& h, const std::uint8_t* payload) {
     const double age_s = static_cast<double>(h.receive_time_ns - file_first_ns) * 1e-9;
     if (dumper && (static_cast<double>(file_bytes) >= config.max_file_mb * kBytesPerMb ||
                    age_s >= config.max_file_s)) {
         close_file();
         check_free_space();
-        if (failed) return;
+        if (failed) return false;
     }
     if (!dumper) {
         open_file(h.receive_time_ns);
-        if (failed) return;
+        if (failed) return false;
     }
-    pcap::build_udp_frames({h.src_ip, h.src_port, dst_ip, h.dst_port}, ip_id++, payload, h.size,
-                           0, &frames);
+    try {
+        pcap::build_udp_frames({h.src_ip, h.src_port, dst_ip, h.dst_port}, ip_id++, payload, h.size,
+                               0, &frames, /*udp_checksum=*/false);
+    } catch (const std::exception& error) {  // larger than IPv4 allows: not from a socket
+        stop_recording(error.what());
+        return false;
+    }
     const auto& frame = frames.front();
     pcap_pkthdr header{};
     header.ts.tv_sec = static_cast<time_t>(h.receive_time_ns / 1'000'000'000);
@@ -273,22 +319,26 @@ void Recorder::Impl::write_record(const RecordHeader& h, const std::uint8_t* pay
             ++stats.write_errors;
         }
         stop_recording("cannot write " + file.string() + ": " + why);
-        return;
+        return false;
     }
     file_bytes += sizeof header + frame.size();
-    std::lock_guard<std::mutex> lock(mutex);
-    ++stats.datagrams;
-    stats.bytes += h.size;
+    return true;
 }
 
 void Recorder::Impl::open_file(std::int64_t first_ns) {
     char sequence[16];
     std::snprintf(sequence, sizeof sequence, "%05zu", next_sequence++);
     file = folder / (std::string(sequence) + "-" + utc_stamp(first_ns) + ".pcap");
-    pcap = pcap_open_dead_with_tstamp_precision(DLT_EN10MB, kSnapLength, PCAP_TSTAMP_PRECISION_NANO);
-    dumper = pcap ? pcap_dump_open(pcap, file.c_str()) : nullptr;
+    pcap =
+        pcap_open_dead_with_tstamp_precision(DLT_EN10MB, kSnapLength, PCAP_TSTAMP_PRECISION_NANO);
+    std::FILE* stream = pcap ? std::fopen(file.c_str(), "wb") : nullptr;
+    if (stream) std::setvbuf(stream, nullptr, _IOFBF, kFileBufferBytes);
+    dumper = stream ? pcap_dump_fopen(pcap, stream) : nullptr;
     if (!dumper) {
-        const std::string why = pcap ? pcap_geterr(pcap) : "libpcap: out of memory";
+        const std::string why = !pcap     ? "libpcap: out of memory"
+                                : !stream ? std::strerror(errno)
+                                          : pcap_geterr(pcap);
+        if (stream) std::fclose(stream);
         if (pcap) pcap_close(pcap);
         pcap = nullptr;
         {
@@ -327,14 +377,16 @@ void Recorder::Impl::check_free_space() {
         if (config.when_disk_low == LowDiskPolicy::kStop || closed == 0) {
             stop_recording("free disk space below output.record.min_free_mb (" +
                            std::to_string(static_cast<long long>(config.min_free_mb)) + " MB)" +
-                           (config.when_disk_low == LowDiskPolicy::kStop ? ""
-                                                                          : " with no older file left to remove"));
+                           (config.when_disk_low == LowDiskPolicy::kStop
+                                ? ""
+                                : " with no older file left to remove"));
             return;
         }
         std::error_code error;
         fs::remove(files.front(), error);
         if (error) {
-            stop_recording("cannot remove " + files.front().string() + " for free space: " + error.message());
+            stop_recording("cannot remove " + files.front().string() +
+                           " for free space: " + error.message());
             return;
         }
         log->warn("recording: free disk space below {} MB: removed {}", config.min_free_mb,

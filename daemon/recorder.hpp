@@ -31,11 +31,11 @@ namespace lidarfuse::daemon {
 
 struct RecorderStats {
     bool enabled = false;
-    bool recording = false;       // false once stopped (low disk, write error) or never begun
-    std::string stopped_because;  // why recording stopped, when it did
-    std::uint64_t datagrams = 0;  // written
-    std::uint64_t bytes = 0;      // payload bytes written
-    std::uint64_t files = 0;      // begun
+    bool recording = false;           // false once stopped (low disk, write error) or never begun
+    std::string stopped_because;      // why recording stopped, when it did
+    std::uint64_t datagrams = 0;      // written
+    std::uint64_t bytes = 0;          // payload bytes written
+    std::uint64_t files = 0;          // begun
     std::uint64_t files_removed = 0;  // for free space (LowDiskPolicy::kRemoveOldest)
     std::uint64_t queue_drops = 0;    // the ring was full
     std::uint64_t write_errors = 0;
@@ -53,8 +53,8 @@ public:
     // Creates the recording's folder and its snapshot (throws naming the path when it
     // cannot) and starts the writer thread. `dst_ip` (host order) is the address written as
     // every datagram's destination (the bound address; 0 for a wildcard bind).
-    Recorder(const RecordConfig& config, const station::StationConfig& station, std::uint32_t dst_ip,
-             std::shared_ptr<spdlog::logger> log, FreeSpace free_space = {});
+    Recorder(const RecordConfig& config, const station::StationConfig& station,
+             std::uint32_t dst_ip, std::shared_ptr<spdlog::logger> log, FreeSpace free_space = {});
     ~Recorder();  // stop()
     Recorder(const Recorder&) = delete;
     Recorder& operator=(const Recorder&) = delete;

@@ -40,8 +40,9 @@ double process_cpu_ms() {
 }
 
 const char* kUsage =
-    "usage: lidarfuse fuse CAPTURE.pcap|RECORDING --config station.yaml --out DIR [--voxel-size M]\n"
-    "                      [--window K] [--threads N] [--save-cloud FRAME ...] [--max-frames N]\n"
+    "usage: lidarfuse fuse CAPTURE.pcap|RECORDING --config station.yaml --out DIR\n"
+    "                      [--voxel-size M] [--window K] [--threads N] [--save-cloud FRAME ...]\n"
+    "                      [--max-frames N]\n"
     "                      [--no-deskew] [--no-dynamic] [--reference-voxel M]\n"
     "                      [--reference-target-voxel M] [--sensor-grid] [--world road|sensor|geo]\n"
     "                      [--quiet]\n"
@@ -71,7 +72,8 @@ int run_fuse(int argc, char** argv) {
         std::printf("%s", kUsage);
         return 0;
     }
-    if (args.positionals().size() != 1) throw UsageError("expected one CAPTURE.pcap or RECORDING folder\n" + std::string(kUsage));
+    if (args.positionals().size() != 1)
+        throw UsageError("expected one CAPTURE.pcap or RECORDING folder\n" + std::string(kUsage));
     const auto station = station::load_station_config(args.required("--config"));
     const std::filesystem::path out_dir = args.required("--out");
     std::filesystem::create_directories(out_dir);

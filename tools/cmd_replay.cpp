@@ -1,5 +1,6 @@
-// `lidarfuse replay CAPTURE.pcap|RECORDING [--to HOST] [--port-map ORIG:NEW ...] [--rate R | --max-rate]
-//  [--loop [--passes N]] [--duration S]`: sends every UDP datagram of a capture to HOST.
+// `lidarfuse replay CAPTURE.pcap|RECORDING [--to HOST] [--port-map ORIG:NEW ...]
+//  [--rate R | --max-rate] [--loop [--passes N]] [--duration S]`: sends every UDP datagram of
+//  a capture (or of a recording folder's files, in order) to HOST.
 #include <signal.h>
 
 #include <atomic>
@@ -56,7 +57,8 @@ int run_replay(int argc, char** argv) {
         return 0;
     }
     if (args.positionals().size() != 1) {
-        throw UsageError("expects exactly one capture file or recording folder (see lidarfuse replay --help)");
+        throw UsageError(
+            "expects exactly one capture file or recording folder (see lidarfuse replay --help)");
     }
     const auto files = pcap::capture_files(args.positionals()[0]);
     pcap::ReplayParams params;

@@ -86,11 +86,14 @@ void StationCapture::run(const std::function<bool(const CaptureScan&)>& on_scan)
         }
         while (keep_going && reader_->next(&datagram)) {
             capture_time_ns = datagram.timestamp_ns;
-            const int routed = router_->route(datagram.src_ip, datagram.dst_port, datagram.data, datagram.size);
+            const int routed =
+                router_->route(datagram.src_ip, datagram.dst_port, datagram.data, datagram.size);
             if (routed < 0) continue;
-            sensors_[static_cast<std::size_t>(routed)]->assembler->add_packet(datagram.data, datagram.size);
+            sensors_[static_cast<std::size_t>(routed)]->assembler->add_packet(datagram.data,
+                                                                              datagram.size);
         }
-        if (!reader_->warning().empty()) warning_ = files_[file].string() + ": " + reader_->warning();
+        if (!reader_->warning().empty())
+            warning_ = files_[file].string() + ": " + reader_->warning();
     }
     stats_ += reader_->stats();
     reader_.reset();

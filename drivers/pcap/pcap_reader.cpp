@@ -169,10 +169,13 @@ std::vector<std::filesystem::path> capture_files(const std::filesystem::path& pa
     }
     std::vector<std::filesystem::path> files;
     for (const auto& entry : std::filesystem::directory_iterator(path, error)) {
-        if (entry.is_regular_file() && entry.path().extension() == ".pcap") files.push_back(entry.path());
+        if (entry.is_regular_file() && entry.path().extension() == ".pcap")
+            files.push_back(entry.path());
     }
-    if (error) throw std::runtime_error(path.string() + ": cannot list the folder: " + error.message());
-    if (files.empty()) throw std::runtime_error(path.string() + ": a folder without any .pcap file");
+    if (error)
+        throw std::runtime_error(path.string() + ": cannot list the folder: " + error.message());
+    if (files.empty())
+        throw std::runtime_error(path.string() + ": a folder without any .pcap file");
     std::sort(files.begin(), files.end());
     return files;
 }

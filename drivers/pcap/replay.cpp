@@ -64,14 +64,14 @@ private:
     std::vector<std::unique_ptr<net::UdpSender>> senders_;
 };
 
-
 }  // namespace
 
 ReplaySummary replay_capture(const std::filesystem::path& file, const ReplayParams& params) {
     return replay_capture(std::vector<std::filesystem::path>{file}, params);
 }
 
-ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files, const ReplayParams& params) {
+ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files,
+                             const ReplayParams& params) {
     const std::string name = files.empty() ? std::string("no file") : files.front().string();
     if (!params.max_rate && !(params.rate > 0.0 && std::isfinite(params.rate))) {
         throw std::invalid_argument("replay of " + name + ": rate must be > 0");
@@ -126,7 +126,8 @@ ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files, co
                 }
             }
             summary.reader_stats += reader.stats();
-            if (!reader.warning().empty()) summary.warning = file.string() + ": " + reader.warning();
+            if (!reader.warning().empty())
+                summary.warning = file.string() + ": " + reader.warning();
             bytes_before += reader.stats().bytes_read;
             if (summary.stopped) break;
         }

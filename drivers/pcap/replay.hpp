@@ -65,6 +65,7 @@ ReplaySummary replay_capture(const std::filesystem::path& file, const ReplayPara
 // Replays several files as one capture (a recording cut into files): one pass runs through
 // them in order, on one time line (each datagram at its capture time after the pass's first).
 // ReplaySummary::reader_stats add up the last pass's files; warning names its file.
-ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files, const ReplayParams& params);
+ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files,
+                             const ReplayParams& params);
 
 }  // namespace lidarfuse::pcap

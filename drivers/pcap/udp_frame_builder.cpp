@@ -51,7 +51,7 @@ std::uint16_t internet_checksum_finish(std::uint32_t sum) {
 
 void build_udp_frames(const UdpEndpoints& ep, std::uint16_t ip_id, const std::uint8_t* data,
                       std::size_t size, std::size_t mtu_bytes,
-                      std::vector<std::vector<std::uint8_t>>* frames) {
+                      std::vector<std::vector<std::uint8_t>>* frames, bool udp_checksum) {
     if (size > kMaxUdpPayloadBytes) {
         throw std::invalid_argument("UDP payload of " + std::to_string(size) +
                                     " bytes exceeds the IPv4 limit of 65507");
@@ -74,12 +74,14 @@ void build_udp_frames(const UdpEndpoints& ep, std::uint16_t ip_id, const std::ui
     pseudo[8] = 0;
     pseudo[9] = kProtocolUdp;
     put16(pseudo + 10, static_cast<std::uint32_t>(ip_payload_bytes));
-    std::uint32_t sum = internet_checksum_add(0, pseudo, sizeof pseudo);
-    sum = internet_checksum_add(sum, udp_header, sizeof udp_header);
-    sum = internet_checksum_add(sum, data, size);  // data starts at an even offset
-    std::uint16_t udp_checksum = internet_checksum_finish(sum);
-    if (udp_checksum == 0) udp_checksum = 0xFFFF;  // 0 means "no checksum" in UDP/IPv4
-    put16(udp_header + 6, udp_checksum);
+    if (udp_checksum) {
+        std::uint32_t sum = internet_checksum_add(0, pseudo, sizeof pseudo);
+        sum = internet_checksum_add(sum, udp_header, sizeof udp_header);
+        sum = internet_checksum_add(sum, data, size);  // data starts at an even offset
+        std::uint16_t checksum = internet_checksum_finish(sum);
+        if (checksum == 0) checksum = 0xFFFF;  // 0 means "no checksum" in UDP/IPv4
+        put16(udp_header + 6, checksum);
+    }
 
     const std::size_t per_fragment =
         mtu_bytes == 0 ? ip_payload_bytes : ((mtu_bytes - kIpv4HeaderBytes) / 8) * 8;

@@ -24,11 +24,12 @@ constexpr std::size_t kEthernetMtuBytes = 1500;
 
 // Replaces `frames` with the Ethernet frames of one datagram (inner vectors keep their
 // capacity across calls). `mtu_bytes` = 0 writes one frame whatever its size (like a
-// loopback capture). Throws std::invalid_argument when `size` exceeds kMaxUdpPayloadBytes
-// or the MTU is below 68 bytes (RFC 791 minimum).
+// loopback capture). `udp_checksum` false writes 0, IPv4's "no checksum" (a recorder that
+// writes 64 MB/s does not sum every byte). Throws std::invalid_argument when `size` exceeds
+// kMaxUdpPayloadBytes or the MTU is below 68 bytes (RFC 791 minimum).
 void build_udp_frames(const UdpEndpoints& endpoints, std::uint16_t ip_id, const std::uint8_t* data,
                       std::size_t size, std::size_t mtu_bytes,
-                      std::vector<std::vector<std::uint8_t>>* frames);
+                      std::vector<std::vector<std::uint8_t>>* frames, bool udp_checksum = true);
 
 // RFC 1071 ones' complement sum folded to 16 bits (not yet inverted), big-endian words.
 std::uint32_t internet_checksum_add(std::uint32_t sum, const std::uint8_t* data, std::size_t size);

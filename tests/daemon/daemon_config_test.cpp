@@ -33,7 +33,8 @@ TEST_F(DaemonConfigTest, DefaultsWhenSectionsAreAbsent) {
 TEST_F(DaemonConfigTest, RecordIsOffByDefaultAndEveryKeyIsReadAndChecked) {
     const auto off = parse_daemon_config(sensors_, "s.yaml", dir_.path());
     EXPECT_FALSE(off.output.record.enabled);
-    EXPECT_TRUE(off.output.record.directory.empty());  // <output.directory>/recordings, after --output
+    EXPECT_TRUE(
+        off.output.record.directory.empty());  // <output.directory>/recordings, after --output
     const auto c = parse_daemon_config(sensors_ + R"(
 output:
   record: {enabled: true, directory: rec, max_file_mb: 64, max_file_s: 60, min_free_mb: 500,
@@ -48,11 +49,15 @@ output:
     EXPECT_EQ(c.output.record.when_disk_low, LowDiskPolicy::kStop);
     EXPECT_DOUBLE_EQ(c.output.record.queue_mb, 32.0);
     try {
-        parse_daemon_config(sensors_ + "output:\n  record: {when_disk_low: pause, max_file_mb: 0, size: 3}\n",
-                            "s.yaml", dir_.path());
+        parse_daemon_config(
+            sensors_ + "output:\n  record: {when_disk_low: pause, max_file_mb: 0, size: 3}\n",
+            "s.yaml", dir_.path());
         FAIL() << "no error";
     } catch (const station::ConfigError& error) {
-        EXPECT_THAT(error.what(), HasSubstr("output.record.when_disk_low: expected remove_oldest or stop, got \"pause\""));
+        EXPECT_THAT(
+            error.what(),
+            HasSubstr(
+                "output.record.when_disk_low: expected remove_oldest or stop, got \"pause\""));
         EXPECT_THAT(error.what(), HasSubstr("output.record.max_file_mb"));
         EXPECT_THAT(error.what(), HasSubstr("size"));
     }

@@ -2,7 +2,8 @@
 // recording folder (pcap files, station.yaml, metadata) replayed by `lidarfuse replay` into a
 // second lidarfused, which fuses the same poses (a second after the initial registration,
 // within the spread of two runs of the daemon) and as accurately; `lidarfuse fuse` on the
-// recording folder gives exactly the poses it gives on the capture that was sent. The Recorder's own cases (rotation, low disk, drops): recorder_test.
+// recording folder gives exactly the poses it gives on the capture that was sent. The Recorder's
+// own cases (rotation, low disk, drops): recorder_test.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -26,7 +27,8 @@ void write_config(const fs::path& file, std::uint16_t p0, int domain, const fs::
                   const std::string& record) {
     std::ofstream(file) << "station: rec\nsensors:\n"
                         << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"
-                        << "  - {name: lidar1, udp_port: " << p0 + 2 << ", metadata: lidar1.json}\n"
+                        << "  - {name: lidar1, udp_port: " << p0 + 2
+                        << ", metadata: lidar1.json}\n"
                         // The root frame: poses from the first frame on, whatever the time the
                         // initial registration takes on a loaded machine.
                         << "network: {bind_address: 127.0.0.1}\nworld: {frame: sensor}\noutput:\n"
@@ -53,7 +55,8 @@ TEST(LidarfusedRecord, ARecordedLiveRunReplayedIntoASecondDaemonGivesTheSamePose
         FedRun run;
         ASSERT_NO_FATAL_FAILURE(run_fed_daemon(
             d / "meta" / "live.yaml", d / "live.log",
-            test::tool_path() + " sim --scenario curve --sensors 2 --seconds 6 --live --to 127.0.0.1:" +
+            test::tool_path() +
+                " sim --scenario curve --sensors 2 --seconds 6 --live --to 127.0.0.1:" +
                 std::to_string(p0) + " --out " + (d / "live").string(),
             12000, &readers, &seen, &run));
         const std::string log = read_text(d / "live.log");
@@ -66,7 +69,9 @@ TEST(LidarfusedRecord, ARecordedLiveRunReplayedIntoASecondDaemonGivesTheSamePose
         EXPECT_EQ(seen.last_pipeline["record_write_errors"], "0");
         EXPECT_GE(std::stoul(seen.last_pipeline["record_files"]), 2u) << "8 MB files: 6 s is 39 MB";
         // ... and that is every datagram the simulator sent.
-        EXPECT_THAT(run.feed_output, HasSubstr("sim_live_sent " + seen.last_pipeline["record_datagrams"] + " datagrams"));
+        EXPECT_THAT(
+            run.feed_output,
+            HasSubstr("sim_live_sent " + seen.last_pipeline["record_datagrams"] + " datagrams"));
     }
     std::vector<fs::path> recordings;
     for (const auto& e : fs::directory_iterator(d / "rec")) recordings.push_back(e.path());
@@ -82,9 +87,10 @@ TEST(LidarfusedRecord, ARecordedLiveRunReplayedIntoASecondDaemonGivesTheSamePose
         DaemonReaders readers(domain);
         DdsSeen seen;
         FedRun run;
-        ASSERT_NO_FATAL_FAILURE(run_fed_daemon(d / "meta" / "replay.yaml", d / "replay.log",
-                                               test::tool_path() + " replay --quiet " + folder.string(),
-                                               12000, &readers, &seen, &run));
+        ASSERT_NO_FATAL_FAILURE(
+            run_fed_daemon(d / "meta" / "replay.yaml", d / "replay.log",
+                           test::tool_path() + " replay --quiet " + folder.string(), 12000,
+                           &readers, &seen, &run));
         EXPECT_THAT(run.feed_output, HasSubstr("replay_send_errors 0 datagrams"));
     }
 
@@ -105,7 +111,8 @@ TEST(LidarfusedRecord, ARecordedLiveRunReplayedIntoASecondDaemonGivesTheSamePose
     const std::int64_t registered =
         std::max(first_of(live, "lidar1"), first_of(replayed, "lidar1"));
     if (registered == std::numeric_limits<std::int64_t>::max()) {
-        GTEST_SKIP() << "the initial registration outlasted a run (loaded machine): lidar1 never registered";
+        GTEST_SKIP()
+            << "the initial registration outlasted a run (loaded machine): lidar1 never registered";
     }
     std::map<std::pair<std::string, std::int64_t>, Eigen::Isometry3d> by_scan;
     for (const auto& p : live) by_scan[{p.sensor, p.t_ns}] = p.pose;
@@ -118,8 +125,8 @@ TEST(LidarfusedRecord, ARecordedLiveRunReplayedIntoASecondDaemonGivesTheSamePose
         settled_deg.push_back(Eigen::AngleAxisd(delta.linear()).angle() * 180.0 / M_PI);
     }
     if (settled_mm.size() < 10) {
-        GTEST_SKIP() << "the initial registration took most of a run (loaded machine): " << settled_mm.size()
-                     << " poses to compare";
+        GTEST_SKIP() << "the initial registration took most of a run (loaded machine): "
+                     << settled_mm.size() << " poses to compare";
     }
     const auto median = [](std::vector<double> v) {
         std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
@@ -134,8 +141,9 @@ TEST(LidarfusedRecord, ARecordedLiveRunReplayedIntoASecondDaemonGivesTheSamePose
     EXPECT_LE(worst_deg, 0.1);
     const auto strict_rmse_m = [&](const fs::path& poses) {
         std::string eval;
-        EXPECT_EQ(test::run_command(test::tool_path() + " eval --gt " + (d / "live" / "ground_truth.csv").string() +
-                                        " --poses " + poses.string() + " --root lidar0",
+        EXPECT_EQ(test::run_command(test::tool_path() + " eval --gt " +
+                                        (d / "live" / "ground_truth.csv").string() + " --poses " +
+                                        poses.string() + " --root lidar0",
                                     &eval),
                   0)
             << eval;
@@ -145,10 +153,11 @@ TEST(LidarfusedRecord, ARecordedLiveRunReplayedIntoASecondDaemonGivesTheSamePose
     const double rmse_replay = strict_rmse_m(d / "out-replay" / "poses.csv");
     EXPECT_LE(rmse_live, 0.015);
     EXPECT_LE(rmse_replay, 0.015);
-    std::printf("record/replay: %zu poses 1 s after registration: median %.3f mm / %.4f deg, worst "
-                "%.3f mm / %.4f deg; strict RMSE against the truth: live %.2f cm, replayed %.2f cm\n",
-                settled_mm.size(), median(settled_mm), median(settled_deg), worst_mm, worst_deg,
-                rmse_live * 100, rmse_replay * 100);
+    std::printf(
+        "record/replay: %zu poses 1 s after registration: median %.3f mm / %.4f deg, worst "
+        "%.3f mm / %.4f deg; strict RMSE against the truth: live %.2f cm, replayed %.2f cm\n",
+        settled_mm.size(), median(settled_mm), median(settled_deg), worst_mm, worst_deg,
+        rmse_live * 100, rmse_replay * 100);
 }
 
 // Re-processing a campaign: `lidarfuse fuse` on the recording folder gives exactly the
@@ -161,18 +170,20 @@ TEST(LidarfusedRecord, FuseOnTheRecordingFolderEqualsFuseOnTheCaptureSent) {
     ASSERT_NO_FATAL_FAILURE(simulate_two_sensors(d / "sim", 2.0));
     const auto p0 = static_cast<std::uint16_t>(38000 + (::getpid() % 4000) * 4);
     const int domain = test::unique_domain_id();
-    write_config(d / "sim" / "daemon.yaml", p0, domain, d / "out",
-                 "  record: {enabled: true, directory: " + (d / "rec").string() + ", max_file_mb: 4}\n");
+    write_config(
+        d / "sim" / "daemon.yaml", p0, domain, d / "out",
+        "  record: {enabled: true, directory: " + (d / "rec").string() + ", max_file_mb: 4}\n");
     DaemonReaders readers(domain);
     DdsSeen seen;
     FedRun run;
     ASSERT_NO_FATAL_FAILURE(run_fed_daemon(
         d / "sim" / "daemon.yaml", d / "daemon.log",
-        test::tool_path() + " replay --quiet " + (d / "sim" / "capture.pcap").string() + " --port-map 7502:" +
-            std::to_string(p0) + " --port-map 7504:" + std::to_string(p0 + 2),
+        test::tool_path() + " replay --quiet " + (d / "sim" / "capture.pcap").string() +
+            " --port-map 7502:" + std::to_string(p0) + " --port-map 7504:" + std::to_string(p0 + 2),
         12000, &readers, &seen, &run));
-    EXPECT_EQ(std::stoul(seen.last_pipeline["record_datagrams"]),
-              std::stoul(test::line_after(run.feed_output, "replay_datagrams_sent ").value_or("0")));
+    EXPECT_EQ(
+        std::stoul(seen.last_pipeline["record_datagrams"]),
+        std::stoul(test::line_after(run.feed_output, "replay_datagrams_sent ").value_or("0")));
     std::vector<fs::path> recordings;
     for (const auto& e : fs::directory_iterator(d / "rec")) recordings.push_back(e.path());
     ASSERT_EQ(recordings.size(), 1u);
@@ -180,23 +191,26 @@ TEST(LidarfusedRecord, FuseOnTheRecordingFolderEqualsFuseOnTheCaptureSent) {
     EXPECT_GE(files.size(), 2u) << "4 MB files: 2 s of 2 sensors is 13 MB";
 
     // The recording's ports are the daemon's: a config that says so.
-    std::ofstream(d / "sim" / "recorded.yaml") << "station: rec\nsensors:\n"
-                                               << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"
-                                               << "  - {name: lidar1, udp_port: " << p0 + 2
-                                               << ", metadata: lidar1.json}\nworld: {frame: sensor}\n";
-    std::ofstream(d / "sim" / "sent.yaml") << "station: rec\nsensors:\n"
-                                           << "  - {name: lidar0, udp_port: 7502, metadata: lidar0.json}\n"
-                                           << "  - {name: lidar1, udp_port: 7504, metadata: lidar1.json}\n"
-                                           << "world: {frame: sensor}\n";
+    std::ofstream(d / "sim" / "recorded.yaml")
+        << "station: rec\nsensors:\n"
+        << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"
+        << "  - {name: lidar1, udp_port: " << p0 + 2
+        << ", metadata: lidar1.json}\nworld: {frame: sensor}\n";
+    std::ofstream(d / "sim" / "sent.yaml")
+        << "station: rec\nsensors:\n"
+        << "  - {name: lidar0, udp_port: 7502, metadata: lidar0.json}\n"
+        << "  - {name: lidar1, udp_port: 7504, metadata: lidar1.json}\n"
+        << "world: {frame: sensor}\n";
     std::string out;
     for (const auto& [capture, config, out_dir] :
          {std::tuple{d / "sim" / "capture.pcap", d / "sim" / "sent.yaml", d / "fuse-sent"},
           std::tuple{recordings[0], d / "sim" / "recorded.yaml", d / "fuse-recorded"}}) {
         out.clear();
-        ASSERT_EQ(test::run_command(test::tool_path() + " fuse --quiet " + capture.string() + " --config " +
-                                        config.string() + " --out " + out_dir.string(),
-                                    &out),
-                  0)
+        ASSERT_EQ(
+            test::run_command(test::tool_path() + " fuse --quiet " + capture.string() +
+                                  " --config " + config.string() + " --out " + out_dir.string(),
+                              &out),
+            0)
             << out;
     }
     const std::string sent = test::file_text(d / "fuse-sent" / "poses.csv");
