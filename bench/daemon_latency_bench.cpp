@@ -5,13 +5,14 @@
 //     last-completed scan) to its fused cloud arriving at the DDS reader: median and p99
 //   CPU and minor page faults per stage over the replay (% of one core and faults/s, from
 //     /proc/<pid>/task: lf-recv-*, lf-sync, lf-fusion (with the threads it starts: initial
-//     registration, OpenMP), lf-output, Cyclone's threads, the rest), and the peak RSS
+//     registration, OpenMP), lf-output, lf-record, Cyclone's threads, the rest), and the peak RSS
 //   packets sent, received (diagnostics), lost; frames in the capture, fused, published
 // and at the end the largest N with zero packet loss and the largest N that also fused at
 // least 95 % of the capture's frames (real time).
 //
 // Usage: daemon_latency_bench [--sensors 2,4,6,8] [--seconds 5] [--scenario curve]
-//                             [--queue-depth 4]   (sync.queue_depth of the daemon)
+//                             [--queue-depth 1]   (sync.queue_depth of the daemon; 1 its default)
+//                             [--record 1]        (output.record on: the recorder's CPU and drops)
 //                             [--keep 1]          (leave the folder: daemon logs, outputs)
 // Needs the built `lidarfuse` (sim) and `lidarfused` beside it (build/tools, build/daemon).
 // The replay runs in this process (one thread); the machine's other load shares the cores.
@@ -227,6 +228,8 @@ std::map<std::string, StageUsage> usage_by_stage(pid_t pid) {
             stage = "fusion";
         else if (comm == "lf-output")
             stage = "output";
+        else if (comm == "lf-record")
+            stage = "record";
         else if (comm == "lidarfused")
             stage = "main";
         else
@@ -266,7 +269,7 @@ struct RunResult {
     double fused_share = 0.0;
 };
 
-RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
+RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool record) {
     RunResult result;
     const fs::path out_dir = sim / ("out" + std::to_string(n));
     std::ofstream config(sim / ("daemon" + std::to_string(n) + ".yaml"));
@@ -287,6 +290,9 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
     config << "network: {bind_address: 127.0.0.1}\nsync: {queue_depth: " << queue_depth
            << "}\noutput:\n  directory: " << out_dir.string() << "\n  dds: {domain_id: " << domain
            << ", frame_id: station, diagnostics_period_ms: 500}\n";
+    if (record)
+        config << "  record: {enabled: true, directory: "
+               << (sim / ("rec" + std::to_string(n))).string() << "}\n";
     config.close();
 
     const pid_t bench_pid = ::getpid();
@@ -359,7 +365,7 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
     std::printf("daemon_latency_median_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.5));
     std::printf("daemon_latency_p99_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.99));
     std::printf("daemon_latency_samples_%s %zu frames\n", tag.c_str(), latency_ms.size());
-    for (const char* stage : {"receive", "sync", "fusion", "output", "dds", "main"}) {
+    for (const char* stage : {"receive", "sync", "fusion", "output", "record", "dds", "main"}) {
         const StageUsage before = cpu0.count(stage) ? cpu0.at(stage) : StageUsage{};
         const StageUsage after = cpu1.count(stage) ? cpu1.at(stage) : before;
         std::printf("daemon_cpu_%s_%s %.1f %%\n", stage, tag.c_str(),
@@ -384,6 +390,12 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth) {
     std::printf("daemon_mean_fusion_%s %s ms\n", tag.c_str(), value("mean_fusion_ms").c_str());
     std::printf("daemon_dds_write_failures_%s %s writes\n", tag.c_str(),
                 value("dds_write_failures").c_str());
+    if (record) {
+        std::printf("daemon_record_datagrams_%s %s datagrams\n", tag.c_str(),
+                    value("record_datagrams").c_str());
+        std::printf("daemon_record_queue_drops_%s %s datagrams\n", tag.c_str(),
+                    value("record_queue_drops").c_str());
+    }
     std::fflush(stdout);
     result.ok = WIFEXITED(status) && WEXITSTATUS(status) == 0 && received_packets > 0;
     result.lost = lost + std::stoull(value("kernel_drops"));
@@ -398,7 +410,8 @@ int main(int argc, char** argv) {
     std::vector<int> counts = {2, 4, 6, 8};
     double seconds = 5.0;
     std::string scenario = "curve";
-    int queue_depth = 4;
+    int queue_depth = 1;  // the daemon's default
+    bool record = false;  // --record 1: output.record on (into the bench's folder)
     bool keep = false;  // --keep 1: leave the capture, configs, daemon logs and outputs
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string arg = argv[i];
@@ -413,6 +426,8 @@ int main(int argc, char** argv) {
             queue_depth = std::stoi(argv[i + 1]);
         } else if (arg == "--scenario") {
             scenario = argv[i + 1];
+        } else if (arg == "--record") {
+            record = argv[i + 1] == std::string("1");
         } else if (arg == "--keep") {
             keep = argv[i + 1] == std::string("1");
         }
@@ -436,7 +451,7 @@ int main(int argc, char** argv) {
     const int domain = 1 + static_cast<int>(::getpid() % 230);
     int max_zero_loss = 0, max_realtime = 0;
     for (int n : counts) {
-        const auto r = run(sim, n, domain, queue_depth);
+        const auto r = run(sim, n, domain, queue_depth, record);
         if (r.ok && r.lost == 0) max_zero_loss = std::max(max_zero_loss, n);
         if (r.ok && r.lost == 0 && r.fused_share >= 0.95) max_realtime = std::max(max_realtime, n);
     }
