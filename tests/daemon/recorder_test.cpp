@@ -15,6 +15,7 @@
 #include <condition_variable>
 #include <fstream>
 #include <mutex>
+#include <thread>
 
 #include "drivers/pcap/pcap_reader.hpp"
 #include "drivers/pcap/replay.hpp"
@@ -296,6 +297,48 @@ TEST(Recorder, TheRingWrapsAroundWithoutCorruptingOrReorderingAnything) {
                 << queue_mb << " MiB: a datagram written that was not offered, or out of order";
             ++k;
         }
+    }
+}
+
+// The daemon's receivers offer from one thread per port at once.
+TEST(Recorder, ReceiverThreadsOfferingAtOnceKeepEachPortsOrder) {
+    test::TempDir dir("rec");
+    auto c = config_in(dir.path());
+    c.queue_mb = 4;
+    constexpr std::size_t kPorts = 4, kEach = 1500;
+    fs::path folder;
+    daemon::RecorderStats st;
+    {
+        daemon::Recorder r(c, station_in(dir.path()), 0, quiet_logger());
+        folder = r.folder();
+        std::vector<std::thread> receivers;
+        for (std::size_t port = 0; port < kPorts; ++port) {
+            receivers.emplace_back([&r, port] {
+                for (std::size_t k = 0; k < kEach; ++k) {
+                    Sent s = datagram(k * kPorts + port, 200 + (k * 131) % 4000, 1000);
+                    s.port = static_cast<std::uint16_t>(7000 + port);
+                    offer(&r, s);
+                }
+            });
+        }
+        for (auto& t : receivers) t.join();
+        r.stop();
+        st = r.stats();
+    }
+    EXPECT_EQ(st.datagrams + st.queue_drops, kPorts * kEach);
+    std::vector<std::vector<std::uint8_t>> payloads;
+    const auto got = read_all(pcap::capture_files(folder), &payloads);
+    ASSERT_EQ(got.size(), st.datagrams);
+    std::vector<std::size_t> next(kPorts, 0);  // per port: the next k it may hold
+    for (std::size_t i = 0; i < got.size(); ++i) {
+        const std::size_t port = got[i].dst_port - 7000u;
+        ASSERT_LT(port, kPorts);
+        std::size_t k = next[port];
+        while (k < kEach &&
+               datagram(k * kPorts + port, 200 + (k * 131) % 4000, 1000).payload != payloads[i])
+            ++k;
+        ASSERT_LT(k, kEach) << "port " << port << ": not offered, or out of order";
+        next[port] = k + 1;
     }
 }
 
