@@ -126,7 +126,7 @@ void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path
     if (!n || !r.optional_map(n, "output")) return;
     r.only_keys(n, "output",
                 {"directory", "poses_csv", "extrinsics_yaml", "extrinsics_interval_frames",
-                 "record_clouds_every", "stamp", "dds", "record"});
+                 "record_clouds_every", "record_clouds_format", "stamp", "dds", "record"});
     if (auto d = r.string(n["directory"], "output.directory", false)) {
         const std::filesystem::path dir = *d;
         c->directory = dir.is_absolute() ? dir : (base / dir).lexically_normal();
@@ -137,6 +137,14 @@ void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path
            &c->extrinsics_interval_frames);
     set_if(r.integer(n["record_clouds_every"], "output.record_clouds_every", 0, 1000000, false),
            &c->record_clouds_every);
+    if (auto format = r.string(n["record_clouds_format"], "output.record_clouds_format", false)) {
+        if (*format == "ply" || *format == "pcd") {
+            c->record_clouds_format =
+                *format == "pcd" ? OutputConfig::CloudFormat::kPcd : OutputConfig::CloudFormat::kPly;
+        } else {
+            r.problems.push_back("output.record_clouds_format: expected ply or pcd, got \"" + *format + "\"");
+        }
+    }
     if (auto stamp = r.string(n["stamp"], "output.stamp", false)) {
         if (*stamp == "sensor" || *stamp == "host") {
             c->stamp = *stamp == "sensor" ? StampSource::kSensor : StampSource::kHost;

@@ -78,7 +78,8 @@ struct OutputConfig {
     bool poses_csv = true;          // DIRECTORY/poses.csv, appended per frame
     bool extrinsics_yaml = true;    // DIRECTORY/extrinsics.yaml, rewritten atomically
     int extrinsics_interval_frames = 20;
-    int record_clouds_every = 0;    // every Nth fused cloud as PLY; 0 = none
+    int record_clouds_every = 0;    // every Nth fused cloud as a file; 0 = none
+    enum class CloudFormat { kPly, kPcd } record_clouds_format = CloudFormat::kPly;
     StampSource stamp = StampSource::kSensor;  // clouds, tf, poses and diagnostics on DDS
     DdsConfig dds;
     RecordConfig record;

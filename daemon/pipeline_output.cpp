@@ -5,7 +5,7 @@
 #include <fstream>
 
 #include "daemon/pipeline_impl.hpp"
-#include "drivers/io/cloud_ply.hpp"
+#include "drivers/io/fused_cloud_file.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/pose_csv.hpp"
 
@@ -101,9 +101,14 @@ void Pipeline::Impl::output_loop() {
         if (frames_seen == 1 || frames_seen % out_cfg.extrinsics_interval_frames == 0) write_extrinsics();
         if (out_cfg.record_clouds_every > 0 && result->frame_index % out_cfg.record_clouds_every == 0) {
             try {
-                io::write_fused_cloud_ply(
-                    out_cfg.directory / ("fused_" + std::to_string(result->frame_index) + ".ply"),
-                    result->cloud);
+                const bool pcd = out_cfg.record_clouds_format == OutputConfig::CloudFormat::kPcd;
+                const auto file = out_cfg.directory / ("fused_" + std::to_string(result->frame_index) +
+                                                       (pcd ? ".pcd" : ".ply"));
+                if (pcd) {
+                    io::write_fused_cloud_pcd(file, result->cloud);
+                } else {
+                    io::write_fused_cloud_ply(file, result->cloud);
+                }
             } catch (const std::exception& error) {
                 output_log->error("{}", error.what());
             }

@@ -10,7 +10,7 @@
 #include "core/pipeline/fusion_engine.hpp"
 #include "core/world_frame.hpp"
 #include "drivers/capture/station_capture.hpp"
-#include "drivers/io/cloud_ply.hpp"
+#include "drivers/io/fused_cloud_file.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "drivers/ouster/projection.hpp"

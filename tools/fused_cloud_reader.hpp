@@ -1,6 +1,6 @@
 #pragma once
 // Reads back a fused cloud that `lidarfuse fuse --save-cloud` / lidarfused wrote
-// (drivers/io/cloud_ply.hpp: binary little-endian PLY, float x y z intensity, uchar sensor
+// (drivers/io/fused_cloud_file.hpp: binary little-endian PLY, float x y z intensity, uchar sensor
 // dynamic). Only that layout is accepted; anything else throws naming the file and the
 // header line that differs.
 

@@ -1,7 +1,9 @@
 #pragma once
-// A fused cloud as a binary little-endian PLY: per vertex float x, y, z (metres, root
-// frame), float intensity, uchar sensor (index in the station config), uchar dynamic
-// (1 = flagged by the background model). Written atomically (temporary file + rename).
+// A fused cloud as a file, every point 18 bytes little endian: float x, y, z (metres, the
+// fused frame), float intensity, uint8 sensor (index in the station config), uint8 dynamic
+// (1 = flagged by the background model). PLY (binary_little_endian, properties x y z
+// intensity sensor dynamic) or PCD (v0.7, DATA binary, FIELDS x y z intensity sensor_id
+// dynamic, as PCL and CloudCompare read it). Written atomically (temporary file + rename).
 
 #include <filesystem>
 
@@ -9,7 +11,8 @@
 
 namespace lidarfuse::io {
 
-// Throws std::runtime_error naming the file when it cannot be written.
+// Throw std::runtime_error naming the file when it cannot be written.
 void write_fused_cloud_ply(const std::filesystem::path& file, const core::FusedCloud& cloud);
+void write_fused_cloud_pcd(const std::filesystem::path& file, const core::FusedCloud& cloud);
 
 }  // namespace lidarfuse::io

@@ -37,11 +37,14 @@ TEST_F(DaemonConfigTest, RecordIsOffByDefaultAndEveryKeyIsReadAndChecked) {
         off.output.record.directory.empty());  // <output.directory>/recordings, after --output
     const auto c = parse_daemon_config(sensors_ + R"(
 output:
+  record_clouds_format: pcd
   record: {enabled: true, directory: rec, max_file_mb: 64, max_file_s: 60, min_free_mb: 500,
            when_disk_low: stop, queue_mb: 32}
 )",
                                        "s.yaml", dir_.path());
+    EXPECT_EQ(off.output.record_clouds_format, OutputConfig::CloudFormat::kPly);
     EXPECT_TRUE(c.output.record.enabled);
+    EXPECT_EQ(c.output.record_clouds_format, OutputConfig::CloudFormat::kPcd);
     EXPECT_EQ(c.output.record.directory, dir_.path() / "rec");
     EXPECT_DOUBLE_EQ(c.output.record.max_file_mb, 64.0);
     EXPECT_DOUBLE_EQ(c.output.record.max_file_s, 60.0);
@@ -50,7 +53,8 @@ output:
     EXPECT_DOUBLE_EQ(c.output.record.queue_mb, 32.0);
     try {
         parse_daemon_config(
-            sensors_ + "output:\n  record: {when_disk_low: pause, max_file_mb: 0, size: 3}\n",
+            sensors_ + "output:\n  record_clouds_format: las\n"
+                       "  record: {when_disk_low: pause, max_file_mb: 0, size: 3}\n",
             "s.yaml", dir_.path());
         FAIL() << "no error";
     } catch (const station::ConfigError& error) {
@@ -60,6 +64,8 @@ output:
                 "output.record.when_disk_low: expected remove_oldest or stop, got \"pause\""));
         EXPECT_THAT(error.what(), HasSubstr("output.record.max_file_mb"));
         EXPECT_THAT(error.what(), HasSubstr("size"));
+        EXPECT_THAT(error.what(),
+                    HasSubstr("output.record_clouds_format: expected ply or pcd, got \"las\""));
     }
 }
 

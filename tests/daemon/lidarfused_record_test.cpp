@@ -13,6 +13,7 @@
 #include <map>
 #include <tuple>
 
+#include "drivers/io/cloud_file.hpp"
 #include "drivers/pcap/pcap_reader.hpp"
 #include "tests/daemon/lidarfused_test_support.hpp"
 
@@ -172,7 +173,8 @@ TEST(LidarfusedRecord, FuseOnTheRecordingFolderEqualsFuseOnTheCaptureSent) {
     const int domain = test::unique_domain_id();
     write_config(
         d / "sim" / "daemon.yaml", p0, domain, d / "out",
-        "  record: {enabled: true, directory: " + (d / "rec").string() + ", max_file_mb: 4}\n");
+        "  record: {enabled: true, directory: " + (d / "rec").string() + ", max_file_mb: 4}\n" +
+            "  record_clouds_every: 10\n  record_clouds_format: pcd\n");
     DaemonReaders readers(domain);
     DdsSeen seen;
     FedRun run;
@@ -189,6 +191,15 @@ TEST(LidarfusedRecord, FuseOnTheRecordingFolderEqualsFuseOnTheCaptureSent) {
     ASSERT_EQ(recordings.size(), 1u);
     const auto files = pcap::capture_files(recordings[0]);
     EXPECT_GE(files.size(), 2u) << "4 MB files: 2 s of 2 sensors is 13 MB";
+    // Every 10th fused cloud as PCD, both sensors' points in it.
+    std::size_t clouds = 0;
+    for (const auto& e : fs::directory_iterator(d / "out")) {
+        if (e.path().extension() != ".pcd") continue;
+        ++clouds;
+        EXPECT_GT(io::read_pcd(e.path()).cloud.points.size(), 1000u) << e.path();
+        EXPECT_THAT(test::file_text(e.path()), HasSubstr("FIELDS x y z intensity sensor_id dynamic"));
+    }
+    EXPECT_GE(clouds, 2u);
 
     // The recording's ports are the daemon's: a config that says so.
     std::ofstream(d / "sim" / "recorded.yaml")

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <fstream>
 
-#include "drivers/io/cloud_ply.hpp"
+#include "drivers/io/fused_cloud_file.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "tests/support/test_data.hpp"
 
