@@ -92,8 +92,7 @@ void StationCapture::run(const std::function<bool(const CaptureScan&)>& on_scan)
             sensors_[static_cast<std::size_t>(routed)]->assembler->add_packet(datagram.data,
                                                                               datagram.size);
         }
-        if (!reader_->warning().empty())
-            warning_ = files_[file].string() + ": " + reader_->warning();
+        if (!reader_->warning().empty()) warning_ = reader_->warning();  // names the file
     }
     stats_ += reader_->stats();
     reader_.reset();

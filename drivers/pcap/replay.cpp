@@ -126,8 +126,7 @@ ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files,
                 }
             }
             summary.reader_stats += reader.stats();
-            if (!reader.warning().empty())
-                summary.warning = file.string() + ": " + reader.warning();
+            if (!reader.warning().empty()) summary.warning = reader.warning();  // names the file
             bytes_before += reader.stats().bytes_read;
             if (summary.stopped) break;
         }

@@ -227,6 +227,20 @@ TEST(LidarfusedRecord, FuseOnTheRecordingFolderEqualsFuseOnTheCaptureSent) {
     const std::string sent = test::file_text(d / "fuse-sent" / "poses.csv");
     EXPECT_GT(std::count(sent.begin(), sent.end(), '\n'), 40);
     EXPECT_EQ(test::file_text(d / "fuse-recorded" / "poses.csv"), sent);
+
+    // A recording cut off mid-file (the station lost power): read up to the cut, said so.
+    fs::resize_file(files.back(), fs::file_size(files.back()) - 5000);
+    out.clear();
+    ASSERT_EQ(test::run_command(test::tool_path() + " fuse --quiet " + recordings[0].string() +
+                                    " --config " + (d / "sim" / "recorded.yaml").string() +
+                                    " --out " + (d / "fuse-cut").string(),
+                                &out),
+              0)
+        << out;
+    EXPECT_THAT(
+        out, HasSubstr("warning: capture " + files.back().string() + " is cut off after record"));
+    const std::string cut = test::file_text(d / "fuse-cut" / "poses.csv");
+    EXPECT_GT(std::count(cut.begin(), cut.end(), '\n'), 40);
 }
 
 }  // namespace

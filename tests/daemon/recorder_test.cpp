@@ -10,9 +10,11 @@
 #include <gtest/gtest.h>
 #include <spdlog/sinks/null_sink.h>
 #include <spdlog/spdlog.h>
+#include <sys/resource.h>
 
 #include <atomic>
 #include <condition_variable>
+#include <csignal>
 #include <fstream>
 #include <mutex>
 #include <thread>
@@ -340,6 +342,50 @@ TEST(Recorder, ReceiverThreadsOfferingAtOnceKeepEachPortsOrder) {
         ASSERT_LT(k, kEach) << "port " << port << ": not offered, or out of order";
         next[port] = k + 1;
     }
+}
+
+// A disk that fills up while recording: the file-size limit makes the writes fail as a
+// full disk does (EFBIG instead of ENOSPC). The recording stops with the file named, what
+// was written before stays readable, and nothing else stops.
+TEST(Recorder, AWriteThatFailsStopsTheRecordingAndSaysWhy) {
+    test::TempDir dir("rec");
+    auto c = config_in(dir.path());
+    rlimit before{};
+    ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &before), 0);
+    const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);  // the write fails instead
+    rlimit small = before;
+    small.rlim_cur = 3u << 20;  // 3 MiB per file
+    ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+    daemon::RecorderStats st;
+    fs::path folder;
+    {
+        daemon::Recorder r(c, station_in(dir.path()), 0, quiet_logger());
+        folder = r.folder();
+        for (std::size_t k = 0; k < 600; ++k) {  // 7.6 MB
+            offer(&r, datagram(k, 12608, 1'000'000));
+            if (k % 50 == 49)
+                test::eventually(
+                    [&] { return r.stats().datagrams + 1 > k || !r.stats().recording; }, 100);
+        }
+        r.stop();
+        st = r.stats();
+    }
+    ::setrlimit(RLIMIT_FSIZE, &before);
+    std::signal(SIGXFSZ, old_handler);
+    EXPECT_FALSE(st.recording);
+    EXPECT_GE(st.write_errors, 1u);
+    EXPECT_THAT(st.problem(), HasSubstr("recording stopped: cannot write " + folder.string()));
+    EXPECT_LT(st.datagrams, 600u);
+    EXPECT_GT(st.datagrams, 100u);
+    // What was written before is there, up to where the disk stopped it.
+    const auto files = pcap::capture_files(folder);
+    ASSERT_EQ(files.size(), 1u);
+    pcap::PcapReader reader(files[0]);
+    pcap::UdpDatagram d;
+    std::size_t read = 0;
+    while (reader.next(&d)) ++read;
+    EXPECT_GT(read, 100u);
+    EXPECT_LE(read, st.datagrams);
 }
 
 TEST(Recorder, AFolderThatCannotBeMadeIsRefusedByName) {
