@@ -111,14 +111,9 @@ void read_record(YamlReader& r, const YAML::Node& n, const std::filesystem::path
     set_if(r.number(n["max_file_s"], p + "max_file_s", 1, 86400, false), &c->max_file_s);
     set_if(r.number(n["min_free_mb"], p + "min_free_mb", 0, 1e9, false), &c->min_free_mb);
     set_if(r.number(n["queue_mb"], p + "queue_mb", 1, 4096, false), &c->queue_mb);
-    if (auto policy = r.string(n["when_disk_low"], p + "when_disk_low", false)) {
-        if (*policy == "remove_oldest" || *policy == "stop") {
-            c->when_disk_low =
-                *policy == "stop" ? LowDiskPolicy::kStop : LowDiskPolicy::kRemoveOldest;
-        } else {
-            r.problems.push_back(p + "when_disk_low: expected remove_oldest or stop, got \"" +
-                                 *policy + "\"");
-        }
+    if (auto policy =
+            r.choice(n["when_disk_low"], p + "when_disk_low", {"remove_oldest", "stop"})) {
+        c->when_disk_low = *policy == 1 ? LowDiskPolicy::kStop : LowDiskPolicy::kRemoveOldest;
     }
 }
 
@@ -137,20 +132,13 @@ void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path
            &c->extrinsics_interval_frames);
     set_if(r.integer(n["record_clouds_every"], "output.record_clouds_every", 0, 1000000, false),
            &c->record_clouds_every);
-    if (auto format = r.string(n["record_clouds_format"], "output.record_clouds_format", false)) {
-        if (*format == "ply" || *format == "pcd") {
-            c->record_clouds_format =
-                *format == "pcd" ? OutputConfig::CloudFormat::kPcd : OutputConfig::CloudFormat::kPly;
-        } else {
-            r.problems.push_back("output.record_clouds_format: expected ply or pcd, got \"" + *format + "\"");
-        }
+    if (auto format =
+            r.choice(n["record_clouds_format"], "output.record_clouds_format", {"ply", "pcd"})) {
+        c->record_clouds_format =
+            *format == 1 ? OutputConfig::CloudFormat::kPcd : OutputConfig::CloudFormat::kPly;
     }
-    if (auto stamp = r.string(n["stamp"], "output.stamp", false)) {
-        if (*stamp == "sensor" || *stamp == "host") {
-            c->stamp = *stamp == "sensor" ? StampSource::kSensor : StampSource::kHost;
-        } else {
-            r.problems.push_back("output.stamp: expected sensor or host, got \"" + *stamp + "\"");
-        }
+    if (auto stamp = r.choice(n["stamp"], "output.stamp", {"sensor", "host"})) {
+        c->stamp = *stamp == 0 ? StampSource::kSensor : StampSource::kHost;
     }
     read_dds(r, n["dds"], &c->dds);
     read_record(r, n["record"], base, &c->record);

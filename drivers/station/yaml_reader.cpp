@@ -63,6 +63,21 @@ std::optional<double> YamlReader::number(const YAML::Node& node, const std::stri
     return value;
 }
 
+std::optional<std::size_t> YamlReader::choice(const YAML::Node& node, const std::string& path,
+                                              const std::vector<std::string>& options) {
+    const auto text = string(node, path, false);
+    if (!text) return std::nullopt;
+    for (std::size_t i = 0; i < options.size(); ++i) {
+        if (*text == options[i]) return i;
+    }
+    std::string expected;
+    for (std::size_t i = 0; i < options.size(); ++i) {
+        expected += (i == 0 ? "" : i + 1 == options.size() ? " or " : ", ") + options[i];
+    }
+    problems.push_back(path + ": expected " + expected + ", got \"" + *text + "\"");
+    return std::nullopt;
+}
+
 std::optional<bool> YamlReader::boolean(const YAML::Node& node, const std::string& path) {
     if (!node) return std::nullopt;
     bool value = false;

@@ -22,6 +22,10 @@ public:
     std::optional<double> number(const YAML::Node& node, const std::string& path, double min,
                                  double max, bool required);
     std::optional<bool> boolean(const YAML::Node& node, const std::string& path);
+    // One of `options` (at least two): its index; anything else reported as
+    // `path: expected a, b or c, got "x"`.
+    std::optional<std::size_t> choice(const YAML::Node& node, const std::string& path,
+                                      const std::vector<std::string>& options);
     // Reports keys of `map` that are not in `allowed` (typos), as `path.key`.
     void only_keys(const YAML::Node& map, const std::string& path, const std::set<std::string>& allowed);
     // True when `node` is absent or a mapping; reports it otherwise.
