@@ -83,9 +83,7 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         throw std::runtime_error(text);
     }
     if (config.output.record.enabled) {
-        const std::uint32_t dst_ip = config.network.bind_address == "0.0.0.0"
-                                         ? 0
-                                         : net::parse_ipv4(config.network.bind_address);
+        const std::uint32_t dst_ip = net::parse_ipv4(config.network.bind_address);  // 0.0.0.0: 0
         RecordConfig record = config.output.record;
         if (record.directory.empty()) record.directory = config.output.directory / "recordings";
         recorder = std::make_unique<Recorder>(record, config.station, dst_ip, logger("record"));

@@ -6,12 +6,16 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <condition_variable>
 #include <cstring>
 #include <ctime>
-#include <fstream>
+#include <mutex>
 #include <stdexcept>
 #include <system_error>
+#include <thread>
+#include <vector>
 
+#include "daemon/sensor_ingest.hpp"
 #include "drivers/pcap/udp_frame_builder.hpp"
 
 namespace lidarfuse::daemon {
@@ -42,12 +46,6 @@ std::string utc_stamp(std::int64_t ns) {
     char text[32];
     std::strftime(text, sizeof text, "%Y%m%dT%H%M%SZ", &tm);
     return text;
-}
-
-std::int64_t realtime_now_ns() {
-    timespec ts{};
-    ::clock_gettime(CLOCK_REALTIME, &ts);
-    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
 
 std::uint64_t filesystem_free_bytes(const fs::path& path) {
@@ -126,9 +124,9 @@ Recorder::Recorder(const RecordConfig& config, const station::StationConfig& sta
     m.dst_ip = dst_ip;
     m.log = std::move(log);
     m.free_space = free_space ? std::move(free_space) : FreeSpace(filesystem_free_bytes);
-    folder_ = config.directory / utc_stamp(realtime_now_ns());
+    folder_ = config.directory / utc_stamp(realtime_ns());
     for (int k = 2; fs::exists(folder_); ++k) {  // two starts within a second
-        folder_ = config.directory / (utc_stamp(realtime_now_ns()) + "-" + std::to_string(k));
+        folder_ = config.directory / (utc_stamp(realtime_ns()) + "-" + std::to_string(k));
     }
     m.folder = folder_;
     std::error_code error;

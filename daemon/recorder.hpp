@@ -13,16 +13,11 @@
 
 #include <spdlog/logger.h>
 
-#include <atomic>
-#include <condition_variable>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <string>
-#include <thread>
-#include <vector>
 
 #include "daemon/daemon_config.hpp"
 #include "drivers/net/udp_receiver.hpp"

@@ -87,7 +87,7 @@ ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files,
     double pass_offset_ns = 0.0;
     while (!files.empty()) {
         std::int64_t first_ts = 0, last_ts = 0;
-        std::uint64_t in_pass = 0, bytes_before = 0;
+        std::uint64_t in_pass = 0;
         summary.reader_stats = PcapReaderStats{};
         for (const auto& file : files) {
             PcapReader reader(file, params.reader);
@@ -119,7 +119,8 @@ ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files,
                     summary.bytes_sent += d.size;
                     if (params.on_progress && summary.datagrams_sent % 256 == 0) {
                         params.on_progress(summary.passes, summary.datagrams_sent,
-                                           bytes_before + reader.stats().bytes_read);
+                                           summary.reader_stats.bytes_read +  // earlier files
+                                               reader.stats().bytes_read);
                     }
                 } else {
                     if (summary.send_errors++ == 0) summary.first_send_errno = sender.last_errno();
@@ -127,7 +128,6 @@ ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files,
             }
             summary.reader_stats += reader.stats();
             if (!reader.warning().empty()) summary.warning = reader.warning();  // names the file
-            bytes_before += reader.stats().bytes_read;
             if (summary.stopped) break;
         }
         if (summary.stopped) break;
