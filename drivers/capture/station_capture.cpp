@@ -25,6 +25,13 @@ StationCapture::StationCapture(const station::StationConfig& station,
         const auto& config = station_.sensors[i];
         ouster::SensorInfo info;
         try {
+            if (config.metadata.empty()) {
+                // Only lidarfused talks to sensors; a recording keeps their metadata.
+                throw std::runtime_error(
+                    "named by hostname only; reading a capture needs its metadata as a file "
+                    "(a recording has it in metadata/" +
+                    config.name + ".json)");
+            }
             info = ouster::load_metadata(config.metadata);
         } catch (const std::exception& error) {
             problems.push_back("sensor \"" + config.name + "\": " + error.what());

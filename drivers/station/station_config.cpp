@@ -26,8 +26,10 @@ std::string join_problems(const std::string& source, const std::vector<std::stri
 const std::set<std::string> kTopLevelKeys = {"station", "root",         "sensors",  "sync",
                                              "network", "registration", "dynamics", "output",
                                              "dds",     "logging",      "health",   "world"};
-const std::set<std::string> kSensorKeys = {"name",           "udp_port", "metadata",
+const std::set<std::string> kSensorKeys = {"name",           "udp_port",       "metadata",
+                                           "hostname",       "http_port",      "configure",
                                            "source_address", "time_offset_ns", "enabled"};
+const std::set<std::string> kConfigureKeys = {"udp_dest", "lidar_mode", "timestamp_mode"};
 
 // A sensor name ends up unquoted in poses.csv, as a key in extrinsics.yaml and as a ROS tf
 // frame id: a comma, newline, colon or non-ASCII byte would corrupt those files.
@@ -101,6 +103,82 @@ std::string printable(const std::string& text) {
     return out;
 }
 
+// hostname: a DNS name (letters, digits, '-', '.') or a dotted quad; nothing that would
+// change the meaning of the URL built from it.
+bool valid_hostname(const std::string& host) {
+    if (host.empty() || host.size() > 253) return false;
+    for (const char c : host) {
+        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                        (c >= '0' && c <= '9') || c == '-' || c == '.';
+        if (!ok) return false;
+    }
+    return host.front() != '-' && host.front() != '.';
+}
+
+// sensors[i].configure: `true`/`false`, or a mapping of the parameters to set (enabled).
+void read_configure(const YAML::Node& node, const std::string& path, YamlReader* r,
+                    SensorConfigure* out) {
+    if (!node) return;
+    if (!node.IsMap()) {
+        if (auto b = r->boolean(node, path)) out->enabled = *b;
+        return;
+    }
+    r->only_keys(node, path, kConfigureKeys);
+    out->enabled = true;
+    if (auto d = r->string(node["udp_dest"], path + ".udp_dest", false)) {
+        in_addr parsed{};
+        if (::inet_pton(AF_INET, d->c_str(), &parsed) != 1) {
+            r->problems.push_back(path + ".udp_dest: expected an IPv4 address, got \"" + *d + "\"");
+        }
+        out->udp_dest = *d;
+    }
+    static const std::vector<std::string> kModes = {"512x10",  "512x20",  "1024x10",
+                                                    "1024x20", "2048x10", "4096x5"};
+    static const std::vector<std::string> kTimestampModes = {
+        "TIME_FROM_INTERNAL_OSC", "TIME_FROM_SYNC_PULSE_IN", "TIME_FROM_PTP_1588"};
+    if (auto m = r->choice(node["lidar_mode"], path + ".lidar_mode", kModes)) {
+        out->lidar_mode = kModes[*m];
+    }
+    if (auto t = r->choice(node["timestamp_mode"], path + ".timestamp_mode", kTimestampModes)) {
+        out->timestamp_mode = kTimestampModes[*t];
+    }
+}
+
+// Exactly one of sensors[i].metadata (a file that exists) and sensors[i].hostname.
+void read_metadata_source(const YAML::Node& node, const std::string& path,
+                          const std::filesystem::path& base_dir, YamlReader* r,
+                          SensorConfig* sensor) {
+    const bool has_file = node["metadata"].IsDefined(), has_host = node["hostname"].IsDefined();
+    if (has_file == has_host) {
+        r->problems.push_back(path +
+                              ": expected exactly one of metadata (a JSON file) and "
+                              "hostname (the sensor's HTTP API), got " +
+                              std::string(has_file ? "both" : "neither"));
+    }
+    if (auto m = r->string(node["metadata"], path + ".metadata", false)) {
+        std::filesystem::path file = *m;
+        sensor->metadata = file.is_absolute() ? file : (base_dir / file).lexically_normal();
+        std::error_code ec;
+        if (!std::filesystem::is_regular_file(sensor->metadata, ec)) {
+            r->problems.push_back(path + ".metadata: file not found: " + sensor->metadata.string());
+        }
+    }
+    if (auto h = r->string(node["hostname"], path + ".hostname", false)) {
+        if (!valid_hostname(*h)) {
+            r->problems.push_back(path + ".hostname: expected a host name or IPv4 address, got \"" +
+                                  printable(*h) + "\"");
+        }
+        sensor->hostname = *h;
+    }
+    if (auto p = r->integer(node["http_port"], path + ".http_port", 1, 65535, false)) {
+        sensor->http_port = static_cast<int>(*p);
+    }
+    read_configure(node["configure"], path + ".configure", r, &sensor->configure);
+    if (!has_host && (node["http_port"].IsDefined() || node["configure"].IsDefined())) {
+        r->problems.push_back(path + ": http_port and configure need hostname");
+    }
+}
+
 }  // namespace
 
 ConfigError::ConfigError(const std::string& source, std::vector<std::string> problems)
@@ -158,15 +236,7 @@ StationConfig parse_station_config(const std::string& yaml_text, const std::stri
             if (auto p = r.integer(node["udp_port"], path + ".udp_port", 1, 65535, true)) {
                 sensor.udp_port = static_cast<std::uint16_t>(*p);
             }
-            if (auto m = r.string(node["metadata"], path + ".metadata", true)) {
-                std::filesystem::path file = *m;
-                sensor.metadata = file.is_absolute() ? file : (base_dir / file).lexically_normal();
-                std::error_code ec;
-                if (!std::filesystem::is_regular_file(sensor.metadata, ec)) {
-                    r.problems.push_back(path + ".metadata: file not found: " +
-                                         sensor.metadata.string());
-                }
-            }
+            read_metadata_source(node, path, base_dir, &r, &sensor);
             if (auto a = r.string(node["source_address"], path + ".source_address", false)) {
                 in_addr parsed{};
                 if (::inet_pton(AF_INET, a->c_str(), &parsed) != 1) {
@@ -222,6 +292,24 @@ StationConfig load_station_config(const std::filesystem::path& file) {
     return config;
 }
 
+namespace {
+
+void write_configure(const SensorConfigure& c, YAML::Emitter* out) {
+    if (!c.enabled) return;
+    *out << YAML::Key << "configure" << YAML::Value;
+    if (!c.udp_dest && !c.lidar_mode && !c.timestamp_mode) {
+        *out << true;
+        return;
+    }
+    *out << YAML::BeginMap;
+    if (c.udp_dest) *out << YAML::Key << "udp_dest" << YAML::Value << *c.udp_dest;
+    if (c.lidar_mode) *out << YAML::Key << "lidar_mode" << YAML::Value << *c.lidar_mode;
+    if (c.timestamp_mode) *out << YAML::Key << "timestamp_mode" << YAML::Value << *c.timestamp_mode;
+    *out << YAML::EndMap;
+}
+
+}  // namespace
+
 std::string to_yaml(const StationConfig& config, const std::filesystem::path& base_dir) {
     YAML::Emitter out;
     out << YAML::BeginMap;
@@ -235,7 +323,13 @@ std::string to_yaml(const StationConfig& config, const std::filesystem::path& ba
         std::filesystem::path meta = s.metadata;
         const auto relative = s.metadata.lexically_relative(base_dir);
         if (!base_dir.empty() && !relative.empty() && *relative.begin() != "..") meta = relative;
-        out << YAML::Key << "metadata" << YAML::Value << meta.string();
+        if (s.hostname) {
+            out << YAML::Key << "hostname" << YAML::Value << *s.hostname;
+            if (s.http_port != 80) out << YAML::Key << "http_port" << YAML::Value << s.http_port;
+            write_configure(s.configure, &out);
+        } else {
+            out << YAML::Key << "metadata" << YAML::Value << meta.string();
+        }
         if (s.source_address) out << YAML::Key << "source_address" << YAML::Value << *s.source_address;
         if (s.time_offset_ns != 0) out << YAML::Key << "time_offset_ns" << YAML::Value << s.time_offset_ns;
         if (!s.enabled) out << YAML::Key << "enabled" << YAML::Value << false;

@@ -16,13 +16,29 @@
 
 namespace lidarfuse::station {
 
+// sensors[].configure: what lidarfused sets on a sensor named by hostname before using
+// it (drivers/ouster/sensor_http.hpp), and sets again when the sensor comes back otherwise.
+// udp_port_lidar is always the sensor's udp_port and operating_mode NORMAL.
+struct SensorConfigure {
+    bool enabled = false;
+    std::optional<std::string> udp_dest;    // absent: this host's address on the way to the sensor
+    std::optional<std::string> lidar_mode;  // "1024x20", ...; absent: left as it is
+    std::optional<std::string> timestamp_mode;  // "TIME_FROM_PTP_1588", ...; absent: left
+};
+
 struct SensorConfig {
     std::string name;                     // unique; used in poses.csv, tf frames, logs
     std::uint16_t udp_port = 0;           // lidar data port
-    std::filesystem::path metadata;       // Ouster metadata JSON, absolute after loading
+    // Where the metadata comes from: exactly one of a file (absolute after loading) and the
+    // sensor's HTTP API at hostname:http_port (below; lidarfused only, offline tools need
+    // a file).
+    std::filesystem::path metadata;             // Ouster metadata JSON
     std::optional<std::string> source_address;  // IPv4 dotted quad; tells apart shared ports
     std::int64_t time_offset_ns = 0;      // added to this sensor's timestamps
     bool enabled = true;
+    std::optional<std::string> hostname;  // host name or IPv4 dotted quad
+    int http_port = 80;
+    SensorConfigure configure;  // only with hostname
 };
 
 struct StationConfig {

@@ -17,7 +17,7 @@ TEST(StationCapture, DecodesTheRealOs1Capture) {
     LIDARFUSE_REQUIRE_OUSTER_FILE(meta, "OS-1-64_sensor_config_reduced.json");
     station::StationConfig config;
     config.root = "pole";
-    config.sensors.push_back({"pole", 7502, meta, std::nullopt, 1000, true});
+    config.sensors.push_back({"pole", 7502, meta, std::nullopt, 1000, true, std::nullopt, 80, {}});
     StationCapture capture(config, pcap);
     std::vector<std::uint32_t> frames;
     std::size_t points = 0;
@@ -52,8 +52,10 @@ TEST(StationCapture, SharedPortSensorsAreToldApart) {
     LIDARFUSE_REQUIRE_OUSTER_FILE(meta2, "same_ports_legacy.2.json");
     station::StationConfig config;
     config.root = "os0";
-    config.sensors.push_back({"os0", 7502, meta1, std::string("169.254.92.158"), 0, true});
-    config.sensors.push_back({"os1", 7502, meta2, std::string("169.254.238.111"), 0, true});
+    config.sensors.push_back(
+        {"os0", 7502, meta1, std::string("169.254.92.158"), 0, true, std::nullopt, 80, {}});
+    config.sensors.push_back(
+        {"os1", 7502, meta2, std::string("169.254.238.111"), 0, true, std::nullopt, 80, {}});
     StationCapture capture(config, pcap);
     std::vector<std::pair<std::size_t, std::uint32_t>> seen;
     capture.run([&](const CaptureScan& scan) {
@@ -67,7 +69,8 @@ TEST(StationCapture, SharedPortSensorsAreToldApart) {
 TEST(StationCapture, MissingMetadataNamesTheSensor) {
     test::TempDir dir("capture");
     station::StationConfig config;
-    config.sensors.push_back({"north", 7502, dir.path() / "north.json", std::nullopt, 0, true});
+    config.sensors.push_back(
+        {"north", 7502, dir.path() / "north.json", std::nullopt, 0, true, std::nullopt, 80, {}});
     std::ofstream(dir.path() / "north.json") << "{ not json";
     try {
         StationCapture capture(config, dir.path() / "none.pcap");

@@ -143,12 +143,91 @@ TEST_F(StationConfigTest, BrokenYamlAndMissingFileAreClearErrors) {
     }
 }
 
+TEST_F(StationConfigTest, SensorsByHostnameWithAndWithoutConfiguration) {
+    const auto config = parse_station_config(R"(
+sensors:
+  - {name: a, udp_port: 7502, hostname: os-122239000672.local}
+  - {name: b, udp_port: 7504, hostname: 10.5.6.12, http_port: 8080, configure: true}
+  - name: c
+    udp_port: 7506
+    hostname: 10.5.6.13
+    configure: {udp_dest: 10.5.6.2, lidar_mode: 1024x20, timestamp_mode: TIME_FROM_PTP_1588}
+)",
+                                             "station.yaml", dir_.path());
+    ASSERT_EQ(config.sensors.size(), 3u);
+    EXPECT_EQ(config.sensors[0].hostname.value_or(""), "os-122239000672.local");
+    EXPECT_TRUE(config.sensors[0].metadata.empty());
+    EXPECT_EQ(config.sensors[0].http_port, 80);
+    EXPECT_FALSE(config.sensors[0].configure.enabled);
+    EXPECT_EQ(config.sensors[1].http_port, 8080);
+    EXPECT_TRUE(config.sensors[1].configure.enabled);
+    EXPECT_FALSE(config.sensors[1].configure.udp_dest);
+    const auto& c = config.sensors[2].configure;
+    EXPECT_TRUE(c.enabled);
+    EXPECT_EQ(c.udp_dest.value_or(""), "10.5.6.2");
+    EXPECT_EQ(c.lidar_mode.value_or(""), "1024x20");
+    EXPECT_EQ(c.timestamp_mode.value_or(""), "TIME_FROM_PTP_1588");
+    // ... and back through the YAML writer.
+    const auto back = parse_station_config(to_yaml(config, dir_.path()), "back.yaml", dir_.path());
+    for (std::size_t i = 0; i < 3; ++i) {
+        EXPECT_EQ(back.sensors[i].hostname, config.sensors[i].hostname);
+        EXPECT_EQ(back.sensors[i].http_port, config.sensors[i].http_port);
+        EXPECT_EQ(back.sensors[i].configure.enabled, config.sensors[i].configure.enabled);
+        EXPECT_EQ(back.sensors[i].configure.udp_dest, config.sensors[i].configure.udp_dest);
+        EXPECT_EQ(back.sensors[i].configure.lidar_mode, config.sensors[i].configure.lidar_mode);
+        EXPECT_EQ(back.sensors[i].configure.timestamp_mode,
+                  config.sensors[i].configure.timestamp_mode);
+    }
+}
+
+TEST_F(StationConfigTest, MetadataSourceProblemsAreEachNamed) {
+    try {
+        parse_station_config(R"(
+sensors:
+  - {name: both, udp_port: 7502, metadata: a.json, hostname: 10.0.0.1}
+  - {name: neither, udp_port: 7504}
+  - {name: url, udp_port: 7506, hostname: "http://10.0.0.3/"}
+  - {name: file, udp_port: 7508, metadata: b.json, configure: true, http_port: 8080}
+  - {name: mode, udp_port: 7510, hostname: 10.0.0.5, configure: {lidar_mode: 1024x30, colour: red}}
+  - {name: dest, udp_port: 7512, hostname: 10.0.0.6, configure: {udp_dest: nowhere, timestamp_mode: GPS}}
+  - {name: port, udp_port: 7514, hostname: 10.0.0.7, http_port: 0, configure: maybe}
+)",
+                             "hosts.yaml", dir_.path());
+        FAIL() << "expected ConfigError";
+    } catch (const ConfigError& error) {
+        const std::string text = error.what();
+        EXPECT_THAT(text, HasSubstr("sensors[0]: expected exactly one of metadata (a JSON file) "
+                                    "and hostname (the sensor's HTTP API), got both"));
+        EXPECT_THAT(text, HasSubstr("sensors[1]: expected exactly one of metadata"));
+        EXPECT_THAT(text, HasSubstr("got neither"));
+        EXPECT_THAT(text, HasSubstr("sensors[2].hostname: expected a host name or IPv4 address, "
+                                    "got \"http://10.0.0.3/\""));
+        EXPECT_THAT(text, HasSubstr("sensors[3]: http_port and configure need hostname"));
+        EXPECT_THAT(text, HasSubstr("sensors[4].configure.lidar_mode: expected 512x10, 512x20"));
+        EXPECT_THAT(text, HasSubstr("sensors[4].configure.colour: unknown key"));
+        EXPECT_THAT(text, HasSubstr("sensors[5].configure.udp_dest: expected an IPv4 address"));
+        EXPECT_THAT(text, HasSubstr("sensors[5].configure.timestamp_mode: expected"));
+        EXPECT_THAT(text, HasSubstr("sensors[6].http_port: expected an integer in 1..65535"));
+        EXPECT_THAT(text, HasSubstr("sensors[6].configure: expected true or false"));
+        EXPECT_EQ(error.problems().size(), 10u) << text;
+    }
+}
+
 TEST_F(StationConfigTest, YamlRoundTrip) {
     StationConfig config;
     config.station = "rt";
     config.root = "b";
-    config.sensors.push_back({"a", 7502, dir_.path() / "a.json", std::string("10.1.2.3"), 5, true});
-    config.sensors.push_back({"b", 7504, dir_.path() / "b.json", std::nullopt, 0, false});
+    config.sensors.push_back({"a",
+                              7502,
+                              dir_.path() / "a.json",
+                              std::string("10.1.2.3"),
+                              5,
+                              true,
+                              std::nullopt,
+                              80,
+                              {}});
+    config.sensors.push_back(
+        {"b", 7504, dir_.path() / "b.json", std::nullopt, 0, false, std::nullopt, 80, {}});
     const auto yaml = to_yaml(config, dir_.path());
     EXPECT_THAT(yaml, HasSubstr("metadata: a.json"));
     std::ofstream(dir_.path() / "station.yaml") << yaml;
