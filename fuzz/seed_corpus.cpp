@@ -17,6 +17,8 @@
 //   ply_reader        the first cut cloud written by io::write_ply in its three formats, and
 //                     the ascii and little-endian ones with a face element (lists) after
 //                     the vertices
+//   sensor_http       every metadata JSON of DATA_DIR as one body, and each one that loads
+//                     written by to_nested_json() as its parts joined by '\0' (forms 2/3)
 // Prints one line per corpus with its number of files.
 #include <pcap/pcap.h>
 
@@ -26,6 +28,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -34,6 +37,7 @@
 #include "drivers/io/cloud_lzf.hpp"
 #include "drivers/io/cloud_pcd_header.hpp"
 #include "drivers/ouster/metadata.hpp"
+#include "drivers/ouster/sensor_http.hpp"
 #include "drivers/pcap/frame_decoder.hpp"
 #include "drivers/pcap/pcap_reader.hpp"
 #include "fuzz/fuzz_input.hpp"
@@ -233,6 +237,32 @@ int metadata_seeds(const fs::path& data_dir, const fs::path& out) {
     return written;
 }
 
+// fuzz_sensor_http: each file as a form-1 body, and its nested form as the '\0'-separated
+// parts of forms 2/3 in kMetadataParts' order (an absent part left empty).
+int sensor_http_seeds(const fs::path& data_dir, const fs::path& out) {
+    int written = 0;
+    for (const auto& json : files_with(data_dir, ".json")) {
+        write_file(out / json.filename(), read_file(json));
+        ++written;
+        ouster::SensorInfo info;
+        try {
+            info = ouster::load_metadata(json);
+        } catch (const ouster::MetadataError&) {
+            continue;
+        }
+        const nlohmann::json doc = nlohmann::json::parse(ouster::to_nested_json(info));
+        std::string parts;
+        for (std::size_t i = 0; i < ouster::kMetadataParts.size(); ++i) {
+            if (i > 0) parts.push_back('\0');
+            const char* name = ouster::kMetadataParts[i];
+            if (doc.contains(name)) parts += doc[name].dump();
+        }
+        write_file(out / (json.stem().string() + ".parts"), parts);
+        ++written;
+    }
+    return written;
+}
+
 // A PCD header's text with WIDTH, HEIGHT, POINTS and DATA rewritten for n unorganised points.
 std::string resized_pcd_header(const std::string& header, std::size_t n, const std::string& data) {
     std::istringstream in(header);
@@ -392,6 +422,7 @@ int main(int argc, char** argv) {
             fs::is_directory(real_dir) ? pcd_seeds(real_dir, dir("pcd_reader"), &small_pcd) : 0;
         std::printf("seeds pcd_reader %d\n", pcds);
         std::printf("seeds ply_reader %d\n", ply_seeds(small_pcd, dir("ply_reader")));
+        std::printf("seeds sensor_http %d\n", sensor_http_seeds(data_dir, dir("sensor_http")));
     } catch (const std::exception& error) {
         std::fprintf(stderr, "fuzz_seed_corpus: %s\n", error.what());
         return 1;

@@ -13,7 +13,7 @@ packages=(
     build-essential cmake ninja-build ccache pkg-config
     libeigen3-dev libnanoflann-dev libceres-dev
     libpcap-dev nlohmann-json3-dev libembree-dev libssl-dev liblzf-dev
-    libspdlog-dev libyaml-cpp-dev
+    libspdlog-dev libyaml-cpp-dev libcpp-httplib-dev
     cyclonedds-dev libsystemd-dev procps
 )
 # Tests, sanitizers, fuzzers and benchmarks on top.
