@@ -5,8 +5,12 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
+#include <optional>
 
+#include "drivers/net/ipv4_address.hpp"
 #include "drivers/sim/live_sink.hpp"
+#include "drivers/sim/sim_http_server.hpp"
 #include "drivers/sim/sim_outputs.hpp"
 #include "drivers/sim/simulator.hpp"
 #include "tools/args.hpp"
@@ -23,7 +27,7 @@ constexpr const char* kUsage =
     "                     [--profile LEGACY|RNG19_RFL8_SIG16_NIR16|RNG15_RFL8_NIR8]\n"
     "                     [--seed 1] [--no-motion] [--no-traffic] [--noise-sigma-m 0.0333]\n"
     "                     [--whole-datagrams] [--threads N] [--fault SPEC]...\n"
-    "                     [--live --to HOST[:PORT]] [--quiet]\n"
+    "                     [--live --to HOST[:PORT] [--http ADDRESS[:PORT]]] [--quiet]\n"
     "Virtual Ouster OS1-64 sensors (6 m poles, tilted 17 deg down, swaying as inverted\n"
     "spherical pendulums) in a synthetic street with traffic. Writes into DIR:\n"
     "  capture.pcap      all sensors' lidar packets; sensor k sends from 169.254.10.(11+k)\n"
@@ -40,6 +44,10 @@ constexpr const char* kUsage =
     "  --live --to HOST[:PORT]  send the packets over UDP in real time to HOST instead of\n"
     "                     writing capture.pcap (sensor k to PORT+2k, default PORT 7502);\n"
     "                     DIR still gets the metadata, station.yaml and ground_truth.csv\n"
+    "  --http ADDRESS[:PORT]  with --live: sensor k also serves Ouster's HTTP API (metadata,\n"
+    "                     configuration) on ADDRESS+k, PORT (default 80), e.g. 127.0.1.1:8080\n"
+    "                     for 127.0.1.1, 127.0.1.2, ...; a POST to /api/v1/sensor/config moves\n"
+    "                     where that sensor sends\n"
     "  --quiet            no progress line (on a terminal, stderr shows frames done, rate\n"
     "                     and time left)\n"
     "Faults (--fault SPEC, repeatable; SENSOR = lidar0, lidar1, ...):\n"
@@ -88,10 +96,52 @@ sim::SimParams parse_params(const Args& args) {
     return p;
 }
 
+// "HOST:PORT" -> HOST, and PORT (checked to be in min_port..65535); nullopt without ':'.
+std::optional<int> split_port(std::string* host, const char* option, int min_port) {
+    const auto colon = host->rfind(':');
+    if (colon == std::string::npos) return std::nullopt;
+    const long long port = std::atoll(host->c_str() + colon + 1);
+    if (port < min_port || port > 65535)
+        throw UsageError(std::string(option) + ": bad port in '" + *host + "'");
+    host->resize(colon);
+    return static_cast<int>(port);
+}
+
+// --live: the packets over UDP at the capture's pace, and with --http each sensor's API.
+sim::SimStats run_live(sim::Simulator& simulator, const std::string& host,
+                       const std::optional<std::string>& http) {
+    sim::LiveRoutes routes(simulator, net::resolve_ipv4(host));
+    std::unique_ptr<sim::SimHttpServer> server;
+    if (http) {
+        std::string address = *http;
+        sim::SimHttpParams hp;
+        if (const auto port = split_port(&address, "--http", 1)) hp.port = *port;
+        try {
+            hp.first_ip = net::parse_ipv4(address);
+        } catch (const std::invalid_argument& e) {
+            throw UsageError(std::string("--http: ") + e.what());
+        }
+        server = std::make_unique<sim::SimHttpServer>(simulator, &routes, hp);
+    }
+    sim::LiveSink sink(&routes);
+    const sim::SimStats stats = simulator.run(sink);
+    std::printf("sim_live_sent %llu datagrams\n", static_cast<unsigned long long>(sink.sent()));
+    std::printf("sim_live_late %llu datagrams\n", static_cast<unsigned long long>(sink.late()));
+    std::printf("sim_live_send_errors %llu datagrams\n",
+                static_cast<unsigned long long>(sink.errors()));
+    std::printf("sim_live_held_back %llu datagrams\n",
+                static_cast<unsigned long long>(sink.held_back()));
+    if (server) {
+        std::printf("sim_http_requests %llu requests\n",
+                    static_cast<unsigned long long>(server->requests()));
+    }
+    return stats;
+}
+
 int run_sim(int argc, char** argv) {
     const Args args(argc, argv,
                     {"--scenario", "--out", "--sensors", "--seconds", "--mode", "--profile",
-                     "--seed", "--noise-sigma-m", "--threads", "--fault", "--to"},
+                     "--seed", "--noise-sigma-m", "--threads", "--fault", "--to", "--http"},
                     {"--no-motion", "--no-traffic", "--whole-datagrams", "--live", "--quiet"});
     if (args.help()) {
         std::printf("%s", kUsage);
@@ -102,16 +152,11 @@ int run_sim(int argc, char** argv) {
     std::string live_host;
     if (args.flag("--live")) {
         live_host = args.required("--to");
-        const auto colon = live_host.rfind(':');
-        if (colon != std::string::npos) {
-            const long long port = std::atoll(live_host.c_str() + colon + 1);
-            if (port < 1024 || port > 65535)
-                throw UsageError("--to: bad port in '" + live_host + "'");
-            params.first_lidar_port = static_cast<std::uint16_t>(port);
-            live_host.resize(colon);
+        if (const auto port = split_port(&live_host, "--to", 1024)) {
+            params.first_lidar_port = static_cast<std::uint16_t>(*port);
         }
-    } else if (args.value("--to")) {
-        throw UsageError("--to needs --live");
+    } else if (args.value("--to") || args.value("--http")) {
+        throw UsageError("--to and --http need --live");
     }
     const auto wall0 = std::chrono::steady_clock::now();
     sim::Simulator simulator(params);
@@ -126,12 +171,7 @@ int run_sim(int argc, char** argv) {
     sim::SimStats stats;
     if (!live_host.empty()) {
         sim::write_description(simulator, out, options);
-        sim::LiveSink sink(live_host);
-        stats = simulator.run(sink);
-        std::printf("sim_live_sent %llu datagrams\n", static_cast<unsigned long long>(sink.sent()));
-        std::printf("sim_live_late %llu datagrams\n", static_cast<unsigned long long>(sink.late()));
-        std::printf("sim_live_send_errors %llu datagrams\n",
-                    static_cast<unsigned long long>(sink.errors()));
+        stats = run_live(simulator, live_host, args.value("--http"));
     } else {
         stats = sim::write_simulation(simulator, out, options);
     }
