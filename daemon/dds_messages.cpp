@@ -186,6 +186,9 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
         } else if (s.state == SensorState::kModeMismatch) {
             level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_ERROR;
             message += ": " + s.mode_seen;
+        } else if (s.state == SensorState::kNoMetadata) {
+            level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_ERROR;
+            if (!s.metadata.last_error.empty()) message += ": " + s.metadata.last_error;
         } else if (s.state == SensorState::kStale) {
             level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN;
         }
@@ -216,6 +219,12 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
         add(v, "mode_mismatches", std::to_string(s.mode_mismatches));
         add(v, "scans_mode_rejected", std::to_string(s.scans_mode_rejected));
         add(v, "mode_seen", s.mode_seen);
+        add(v, "metadata_source", s.metadata.source);
+        add(v, "metadata_fetches", std::to_string(s.metadata.fetches));
+        add(v, "metadata_fetch_failures", std::to_string(s.metadata.failures));
+        add(v, "metadata_changes", std::to_string(s.metadata.changes));
+        add(v, "metadata_configured", std::to_string(s.metadata.configured));
+        add(v, "metadata_last_error", s.metadata.last_error);
         add(v, "completeness", number(s.last_completeness, "%.4f"));
         add(v, "ms_since_last_scan", number(s.ms_since_last_scan, "%.1f"));
         add(v, "clock_offset_ms", number(s.clock_offset_ms, "%.3f"));

@@ -28,7 +28,7 @@ namespace {
 
 const char* kUsage =
     "usage: lidarfused --config STATION.yaml [--check] [--output-dir DIR]\n"
-    "  --check        validate the config (and metadata) and exit\n"
+    "  --check        validate the config (and metadata files) and exit\n"
     "  --output-dir   override output.directory\n";
 
 }  // namespace
@@ -90,7 +90,15 @@ int main(int argc, char** argv) {
         return 1;
     }
     if (check_only) {
-        std::printf("lidarfused: %s is valid (%zu sensors)\n", config_path.c_str(), config.station.sensors.size());
+        std::size_t by_host = 0;
+        for (const auto& s : config.station.sensors) by_host += s.enabled && s.hostname;
+        std::printf("lidarfused: %s is valid (%zu sensors)%s\n", config_path.c_str(),
+                    config.station.sensors.size(),
+                    by_host == 0 ? ""
+                                 : (" (" + std::to_string(by_host) +
+                                    " named by hostname: their metadata is fetched when the daemon "
+                                    "runs, not by --check)")
+                                       .c_str());
         return 0;
     }
     lidarfuse::daemon::SystemdNotifier notifier;

@@ -22,6 +22,8 @@ const char* to_string(SensorState state) {
         case SensorState::kLost: return "LOST";
         case SensorState::kDisabled: return "DISABLED";
         case SensorState::kModeMismatch: return "MODE_MISMATCH";
+        case SensorState::kNoMetadata:
+            return "NO_METADATA";
     }
     return "?";
 }
@@ -47,6 +49,17 @@ void lower_this_thread_priority(const char* name) {
     }
 }
 
+// A sensor whose metadata is a file: loaded before any thread starts (errors stop start-up).
+void load_metadata_file(const station::SensorConfig& sc, SensorIngest* s) {
+    s->info = ouster::load_metadata(sc.metadata);
+    s->info.udp_port_lidar = sc.udp_port;
+    s->lut = ouster::make_xyz_lut(s->info);
+    s->has_info = true;
+    s->metadata_known.store(true);
+    s->frames_per_second.store(s->info.frames_per_second);
+    s->metadata_status.source = sc.metadata.string();
+}
+
 }  // namespace
 
 Pipeline::Impl::Impl(const DaemonConfig& c)
@@ -65,11 +78,12 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         s->index = i;
         s->name = sc.name;
         s->time_offset_ns = sc.time_offset_ns;
-        if (sc.enabled) {
+        s->udp_port = sc.udp_port;
+        if (sc.enabled && sc.hostname) {
+            by_port[sc.udp_port].push_back(s.get());  // its fetcher brings the metadata
+        } else if (sc.enabled) {
             try {
-                s->info = ouster::load_metadata(sc.metadata);
-                s->info.udp_port_lidar = sc.udp_port;
-                s->lut = ouster::make_xyz_lut(s->info);
+                load_metadata_file(sc, s.get());
                 by_port[sc.udp_port].push_back(s.get());
             } catch (const std::exception& error) {
                 problems.push_back("sensor \"" + sc.name + "\": " + error.what());
@@ -87,6 +101,15 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         RecordConfig record = config.output.record;
         if (record.directory.empty()) record.directory = config.output.directory / "recordings";
         recorder = std::make_unique<Recorder>(record, config.station, dst_ip, logger("record"));
+    }
+    for (std::size_t i = 0; i < config.station.sensors.size(); ++i) {
+        const auto& sc = config.station.sensors[i];
+        if (!sc.enabled || !sc.hostname) continue;
+        MetadataFetcherParams params;
+        params.http.host = *sc.hostname;
+        params.http.port = sc.http_port;
+        fetchers.push_back(std::make_unique<MetadataFetcher>(
+            sensors[i].get(), sc, params, config.output.directory, recorder.get(), ingest_log));
     }
     for (auto& [port, members] : by_port) {
         receivers.push_back(make_receiver(port, members, config.network, config.station,
@@ -139,6 +162,7 @@ void Pipeline::start() {
             run_receiver(rp);
         });
     }
+    for (auto& f : m.fetchers) f->start();
     m.sync_thread = std::thread([&m] {
         ::pthread_setname_np(::pthread_self(), "lf-sync");
         m.sync_loop();
@@ -160,6 +184,7 @@ void Pipeline::stop() {
     if (m.stopping.exchange(true)) {
         // Already stopping: still join whatever runs (the destructor after stop()).
     }
+    for (auto& f : m.fetchers) f->stop();  // before the recorder they write into
     for (auto& r : m.receivers) r->socket->stop();
     for (auto& r : m.receivers) {
         if (r->thread.joinable()) r->thread.join();

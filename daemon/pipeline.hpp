@@ -24,13 +24,16 @@
 #include <vector>
 
 #include "daemon/daemon_config.hpp"
+#include "daemon/metadata_status.hpp"
 #include "daemon/recorder.hpp"
 
 namespace lidarfuse::daemon {
 
 // kModeMismatch: the sensor sends, but its data disagrees with the metadata's lidar_mode or
 // profile (drivers/ouster/mode_check.hpp); its scans are not fused until it agrees again.
-enum class SensorState { kOk, kStale, kLost, kDisabled, kModeMismatch };
+// kNoMetadata: a sensor named by hostname whose metadata could not be fetched yet
+// (daemon/metadata_fetcher.hpp); its datagrams cannot be read until it is.
+enum class SensorState { kOk, kStale, kLost, kDisabled, kModeMismatch, kNoMetadata };
 const char* to_string(SensorState state);
 
 struct SensorStats {
@@ -49,6 +52,7 @@ struct SensorStats {
     // when replaying an old capture or when the sensor is not time-synchronised), and its
     // last fused scan's time minus the root's in the same frame.
     double clock_offset_ms = 0.0, offset_to_root_ms = 0.0;
+    MetadataStatus metadata;
     bool pose_valid = false;
     std::string track_state;
     double fitness = 0.0;

@@ -8,17 +8,27 @@
 
 namespace lidarfuse::daemon {
 
+// sync.max_offset_ms, or one frame period of the root: its metadata's rate, 10 Hz (the
+// widest of Ouster's common modes) while a root named by hostname has none yet.
+std::int64_t Pipeline::Impl::max_offset_ns() const {
+    if (config.sync.max_offset_ms > 0)
+        return static_cast<std::int64_t>(config.sync.max_offset_ms * 1e6);
+    const int rate = sensors[config.fusion.root_sensor]->frames_per_second.load();
+    return 1'000'000'000LL / (rate > 0 ? rate : 10);
+}
+
 void Pipeline::Impl::sync_loop() {
-    const auto& root_info = sensors[config.fusion.root_sensor]->info;
     core::SyncParams params;
-    const int rate = std::max(1, root_info.frames_per_second);
-    params.max_offset_ns = config.sync.max_offset_ms > 0
-                               ? static_cast<std::int64_t>(config.sync.max_offset_ms * 1e6)
-                               : 1'000'000'000LL / rate;
+    params.max_offset_ns = max_offset_ns();
     params.deadline_ns = static_cast<std::int64_t>(config.sync.deadline_ms * 1e6);
     params.reset_jump_ns = static_cast<std::int64_t>(config.sync.reset_jump_ms * 1e6);
     core::FrameSynchroniser<ScanMessage> sync(sensors.size(), params);
     while (!stopping.load(std::memory_order_acquire)) {
+        if (max_offset_ns() != sync.max_offset_ns()) {
+            sync.set_max_offset_ns(max_offset_ns());
+            sync_log->info("frames synchronised within {:.1f} ms (the root's frame period)",
+                           static_cast<double>(sync.max_offset_ns()) * 1e-6);
+        }
         bool any = false;
         for (auto& r : receivers) {
             while (auto m = r->queue.try_pop()) {

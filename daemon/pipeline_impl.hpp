@@ -18,6 +18,7 @@
 #include "core/world_frame.hpp"
 #include "daemon/dds_publisher.hpp"
 #include "daemon/frame_stamps.hpp"
+#include "daemon/metadata_fetcher.hpp"
 #include "daemon/pipeline.hpp"
 #include "daemon/sensor_ingest.hpp"
 
@@ -39,6 +40,7 @@ struct Pipeline::Impl {
 
     std::unique_ptr<DdsPublisher> dds;  // null when output.dds.enabled is false
     std::unique_ptr<Recorder> recorder;  // null when output.record.enabled is false
+    std::vector<std::unique_ptr<MetadataFetcher>> fetchers;  // sensors named by hostname
 
     // When each synchronised frame's scans completed, for the output thread's latency
     // figure and host stamps: written by the sync thread, looked up by the members'
@@ -70,6 +72,7 @@ struct Pipeline::Impl {
     static std::shared_ptr<spdlog::logger> logger(const std::string& name);
 
     // pipeline_fusion.cpp
+    std::int64_t max_offset_ns() const;
     void sync_loop();
     void record_frame_time(const core::SyncedFrame<ScanMessage>& frame);
     // The frame's entry of the ring; empty t_ns when it is no longer known.

@@ -207,6 +207,7 @@ PipelineStats Pipeline::Impl::collect_stats() const {
             ss.mode_mismatch_frames = c.mode_mismatch_frames;
             ss.mode_mismatches = c.mode_mismatches;
             ss.mode_seen = s.mode_seen;
+            ss.metadata = s.metadata_status;
         }
         ss.scans_mode_rejected = s.scans_mode_rejected.load();
         ss.scans = s.scans.load();
@@ -222,6 +223,8 @@ PipelineStats Pipeline::Impl::collect_stats() const {
         ss.offset_to_root_ms = m.offset_to_root_ms[i];
         if (!m.config.station.sensors[i].enabled) {
             ss.state = SensorState::kDisabled;
+        } else if (!s.metadata_known.load()) {
+            ss.state = SensorState::kNoMetadata;
         } else if (s.mode_mismatch.load()) {
             ss.state = SensorState::kModeMismatch;
         } else if (last == 0 || ss.ms_since_last_scan > m.config.health.lost_after_ms) {

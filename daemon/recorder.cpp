@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "daemon/sensor_ingest.hpp"
+#include "drivers/io/cloud_file_support.hpp"
 #include "drivers/pcap/udp_frame_builder.hpp"
 
 namespace lidarfuse::daemon {
@@ -215,6 +216,26 @@ void Recorder::stop() {
     }
     m.wake.notify_one();
     if (m.writer.joinable()) m.writer.join();
+}
+
+void Recorder::note_metadata(const std::string& sensor, const std::string& json) {
+    std::lock_guard<std::mutex> lock(metadata_mutex_);
+    const fs::path first = folder_ / "metadata" / (sensor + ".json");
+    try {
+        if (!fs::exists(first)) {
+            io::write_file_atomically(first, json);
+            return;
+        }
+        if (io::read_file_bytes(first) == json) return;
+        const fs::path later =
+            folder_ / "metadata" / (sensor + "." + utc_stamp(realtime_ns()) + ".json");
+        io::write_file_atomically(later, json);
+        impl_->log->info("output.record: {}'s metadata changed; {} applies from now on", sensor,
+                         later.string());
+    } catch (const std::exception& error) {
+        impl_->log->error("output.record: cannot write {}'s metadata into {}: {}", sensor,
+                          folder_.string(), error.what());
+    }
 }
 
 RecorderStats Recorder::stats() const {

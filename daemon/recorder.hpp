@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 
 #include "daemon/daemon_config.hpp"
@@ -56,6 +57,11 @@ public:
 
     // Any receiver thread: copies the datagram for the writer, or counts it dropped.
     void offer(const net::ReceivedDatagram& d);
+    // A sensor's metadata fetched from its HTTP API (daemon/metadata_fetcher.hpp), from any
+    // thread: the first version becomes metadata/<sensor>.json; a later, different one
+    // (the sensor re-initialised) metadata/<sensor>.<UTC now>.json, which applies to the
+    // datagrams recorded from then on (logged). Failures are logged, never thrown.
+    void note_metadata(const std::string& sensor, const std::string& json);
     // Writes what is queued, closes the file and joins the thread. Idempotent.
     void stop();
 
@@ -65,6 +71,7 @@ public:
 private:
     struct Impl;
     std::filesystem::path folder_;
+    std::mutex metadata_mutex_;  // note_metadata's writers
     std::unique_ptr<Impl> impl_;
 };
 

@@ -29,6 +29,7 @@ void attach_assembler(SensorIngest* s, double min_completeness,
         s->info, ouster::ScanAssemblerParams{},
         [s, queue, min_completeness](const ouster::LidarScan& scan) {
             const double completeness = scan.completeness();
+            s->packet_init_id.store(scan.init_id, std::memory_order_relaxed);
             s->scans.fetch_add(1, std::memory_order_relaxed);
             s->last_completeness.store(completeness, std::memory_order_relaxed);
             if (completeness < 1.0) s->scans_incomplete.fetch_add(1, std::memory_order_relaxed);
@@ -61,10 +62,10 @@ void report_mode_change(Receiver* r, SensorIngest* s) {
     const auto& check = s->assembler->mode_check();
     const bool mismatch = check.mismatch();
     const std::string seen = ouster::describe(check.last_disagreement(), check.expected());
-    {
+    publish_counters(s);
+    if (mismatch) {
         std::lock_guard<std::mutex> lock(s->counters_mutex);
-        s->counters = s->assembler->counters();
-        if (mismatch) s->mode_seen = seen;
+        s->mode_seen = seen;
     }
     s->mode_mismatch.store(mismatch, std::memory_order_relaxed);
     if (!r->log) return;
@@ -82,7 +83,62 @@ void report_mode_change(Receiver* r, SensorIngest* s) {
     }
 }
 
+// Receiver thread: the router over the members that have metadata.
+void rebuild_router(Receiver* r) {
+    std::vector<ouster::RoutedSensor> routed;
+    r->routed_members.clear();
+    for (std::size_t i = 0; i < r->sensors.size(); ++i) {
+        const SensorIngest* s = r->sensors[i];
+        if (!s->has_info) continue;
+        ouster::RoutedSensor rs{s->info, std::nullopt};
+        const auto& sc = r->station->sensors[s->index];
+        if (sc.source_address) rs.source_ip = net::parse_ipv4(*sc.source_address);
+        routed.push_back(rs);
+        r->routed_members.push_back(i);
+    }
+    r->router = std::make_unique<ouster::SensorRouter>(routed);
+}
+
+// Receiver thread: metadata a fetcher handed over since the last datagram.
+void install_pending(Receiver* r) {
+    bool any = false;
+    for (SensorIngest* s : r->sensors) {
+        if (!s->install_pending_metadata(r->min_completeness, &r->queue)) continue;
+        any = true;
+        if (r->log) {
+            r->log->info("{}: metadata installed ({} {}, init_id {}, firmware {}): fusing it",
+                         s->name, s->info.lidar_mode, ouster::to_string(s->info.udp_profile_lidar),
+                         s->info.init_id, s->info.build_rev);
+        }
+    }
+    if (any) rebuild_router(r);
+}
+
 }  // namespace
+
+bool SensorIngest::install_pending_metadata(double min_completeness,
+                                            DropOldestQueue<ScanMessage>* queue) {
+    if (!has_pending.load(std::memory_order_acquire)) return false;
+    std::optional<ouster::SensorInfo> next;
+    {
+        std::lock_guard<std::mutex> lock(pending_mutex);
+        next.swap(pending_info);
+    }
+    if (!next) return false;
+    if (assembler) counters_before += assembler->counters();
+    info = std::move(*next);
+    info.udp_port_lidar = udp_port;
+    lut = ouster::make_xyz_lut(info);
+    attach_assembler(this, min_completeness, queue);
+    has_info = true;
+    frames_per_second.store(info.frames_per_second, std::memory_order_relaxed);
+    metadata_known.store(true, std::memory_order_release);
+    mode_mismatch.store(false, std::memory_order_relaxed);
+    publish_counters(this);
+    // Last: until here the fetcher must not judge the data against the new metadata.
+    has_pending.store(false, std::memory_order_release);
+    return true;
+}
 
 std::unique_ptr<Receiver> make_receiver(std::uint16_t port,
                                         const std::vector<SensorIngest*>& members,
@@ -96,27 +152,25 @@ std::unique_ptr<Receiver> make_receiver(std::uint16_t port,
     params.requested_rcvbuf_bytes = network.receive_buffer_bytes;
     r->socket = std::make_unique<net::UdpReceiver>(params);
     r->sensors = members;
-    std::vector<ouster::RoutedSensor> routed;
+    r->station = &station;
+    r->min_completeness = min_completeness;
+    rebuild_router(r.get());
     for (auto* s : members) {
-        ouster::RoutedSensor rs{s->info, std::nullopt};
-        const auto& sc = station.sensors[s->index];
-        if (sc.source_address) rs.source_ip = net::parse_ipv4(*sc.source_address);
-        routed.push_back(rs);
+        if (s->has_info) attach_assembler(s, min_completeness, &r->queue);
     }
-    r->router = std::make_unique<ouster::SensorRouter>(routed);
-    for (auto* s : members) attach_assembler(s, min_completeness, &r->queue);
     return r;
 }
 
 void run_receiver(Receiver* r) {
     r->socket->run([r](const net::ReceivedDatagram& d) {
         if (r->recorder) r->recorder->offer(d);
+        install_pending(r);
         const int routed = r->router->route(d.src_ip, d.local_port, d.data, d.size);
         if (routed < 0) {
             r->unassigned.fetch_add(1, std::memory_order_relaxed);
             return;
         }
-        SensorIngest* s = r->sensors[static_cast<std::size_t>(routed)];
+        SensorIngest* s = r->sensors[r->routed_members[static_cast<std::size_t>(routed)]];
         s->assembler->add_packet(d.data, d.size);
         if (s->assembler->mode_check().mismatch() !=
             s->mode_mismatch.load(std::memory_order_relaxed)) {
@@ -128,8 +182,10 @@ void run_receiver(Receiver* r) {
 }
 
 void publish_counters(SensorIngest* s) {
+    ouster::AssemblyCounters sum = s->counters_before;
+    if (s->assembler) sum += s->assembler->counters();
     std::lock_guard<std::mutex> lock(s->counters_mutex);
-    s->counters = s->assembler->counters();
+    s->counters = sum;
 }
 
 }  // namespace lidarfuse::daemon

@@ -12,12 +12,14 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "daemon/daemon_config.hpp"
 #include "daemon/drop_oldest_queue.hpp"
+#include "daemon/metadata_status.hpp"
 #include "daemon/recorder.hpp"
 #include "drivers/net/udp_receiver.hpp"
 #include "drivers/ouster/metadata.hpp"
@@ -63,12 +65,35 @@ struct SensorIngest {
     ouster::AssemblyCounters counters;  // `mode_seen`
     std::string mode_seen;  // what disagreed with the metadata, set when mode_mismatch is
     std::uint32_t packets_since_publish = 0;  // receiver thread only
+
+    // Metadata. A sensor with a file has it from the start; one named by hostname gets it
+    // from its MetadataFetcher (daemon/metadata_fetcher.hpp), which hands every version to
+    // the receiver thread here; the receiver installs it at its next datagram.
+    bool has_info = false;                         // receiver thread (and the constructor)
+    std::uint16_t udp_port = 0;                    // station.yaml's, which wins over the metadata's
+    ouster::AssemblyCounters counters_before;      // receiver thread: earlier assemblers' sum
+    std::atomic<bool> metadata_known{false};       // has_info, for other threads
+    std::atomic<int> frames_per_second{0};         // of the installed metadata; 0 before
+    std::atomic<std::uint32_t> packet_init_id{0};  // of the latest scan (0: LEGACY headers)
+    std::atomic<bool> has_pending{false};
+    std::mutex pending_mutex;  // guards pending_info
+    std::optional<ouster::SensorInfo> pending_info;
+    // Receiver thread: installs pending metadata (new LUT and assembler); true if it did.
+    bool install_pending_metadata(double min_completeness, DropOldestQueue<ScanMessage>* queue);
+
+    // The fetcher's state, for the stats (under counters_mutex).
+    MetadataStatus metadata_status;
 };
 
 struct Receiver {
     std::unique_ptr<net::UdpReceiver> socket;
     std::vector<SensorIngest*> sensors;  // on this port
+    // Routes among the members with metadata (a sensor waiting for its metadata cannot be
+    // told apart: its datagrams are unassigned until it has some); router index -> member.
     std::unique_ptr<ouster::SensorRouter> router;
+    std::vector<std::size_t> routed_members;
+    const station::StationConfig* station = nullptr;
+    double min_completeness = 0.0;
     DropOldestQueue<ScanMessage> queue{8};
     std::atomic<std::uint64_t> unassigned{0};
     std::shared_ptr<spdlog::logger> log;  // mode mismatch flagged / cleared (rare events)

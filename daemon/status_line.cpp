@@ -12,6 +12,9 @@ std::string sensor_reason(const SensorStats& s) {
         case SensorState::kOk:
         case SensorState::kDisabled: return "";
         case SensorState::kModeMismatch: return "sends " + s.mode_seen;
+        case SensorState::kNoMetadata:
+            return s.metadata.last_error.empty() ? "fetching from " + s.metadata.source
+                                                 : s.metadata.last_error;
         case SensorState::kStale:
         case SensorState::kLost:
             if (s.ms_since_last_scan < 0) return s.packets > 0 ? "packets but no scan yet" : "nothing received";
@@ -23,8 +26,9 @@ std::string sensor_reason(const SensorStats& s) {
 
 std::string sensors_summary(const std::vector<SensorStats>& sensors) {
     std::string text;
-    for (const SensorState state : {SensorState::kOk, SensorState::kStale, SensorState::kLost,
-                                    SensorState::kModeMismatch, SensorState::kDisabled}) {
+    for (const SensorState state :
+         {SensorState::kOk, SensorState::kStale, SensorState::kLost, SensorState::kModeMismatch,
+          SensorState::kNoMetadata, SensorState::kDisabled}) {
         std::vector<const SensorStats*> group;
         for (const auto& s : sensors) {
             if (s.state == state) group.push_back(&s);

@@ -41,7 +41,7 @@ UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 # The daemon's threads are exercised under TSan by sensor_outage_test instead (DDS off).
 stage "thread sanitizer build (pipeline tests)"
 tsan_tests=(drop_oldest_queue_test frame_synchroniser_test net_udp_receiver_test lidarfused_test
-            sensor_outage_test malformed_config_test recorder_test)
+            sensor_outage_test malformed_config_test recorder_test sensor_hostname_test)
 CCACHE_BASEDIR="$top" CCACHE_NOHASHDIR=true cmake -S "$top" -B "$top/build-tsan" -G Ninja \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLIDARFUSE_WERROR=ON -DLIDARFUSE_SANITIZE=thread \
     -DLIDARFUSE_BUILD_BENCH=OFF "${data_args[@]}" >"$top/build-tsan.configure.log" 2>&1 ||

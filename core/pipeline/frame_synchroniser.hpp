@@ -63,6 +63,11 @@ public:
         params_.time_offset_ns.resize(sensors_, 0);
     }
 
+    // The root's frame rate became known or changed (a sensor named by hostname): frames
+    // opened from now on use the new largest offset.
+    void set_max_offset_ns(std::int64_t max_offset_ns) { params_.max_offset_ns = max_offset_ns; }
+    std::int64_t max_offset_ns() const { return params_.max_offset_ns; }
+
     // A completed scan of `sensor` with its sensor timestamp; `now_ns` is monotonic.
     void push(std::size_t sensor, std::int64_t sensor_t_ns, std::int64_t now_ns, T item) {
         if (sensor >= sensors_) return;

@@ -62,6 +62,28 @@ struct AssemblyCounters {
     // disagree with the metadata's lidar_mode, and times the sensor was flagged for it.
     std::uint64_t mode_mismatch_frames = 0;
     std::uint64_t mode_mismatches = 0;
+
+    // Sums (a sensor's counters across the assemblers of its metadata versions).
+    AssemblyCounters& operator+=(const AssemblyCounters& o) {
+        packets += o.packets;
+        lidar_packets += o.lidar_packets;
+        imu_packets += o.imu_packets;
+        bad_size += o.bad_size;
+        bad_profile += o.bad_profile;
+        crc_valid += o.crc_valid;
+        crc_errors += o.crc_errors;
+        late_packets += o.late_packets;
+        duplicate_packets += o.duplicate_packets;
+        duplicate_columns += o.duplicate_columns;
+        bad_columns += o.bad_columns;
+        frames_complete += o.frames_complete;
+        frames_incomplete += o.frames_incomplete;
+        resets += o.resets;
+        missing_columns += o.missing_columns;
+        mode_mismatch_frames += o.mode_mismatch_frames;
+        mode_mismatches += o.mode_mismatches;
+        return *this;
+    }
 };
 
 class FrameWindow {

@@ -41,6 +41,17 @@ TEST(StatusLine, MixedStatesNameTheSensorsThatAreNotOkWithTheirOwnReasons) {
               "(lidar3); 1 DISABLED (lidar5)");
 }
 
+TEST(StatusLine, ASensorWithoutMetadataSaysWhyOrWhereItIsFetchedFrom) {
+    SensorStats failing = sensor("lidar1", SensorState::kNoMetadata, -1, 0);
+    failing.metadata.source = "http://10.5.6.12:80";
+    failing.metadata.last_error = "host 10.5.6.12:80 GET /api/v1/sensor/metadata: timed out";
+    SensorStats first = sensor("lidar2", SensorState::kNoMetadata, -1, 0);
+    first.metadata.source = "http://10.5.6.13:80";
+    EXPECT_EQ(sensors_summary({sensor("lidar0", SensorState::kOk, 10), failing, first}),
+              "1 OK (lidar0); 2 NO_METADATA (lidar1: host 10.5.6.12:80 GET "
+              "/api/v1/sensor/metadata: timed out, lidar2: fetching from http://10.5.6.13:80)");
+}
+
 TEST(StatusLine, TheWholeLineKeepsItsCountersFirst) {
     PipelineStats st;
     st.frames_fused = 173;

@@ -4,6 +4,7 @@
 // process, and a `lidarfuse replay` running in the background.
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <functional>
@@ -62,16 +63,16 @@ inline std::string port_map(int slot, int sensors) {
     return args;
 }
 
-// Runs `lidarfuse replay` in a thread; join() returns its exit status.
-class BackgroundReplay {
+// Runs a shell command in a thread; join() returns its exit status.
+class BackgroundCommand {
 public:
-    BackgroundReplay(const std::filesystem::path& capture, const std::string& args) {
-        thread_ = std::thread([this, command = test::tool_path() + " replay " + capture.string() + " " + args] {
+    explicit BackgroundCommand(const std::string& command) {
+        thread_ = std::thread([this, command] {
             status_ = test::run_command(command, &output_);
             done_ = true;
         });
     }
-    ~BackgroundReplay() { join(); }
+    ~BackgroundCommand() { join(); }
     int join() {
         if (thread_.joinable()) thread_.join();
         return status_;
@@ -84,6 +85,13 @@ private:
     std::string output_;
     int status_ = -1;
     std::atomic<bool> done_{false};
+};
+
+// `lidarfuse replay CAPTURE ARGS` in a thread.
+class BackgroundReplay : public BackgroundCommand {
+public:
+    BackgroundReplay(const std::filesystem::path& capture, const std::string& args)
+        : BackgroundCommand(test::tool_path() + " replay " + capture.string() + " " + args) {}
 };
 
 // Polls `condition` every 20 ms for up to `timeout`; true as soon as it holds.
