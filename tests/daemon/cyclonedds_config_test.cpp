@@ -113,8 +113,8 @@ TEST(CycloneddsXml, CommentsAreWellFormedXml) {
 TEST(CycloneddsXml, CycloneStartsWithIt) {
     const std::string uri = "file://" + (test::source_dir() / "config" / "cyclonedds.xml").string();
     ::setenv("CYCLONEDDS_URI", uri.c_str(), 1);
-    const dds_entity_t participant =
-        dds_create_participant(static_cast<dds_domainid_t>(1 + ::getpid() % 230), nullptr, nullptr);
+    const dds_entity_t participant = dds_create_participant(
+        static_cast<dds_domainid_t>(1 + test::port_block_index()), nullptr, nullptr);
     EXPECT_GT(participant, 0) << dds_strretcode(participant);
     if (participant > 0) dds_delete(participant);
 }

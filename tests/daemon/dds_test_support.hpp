@@ -13,6 +13,8 @@
 #include <string>
 #include <thread>
 
+#include "tests/support/test_data.hpp"
+
 namespace lidarfuse::test {
 
 // Cyclone on the loopback interface only (it falls back to unicast discovery there), with
@@ -27,8 +29,8 @@ inline const char* kLoopbackDdsConfig =
 
 inline void use_loopback_dds() { ::setenv("CYCLONEDDS_URI", kLoopbackDdsConfig, 1); }
 
-// 1..230, from the process id: distinct for the tests ctest runs at the same time.
-inline int unique_domain_id() { return 1 + static_cast<int>(::getpid() % 230); }
+// 1..198, from this process's block of ports: distinct for the test processes alive.
+inline int unique_domain_id() { return 1 + port_block_index(); }
 
 // Reliable, keep-last `depth`, volatile unless asked; what a ROS 2 subscriber would use.
 inline dds_qos_t* reader_qos(int depth, bool transient_local = false) {

@@ -43,7 +43,7 @@ TEST(LidarfusedRecord, ARecordedLiveRunReplayedIntoASecondDaemonGivesTheSamePose
     test::TempDir dir("lfd-rec");
     const auto d = dir.path();
     ASSERT_NO_FATAL_FAILURE(simulate_two_sensors(d / "meta", 0.05));  // the live run's metadata
-    const auto p0 = static_cast<std::uint16_t>(34000 + (::getpid() % 4000) * 4);
+    const auto p0 = test::port_block();
     const int domain = test::unique_domain_id();
 
     // 1. Live, recorded.
@@ -169,7 +169,7 @@ TEST(LidarfusedRecord, FuseOnTheRecordingFolderEqualsFuseOnTheCaptureSent) {
     test::TempDir dir("lfd-rec");
     const auto d = dir.path();
     ASSERT_NO_FATAL_FAILURE(simulate_two_sensors(d / "sim", 2.0));
-    const auto p0 = static_cast<std::uint16_t>(38000 + (::getpid() % 4000) * 4);
+    const auto p0 = static_cast<std::uint16_t>(test::port_block() + 8);  // beside the other test's
     const int domain = test::unique_domain_id();
     write_config(
         d / "sim" / "daemon.yaml", p0, domain, d / "out",

@@ -29,8 +29,8 @@
 
 namespace lidarfuse::lidarfused_test {
 
-// Ports for this test: distinct per process so parallel test runs do not collide.
-inline std::uint16_t base_port() { return static_cast<std::uint16_t>(42000 + (::getpid() % 4000) * 4); }
+// Ports for this test: this process's block, reserved so parallel test runs never collide.
+inline std::uint16_t base_port() { return test::port_block(); }
 
 // Kills the daemon when a test ends early (a failed ASSERT), so it never outlives the test.
 struct ChildGuard {

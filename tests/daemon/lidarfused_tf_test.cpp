@@ -29,7 +29,7 @@ TEST(Lidarfused, TfResolvesEveryCloudWithASensorSilencedAndHostStamps) {
               0)
         << out;
     // A port range of its own (the other tests use 30000+ and 42000+).
-    const auto p0 = static_cast<std::uint16_t>(10000 + (::getpid() % 4000) * 4);
+    const auto p0 = test::port_block();
     const int domain = test::unique_domain_id();
     std::ofstream(d / "sim" / "daemon.yaml")
         << "station: tf2\nsensors:\n"

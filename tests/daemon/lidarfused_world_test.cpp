@@ -48,8 +48,8 @@ TEST(LidarfusedWorld, GeoFromThreePerturbedPositionsIsWithinTheReportedResidual)
     for (const auto& [name, delta] : perturbation)
         given[name] = mean[name] / count[name] + utm + delta;
 
-    // Ports per process, as the other daemon tests pick theirs (from 10000, 26000, 30000, 42000).
-    const auto p0 = static_cast<std::uint16_t>(50000 + (::getpid() % 1000) * 8);
+    // This process's own block of ports (tests/support/test_data.hpp).
+    const auto p0 = test::port_block();
     const int domain = test::unique_domain_id();
     std::ofstream yaml(d / "sim" / "daemon.yaml");
     yaml.precision(12);

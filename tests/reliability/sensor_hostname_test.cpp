@@ -57,7 +57,7 @@ TEST(SensorHostname, FetchesConfiguresStreamsAndFollowsARebootWithoutARestart) {
     const int slot = 0;
     // The sensors first send to ports nobody listens on: only the daemon's configuration
     // (udp_port_lidar = its sensor's udp_port) brings their data. lidar1 reboots at 5 s.
-    const std::uint16_t nowhere = static_cast<std::uint16_t>(base_port(slot) + 20);
+    const std::uint16_t nowhere = static_cast<std::uint16_t>(base_port(slot) + 4);
     BackgroundCommand sensors(
         test::tool_path() +
         " sim --scenario straight --sensors 2 --seconds 9 --mode 512x20"

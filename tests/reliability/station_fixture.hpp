@@ -18,10 +18,10 @@
 
 namespace lidarfuse::reliability {
 
-// Loopback ports for one test process (sensor k on base + k), distinct from
-// tests/daemon's range so that the suites can run in parallel.
+// Loopback ports of a slot of this process's block (sensor k on base + k, at most 8), so
+// the suites can run in parallel (tests/support/test_data.hpp).
 inline std::uint16_t base_port(int slot) {
-    return static_cast<std::uint16_t>(30000 + (::getpid() % 2000) * 6 + slot * 3);
+    return static_cast<std::uint16_t>(test::port_block() + slot * 8);
 }
 
 // `lidarfuse sim` into `dir` (2 sensors, 512x20, RNG19 profile so that init_id exists,

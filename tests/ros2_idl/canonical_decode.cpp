@@ -127,7 +127,7 @@ void run_station(const std::filesystem::path& d, Readers* readers, Seen* seen) {
                                 &out),
               0)
         << out;
-    const auto p0 = static_cast<std::uint16_t>(26000 + (::getpid() % 1000) * 4);
+    const auto p0 = test::port_block();
     std::ofstream(d / "sim" / "daemon.yaml")
         << "station: canon\nsensors:\n"
         << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"

@@ -1,6 +1,8 @@
 #include "tests/support/test_data.hpp"
 
+#include <fcntl.h>
 #include <openssl/evp.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -8,6 +10,7 @@
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -104,5 +107,41 @@ std::optional<double> figure(const std::string& output, const std::string& name)
     }
     return std::nullopt;
 }
+
+namespace {
+
+constexpr int kFirstBlockPort = 20000;
+constexpr int kBlocks = (32768 - kFirstBlockPort) / kPortBlockSize;
+
+// A block is taken while a process holds an exclusive flock on its lock file; the kernel
+// drops the lock when the process ends, however it ends.
+std::uint16_t reserve_port_block() {
+    const std::filesystem::path folder =
+        std::filesystem::temp_directory_path() / "lidarfuse-test-ports";
+    std::error_code error;
+    std::filesystem::create_directories(folder, error);
+    const int first = static_cast<int>(::getpid() % kBlocks);
+    for (int i = 0; i < kBlocks; ++i) {
+        const int block = (first + i) % kBlocks;
+        const std::string file = (folder / ("block-" + std::to_string(block) + ".lock")).string();
+        const int fd = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+        if (fd < 0) continue;
+        if (::flock(fd, LOCK_EX | LOCK_NB) == 0) {  // kept open: held until the process ends
+            return static_cast<std::uint16_t>(kFirstBlockPort + block * kPortBlockSize);
+        }
+        ::close(fd);
+    }
+    throw std::runtime_error("port_block: every block of test ports in " + folder.string() +
+                             " is held by another process");
+}
+
+}  // namespace
+
+std::uint16_t port_block() {
+    static const std::uint16_t base = reserve_port_block();
+    return base;
+}
+
+int port_block_index() { return (port_block() - kFirstBlockPort) / kPortBlockSize; }
 
 }  // namespace lidarfuse::test

@@ -33,6 +33,17 @@ private:
     std::filesystem::path path_;
 };
 
+// The first of kPortBlockSize loopback UDP ports reserved for this test process: no other
+// process that asks (tests run in parallel, and two checkouts' suites may share a machine)
+// gets them while it lives. Below Linux's ephemeral range (32768..), so no socket of DDS
+// or an HTTP client takes one by chance. Each test file places its sensors at offsets of
+// its own inside the block. Throws when every block is taken.
+constexpr int kPortBlockSize = 64;
+std::uint16_t port_block();
+// Which block that is (0..197): unique among the test processes alive, like the block, so
+// it also names a DDS domain of this process's own.
+int port_block_index();
+
 // Lower-case hex md5 of a byte range (OpenSSL EVP).
 std::string md5_hex(const void* data, std::size_t size);
 
