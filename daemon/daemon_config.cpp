@@ -233,4 +233,9 @@ DaemonConfig load_daemon_config(const std::filesystem::path& file) {
     return config;
 }
 
+std::filesystem::path record_directory(const OutputConfig& output) {
+    return output.record.directory.empty() ? output.directory / "recordings"
+                                           : output.record.directory;
+}
+
 }  // namespace lidarfuse::daemon

@@ -113,6 +113,9 @@ struct DaemonConfig {
     std::string log_level = "info";
 };
 
+// output.record.directory, or its default <output.directory>/recordings.
+std::filesystem::path record_directory(const OutputConfig& output);
+
 DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string& source_name,
                                  const std::filesystem::path& base_dir);
 DaemonConfig load_daemon_config(const std::filesystem::path& file);

@@ -80,8 +80,17 @@ int main(int argc, char** argv) {
     sigaddset(&signals, SIGHUP);
     pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-    // A check binds the ports but records nothing (no recording folder is made).
-    if (check_only) config.output.record.enabled = false;
+    // A check binds the ports but records nothing (no recording folder is made): it only
+    // says whether one could be.
+    if (check_only && config.output.record.enabled) {
+        const std::string problem = lidarfuse::daemon::record_directory_problem(
+            lidarfuse::daemon::record_directory(config.output));
+        if (!problem.empty()) {
+            std::fprintf(stderr, "lidarfused: output.record.directory: %s\n", problem.c_str());
+            return 1;
+        }
+        config.output.record.enabled = false;
+    }
     std::unique_ptr<lidarfuse::daemon::Pipeline> pipeline;
     try {
         pipeline = std::make_unique<lidarfuse::daemon::Pipeline>(config);

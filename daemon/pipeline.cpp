@@ -99,7 +99,7 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
     if (config.output.record.enabled) {
         const std::uint32_t dst_ip = net::parse_ipv4(config.network.bind_address);  // 0.0.0.0: 0
         RecordConfig record = config.output.record;
-        if (record.directory.empty()) record.directory = config.output.directory / "recordings";
+        record.directory = record_directory(config.output);
         recorder = std::make_unique<Recorder>(record, config.station, dst_ip, logger("record"));
     }
     for (std::size_t i = 0; i < config.station.sensors.size(); ++i) {

@@ -2,6 +2,7 @@
 
 #include <pcap/pcap.h>
 #include <pthread.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -216,6 +217,23 @@ void Recorder::stop() {
     }
     m.wake.notify_one();
     if (m.writer.joinable()) m.writer.join();
+}
+
+std::string record_directory_problem(const std::filesystem::path& directory) {
+    std::error_code error;
+    fs::path existing = fs::absolute(directory, error);
+    while (!existing.empty() && !fs::exists(existing, error) && existing != existing.root_path()) {
+        existing = existing.parent_path();
+    }
+    if (!fs::is_directory(existing, error)) {
+        return directory.string() + ": cannot be made, " + existing.string() +
+               " is not a directory";
+    }
+    if (::access(existing.c_str(), W_OK | X_OK) != 0) {
+        return directory.string() + ": cannot be made in " + existing.string() + ": " +
+               std::strerror(errno);
+    }
+    return "";
 }
 
 void Recorder::note_metadata(const std::string& sensor, const std::string& json) {

@@ -41,6 +41,11 @@ struct RecorderStats {
     std::string problem() const;
 };
 
+// Why a recording into `directory` could not start (for `lidarfused --check`, which makes
+// no folder): the nearest folder on its path that exists is not a directory this process
+// may write into. "" when it can.
+std::string record_directory_problem(const std::filesystem::path& directory);
+
 class Recorder {
 public:
     // Free bytes for a path's file system (tests inject a disk that fills up).

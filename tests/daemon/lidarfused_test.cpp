@@ -42,6 +42,47 @@ TEST(Lidarfused, CheckAcceptsAValidConfigAndListsEveryProblemOfABadOne) {
     EXPECT_THAT(out, HasSubstr("registration.voxel_size_m"));
 }
 
+// --check makes no recording folder, but says when one could not be made; and it names the
+// sensors it leaves to be fetched when the daemon runs.
+TEST(Lidarfused, CheckRefusesARecordingFolderThatCannotBeMadeAndNamesSensorsByHostname) {
+    test::TempDir dir("lfd-check");
+    std::string out;
+    ASSERT_EQ(test::run_command(test::tool_path() +
+                                    " sim --scenario curve --sensors 2 --seconds 0.1 --out " +
+                                    dir.path().string(),
+                                &out),
+              0)
+        << out;
+    std::ofstream(dir.path() / "a_file") << "not a folder";
+    std::ofstream(dir.path() / "record.yaml")
+        << test::file_text(dir.path() / "station.yaml")
+        << "\noutput:\n  dds: {enabled: false}\n  record: {enabled: true, directory: "
+        << (dir.path() / "a_file" / "recordings").string() << "}\n";
+    out.clear();
+    EXPECT_EQ(test::run_command(test::daemon_path() + " --config " +
+                                    (dir.path() / "record.yaml").string() + " --check",
+                                &out),
+              1);
+    EXPECT_THAT(
+        out,
+        HasSubstr("output.record.directory: " + (dir.path() / "a_file" / "recordings").string() +
+                  ": cannot be made, " + (dir.path() / "a_file").string() + " is not a directory"));
+
+    std::ofstream(dir.path() / "host.yaml")
+        << "sensors:\n  - {name: a, udp_port: " << base_port() + 4
+        << ", hostname: 127.0.0.1, http_port: 9}\noutput: {dds: {enabled: false}, directory: "
+        << (dir.path() / "out").string() << ", record: {enabled: true}}\n";
+    out.clear();
+    EXPECT_EQ(test::run_command(test::daemon_path() + " --config " +
+                                    (dir.path() / "host.yaml").string() + " --check",
+                                &out),
+              0)
+        << out;
+    EXPECT_THAT(out, HasSubstr("(1 sensors) (1 named by hostname: their metadata is fetched when "
+                               "the daemon runs, not by --check)"));
+    EXPECT_FALSE(std::filesystem::exists(dir.path() / "out" / "recordings"));
+}
+
 TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     test::TempDir dir("lfd-run");
     const auto d = dir.path();
@@ -225,7 +266,7 @@ TEST(Lidarfused, FusesALiveSimulatedStationOntoDds) {
     const auto d = dir.path();
     // The metadata of the same virtual sensors, before the live run starts.
     ASSERT_NO_FATAL_FAILURE(simulate_two_sensors(d / "meta", 0.05));
-    const auto p0 = static_cast<std::uint16_t>(30000 + (::getpid() % 4000) * 4);
+    const auto p0 = static_cast<std::uint16_t>(base_port() + 8);  // beside base_port()'s
     const int domain = test::unique_domain_id();
     std::ofstream(d / "meta" / "daemon.yaml")
         << "station: live\nsensors:\n"
