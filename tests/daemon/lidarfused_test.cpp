@@ -17,14 +17,8 @@ using ::testing::HasSubstr;
 TEST(Lidarfused, CheckAcceptsAValidConfigAndListsEveryProblemOfABadOne) {
     test::use_loopback_dds();
     test::TempDir dir("lfd");
+    ASSERT_NO_FATAL_FAILURE(simulate_two_sensors(dir.path(), 0.1));
     std::string out;
-    ASSERT_EQ(test::run_command(test::tool_path() +
-                                    " sim --scenario curve --sensors 2 --seconds 0.1 --out " +
-                                    dir.path().string(),
-                                &out),
-              0)
-        << out;
-    out.clear();
     EXPECT_EQ(test::run_command(test::daemon_path() + " --config " +
                                     (dir.path() / "station.yaml").string() + " --check",
                                 &out),
@@ -46,13 +40,8 @@ TEST(Lidarfused, CheckAcceptsAValidConfigAndListsEveryProblemOfABadOne) {
 // sensors it leaves to be fetched when the daemon runs.
 TEST(Lidarfused, CheckRefusesARecordingFolderThatCannotBeMadeAndNamesSensorsByHostname) {
     test::TempDir dir("lfd-check");
+    ASSERT_NO_FATAL_FAILURE(simulate_two_sensors(dir.path(), 0.1));
     std::string out;
-    ASSERT_EQ(test::run_command(test::tool_path() +
-                                    " sim --scenario curve --sensors 2 --seconds 0.1 --out " +
-                                    dir.path().string(),
-                                &out),
-              0)
-        << out;
     std::ofstream(dir.path() / "a_file") << "not a folder";
     std::ofstream(dir.path() / "record.yaml")
         << test::file_text(dir.path() / "station.yaml")
