@@ -51,12 +51,7 @@ void lower_this_thread_priority(const char* name) {
 
 // A sensor whose metadata is a file: loaded before any thread starts (errors stop start-up).
 void load_metadata_file(const station::SensorConfig& sc, SensorIngest* s) {
-    s->info = ouster::load_metadata(sc.metadata);
-    s->info.udp_port_lidar = sc.udp_port;
-    s->lut = ouster::make_xyz_lut(s->info);
-    s->has_info = true;
-    s->metadata_known.store(true);
-    s->frames_per_second.store(s->info.frames_per_second);
+    s->adopt_metadata(ouster::load_metadata(sc.metadata));
     s->metadata_status.source = sc.metadata.string();
 }
 

@@ -24,8 +24,8 @@ void Pipeline::Impl::sync_loop() {
     params.reset_jump_ns = static_cast<std::int64_t>(config.sync.reset_jump_ms * 1e6);
     core::FrameSynchroniser<ScanMessage> sync(sensors.size(), params);
     while (!stopping.load(std::memory_order_acquire)) {
-        if (max_offset_ns() != sync.max_offset_ns()) {
-            sync.set_max_offset_ns(max_offset_ns());
+        if (const std::int64_t offset = max_offset_ns(); offset != sync.max_offset_ns()) {
+            sync.set_max_offset_ns(offset);
             sync_log->info("frames synchronised within {:.1f} ms (the root's frame period)",
                            static_cast<double>(sync.max_offset_ns()) * 1e-6);
         }

@@ -116,6 +116,15 @@ void install_pending(Receiver* r) {
 
 }  // namespace
 
+void SensorIngest::adopt_metadata(ouster::SensorInfo next) {
+    info = std::move(next);
+    info.udp_port_lidar = udp_port;
+    lut = ouster::make_xyz_lut(info);
+    has_info = true;
+    frames_per_second.store(info.frames_per_second, std::memory_order_relaxed);
+    metadata_known.store(true, std::memory_order_release);
+}
+
 bool SensorIngest::install_pending_metadata(double min_completeness,
                                             DropOldestQueue<ScanMessage>* queue) {
     if (!has_pending.load(std::memory_order_acquire)) return false;
@@ -126,13 +135,8 @@ bool SensorIngest::install_pending_metadata(double min_completeness,
     }
     if (!next) return false;
     if (assembler) counters_before += assembler->counters();
-    info = std::move(*next);
-    info.udp_port_lidar = udp_port;
-    lut = ouster::make_xyz_lut(info);
+    adopt_metadata(std::move(*next));
     attach_assembler(this, min_completeness, queue);
-    has_info = true;
-    frames_per_second.store(info.frames_per_second, std::memory_order_relaxed);
-    metadata_known.store(true, std::memory_order_release);
     mode_mismatch.store(false, std::memory_order_relaxed);
     publish_counters(this);
     // Last: until here the fetcher must not judge the data against the new metadata.

@@ -78,6 +78,9 @@ struct SensorIngest {
     std::atomic<bool> has_pending{false};
     std::mutex pending_mutex;  // guards pending_info
     std::optional<ouster::SensorInfo> pending_info;
+    // Takes `next` as the sensor's metadata (the station's port wins over its own) with its
+    // LUT; before the receiver thread starts, or on it.
+    void adopt_metadata(ouster::SensorInfo next);
     // Receiver thread: installs pending metadata (new LUT and assembler); true if it did.
     bool install_pending_metadata(double min_completeness, DropOldestQueue<ScanMessage>* queue);
 

@@ -115,6 +115,18 @@ bool valid_hostname(const std::string& host) {
     return host.front() != '-' && host.front() != '.';
 }
 
+// An optional dotted-quad IPv4 address: its text when valid, else nullopt (and the problem).
+std::optional<std::string> ipv4_text(const YAML::Node& node, const std::string& path,
+                                     YamlReader* r) {
+    auto text = r->string(node, path, false);
+    in_addr parsed{};
+    if (text && ::inet_pton(AF_INET, text->c_str(), &parsed) != 1) {
+        r->problems.push_back(path + ": expected an IPv4 address, got \"" + *text + "\"");
+        return std::nullopt;
+    }
+    return text;
+}
+
 // sensors[i].configure: `true`/`false`, or a mapping of the parameters to set (enabled).
 void read_configure(const YAML::Node& node, const std::string& path, YamlReader* r,
                     SensorConfigure* out) {
@@ -125,13 +137,7 @@ void read_configure(const YAML::Node& node, const std::string& path, YamlReader*
     }
     r->only_keys(node, path, kConfigureKeys);
     out->enabled = true;
-    if (auto d = r->string(node["udp_dest"], path + ".udp_dest", false)) {
-        in_addr parsed{};
-        if (::inet_pton(AF_INET, d->c_str(), &parsed) != 1) {
-            r->problems.push_back(path + ".udp_dest: expected an IPv4 address, got \"" + *d + "\"");
-        }
-        out->udp_dest = *d;
-    }
+    out->udp_dest = ipv4_text(node["udp_dest"], path + ".udp_dest", r);
     static const std::vector<std::string> kModes = {"512x10",  "512x20",  "1024x10",
                                                     "1024x20", "2048x10", "4096x5"};
     static const std::vector<std::string> kTimestampModes = {
@@ -237,15 +243,7 @@ StationConfig parse_station_config(const std::string& yaml_text, const std::stri
                 sensor.udp_port = static_cast<std::uint16_t>(*p);
             }
             read_metadata_source(node, path, base_dir, &r, &sensor);
-            if (auto a = r.string(node["source_address"], path + ".source_address", false)) {
-                in_addr parsed{};
-                if (::inet_pton(AF_INET, a->c_str(), &parsed) != 1) {
-                    r.problems.push_back(path + ".source_address: expected an IPv4 address, got \"" +
-                                         *a + "\"");
-                } else {
-                    sensor.source_address = *a;
-                }
-            }
+            sensor.source_address = ipv4_text(node["source_address"], path + ".source_address", &r);
             if (auto t = r.integer(node["time_offset_ns"], path + ".time_offset_ns",
                                    -3600LL * 1000000000LL, 3600LL * 1000000000LL, false)) {
                 sensor.time_offset_ns = *t;
