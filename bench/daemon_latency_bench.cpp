@@ -4,8 +4,9 @@
 //   latency from the last packet of a frame (the send of the last datagram of the frame's
 //     last-completed scan) to its fused cloud arriving at the DDS reader: median and p99
 //   CPU and minor page faults per stage over the replay (% of one core and faults/s, from
-//     /proc/<pid>/task: lf-recv-*, lf-sync, lf-fusion (with the threads it starts: initial
-//     registration, OpenMP), lf-output, lf-record, Cyclone's threads, the rest), and the peak RSS
+//     /proc/<pid>/task: lf-recv-*, lf-sync, lf-fusion (with its OpenMP team), lf-init (the
+//     initial registration, with its team), lf-output, lf-record, Cyclone's threads, the
+//     rest), and the peak RSS
 //   packets sent, received (diagnostics), lost; frames in the capture, fused, published
 // and at the end the largest N with zero packet loss and the largest N that also fused at
 // least 95 % of the capture's frames (real time).
@@ -226,6 +227,8 @@ std::map<std::string, StageUsage> usage_by_stage(pid_t pid) {
             stage = "sync";
         else if (comm == "lf-fusion")
             stage = "fusion";
+        else if (comm == "lf-init")
+            stage = "initial";
         else if (comm == "lf-output")
             stage = "output";
         else if (comm == "lf-record")
@@ -365,7 +368,8 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool reco
     std::printf("daemon_latency_median_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.5));
     std::printf("daemon_latency_p99_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.99));
     std::printf("daemon_latency_samples_%s %zu frames\n", tag.c_str(), latency_ms.size());
-    for (const char* stage : {"receive", "sync", "fusion", "output", "record", "dds", "main"}) {
+    for (const char* stage :
+         {"receive", "sync", "fusion", "initial", "output", "record", "dds", "main"}) {
         const StageUsage before = cpu0.count(stage) ? cpu0.at(stage) : StageUsage{};
         const StageUsage after = cpu1.count(stage) ? cpu1.at(stage) : before;
         std::printf("daemon_cpu_%s_%s %.1f %%\n", stage, tag.c_str(),

@@ -76,6 +76,8 @@ struct FusionEngine::Impl {
                                 const std::vector<std::size_t>& sensors, bool first,
                                 const Eigen::Isometry3d& T_root0_root_now,
                                 std::vector<std::size_t>* started, FrameOutput* out);
+    // Whether a sensor other than the root is tracked (then a job must leave fusion a core).
+    bool tracking_beyond_root() const;
     // Starts the tracks of the sensors the finished job registered. Their reference frame is
     // the job's frame (its scans); when that is an earlier frame, they are tracked from this
     // frame on like any sensor (reference edge from the registered pose, inter-sensor edges).

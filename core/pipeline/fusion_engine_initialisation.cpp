@@ -36,7 +36,8 @@ void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameI
         clouds.push_back(std::move(c));
     }
     InitialRegistrationParams ip = params.initial;
-    ip.num_threads = std::max(1, run_inline ? params.num_threads : params.initial_threads);
+    ip.num_threads = std::max(
+        1, run_inline || !tracking_beyond_root() ? params.num_threads : params.initial_threads);
     p.job = std::make_shared<InitialRegistrationJob>(std::move(clouds), ip);
     pending = std::move(p);
     if (run_inline) {
@@ -48,6 +49,13 @@ void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameI
             out->health[pending->order[k]].event = "initial registration started";
         }
     }
+}
+
+bool FusionEngine::Impl::tracking_beyond_root() const {
+    for (std::size_t s = 0; s < n; ++s) {
+        if (s != params.root_sensor && tracks[s]->initialised()) return true;
+    }
+    return false;
 }
 
 void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<std::size_t>* started, FrameOutput* out) {

@@ -97,8 +97,10 @@ struct FusionParams {
     // Where the initial registration (~1 s) runs. false (real time): process() hands it out
     // as FrameOutput::initial_job and keeps fusing the sensors it already tracks; the caller
     // must run the job (any thread) and keep calling process(), which applies the result once
-    // the job is done. The root starts tracking on its first frame at once. The job uses
-    // `initial_threads` OpenMP threads, so that it leaves the fusion thread a core.
+    // the job is done. The root starts tracking on its first frame at once. While no other
+    // sensor tracks (the first registration, or a retry after all failed) the job uses
+    // `num_threads` OpenMP threads, as inline; otherwise `initial_threads`, so that it
+    // leaves the fusion thread a core for the sensors it tracks.
     // true (offline, deterministic): process() runs it inline and applies it in the same
     // frame; the result does not depend on timing.
     bool initial_registration_inline = false;
