@@ -15,10 +15,24 @@
 //                             [--queue-depth 1]   (sync.queue_depth of the daemon; 1 its default)
 //                             [--record 1]        (output.record on: the recorder's CPU and drops)
 //                             [--keep 1]          (leave the folder: daemon logs, outputs)
+//                             [--cyclonedds bench|default|FILE]  (Cyclone's configuration of the
+//                                 daemon and the reader: bench = loopback with 64 kB fragments,
+//                                 below; default = none, Cyclone's defaults; FILE, e.g.
+//                                 config/cyclonedds.xml)
+//                             [--reader-cyclonedds bench|default|FILE]  (the reader's alone)
+//                             [--reader-qos reliable|best-effort] [--reader-depth 20]
+//                             [--reader-netns NAME]  (the reader in network namespace NAME, as
+//                                 on another host: `ip netns add`, a veth pair between them,
+//                                 and Cyclone configurations that name each side's interface)
+//   (--reader-qos best-effort --reader-depth 5 is ROS 2's sensor-data QoS, reliable 10 its
+//   default; clouds delivered = received / published, published = fused after the world
+//   frame was fixed)
 // Needs the built `lidarfuse` (sim) and `lidarfused` beside it (build/tools, build/daemon).
 // The replay runs in this process (one thread); the machine's other load shares the cores.
 #include <dds/dds.h>
+#include <fcntl.h>
 #include <netinet/in.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
@@ -76,6 +90,16 @@ struct SensorReplay {
     std::uint64_t datagrams = 0;
 };
 
+// How the clouds travel: Cyclone's configuration (CYCLONEDDS_URI; empty = unset) of each
+// side and the reader's QoS.
+struct Delivery {
+    std::string daemon_uri;
+    std::string reader_uri;
+    bool reader_reliable = true;
+    int reader_depth = 20;
+    std::string reader_netns;  // empty: this process's network namespace
+};
+
 struct Received {
     std::mutex mutex;
     std::map<std::int64_t, std::int64_t> cloud_arrival_ns;  // by header stamp
@@ -86,12 +110,26 @@ struct Received {
 };
 
 // Reads clouds, poses and diagnostics until `stop`; arrival times taken on wake-up.
-void subscribe(int domain, std::atomic<bool>* stop, std::atomic<bool>* matched, Received* out) {
+void subscribe(int domain, const Delivery& delivery, std::atomic<bool>* stop,
+               std::atomic<bool>* matched, Received* out) {
+    if (!delivery.reader_netns.empty()) {
+        // Only this thread moves; the threads Cyclone starts from it follow it.
+        const std::string path = "/var/run/netns/" + delivery.reader_netns;
+        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0 || ::setns(fd, CLONE_NEWNET) != 0) {
+            std::fprintf(stderr, "daemon_latency_bench: cannot enter %s\n", path.c_str());
+            std::exit(1);
+        }
+        ::close(fd);
+    }
     const dds_entity_t participant =
         dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr);
     dds_qos_t* qos = dds_create_qos();
-    dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
-    dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 20);
+    if (delivery.reader_reliable)
+        dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
+    else
+        dds_qset_reliability(qos, DDS_RELIABILITY_BEST_EFFORT, 0);
+    dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, delivery.reader_depth);
     const auto reader = [&](const dds_topic_descriptor_t* type, const char* name) {
         const dds_entity_t topic = dds_create_topic(participant, type, name, nullptr, nullptr);
         return dds_create_reader(participant, topic, qos, nullptr);
@@ -272,7 +310,17 @@ struct RunResult {
     double fused_share = 0.0;
 };
 
-RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool record) {
+// CYCLONEDDS_URI = uri in this process (empty: unset), read by the next participant of a
+// domain that does not exist yet.
+void set_cyclone_uri(const std::string& uri) {
+    if (uri.empty())
+        ::unsetenv("CYCLONEDDS_URI");
+    else
+        ::setenv("CYCLONEDDS_URI", uri.c_str(), 1);
+}
+
+RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool record,
+              const Delivery& delivery) {
     RunResult result;
     const fs::path out_dir = sim / ("out" + std::to_string(n));
     std::ofstream config(sim / ("daemon" + std::to_string(n) + ".yaml"));
@@ -309,12 +357,14 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool reco
         const std::string log = (sim / ("daemon" + std::to_string(n) + ".log")).string();
         std::freopen(log.c_str(), "w", stderr);
         std::freopen(log.c_str(), "a", stdout);
+        set_cyclone_uri(delivery.daemon_uri);
         ::execl(daemon_path().c_str(), "lidarfused", "--config", cfg.c_str(), nullptr);
         ::_exit(127);
     }
     Received received;
     std::atomic<bool> stop{false}, matched{false};
-    std::thread reader([&] { subscribe(domain, &stop, &matched, &received); });
+    set_cyclone_uri(delivery.reader_uri);
+    std::thread reader([&] { subscribe(domain, delivery, &stop, &matched, &received); });
     for (int i = 0; i < 1000 && !matched.load(); ++i)
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -391,6 +441,13 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool reco
                 value("frame_queue_drops").c_str());
     std::printf("daemon_clouds_received_%s %zu frames\n", tag.c_str(),
                 received.cloud_arrival_ns.size());
+    const std::size_t before_world = std::stoull(value("frames_before_world_frame"));
+    const std::size_t published = fused > before_world ? fused - before_world : 0;
+    std::printf("daemon_clouds_published_%s %zu frames\n", tag.c_str(), published);
+    std::printf("daemon_clouds_delivered_%s %.1f %%\n", tag.c_str(),
+                published > 0 ? 100.0 * static_cast<double>(received.cloud_arrival_ns.size()) /
+                                    static_cast<double>(published)
+                              : 0.0);
     std::printf("daemon_mean_fusion_%s %s ms\n", tag.c_str(), value("mean_fusion_ms").c_str());
     std::printf("daemon_dds_write_failures_%s %s writes\n", tag.c_str(),
                 value("dds_write_failures").c_str());
@@ -408,6 +465,16 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool reco
     return result;
 }
 
+// --cyclonedds: "bench" (loopback, 64 kB fragments), "default" (unset) or a file.
+std::string cyclone_uri(const std::string& choice) {
+    if (choice == "default") return "";
+    if (choice != "bench") return "file://" + fs::absolute(choice).string();
+    return "<General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
+           "<MaxMessageSize>65500B</MaxMessageSize><FragmentSize>64000B</FragmentSize></General>"
+           "<Internal><Watermarks><WhcHigh>16MiB</WhcHigh></Watermarks></Internal>"
+           "<Tracing><Verbosity>severe</Verbosity></Tracing>";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -417,6 +484,8 @@ int main(int argc, char** argv) {
     int queue_depth = 1;  // the daemon's default
     bool record = false;  // --record 1: output.record on (into the bench's folder)
     bool keep = false;  // --keep 1: leave the capture, configs, daemon logs and outputs
+    Delivery delivery;
+    delivery.daemon_uri = delivery.reader_uri = cyclone_uri("bench");
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string arg = argv[i];
         if (arg == "--sensors") {
@@ -434,6 +503,16 @@ int main(int argc, char** argv) {
             record = argv[i + 1] == std::string("1");
         } else if (arg == "--keep") {
             keep = argv[i + 1] == std::string("1");
+        } else if (arg == "--cyclonedds") {
+            delivery.daemon_uri = delivery.reader_uri = cyclone_uri(argv[i + 1]);
+        } else if (arg == "--reader-cyclonedds") {
+            delivery.reader_uri = cyclone_uri(argv[i + 1]);
+        } else if (arg == "--reader-qos") {
+            delivery.reader_reliable = argv[i + 1] != std::string("best-effort");
+        } else if (arg == "--reader-depth") {
+            delivery.reader_depth = std::stoi(argv[i + 1]);
+        } else if (arg == "--reader-netns") {
+            delivery.reader_netns = argv[i + 1];
         }
     }
     const int max_n = *std::max_element(counts.begin(), counts.end());
@@ -446,16 +525,10 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "daemon_latency_bench: %s failed\n", cmd.c_str());
         return 1;
     }
-    ::setenv("CYCLONEDDS_URI",
-             "<General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
-             "<MaxMessageSize>65500B</MaxMessageSize><FragmentSize>64000B</FragmentSize></General>"
-             "<Internal><Watermarks><WhcHigh>16MiB</WhcHigh></Watermarks></Internal>"
-             "<Tracing><Verbosity>severe</Verbosity></Tracing>",
-             1);
     const int domain = 1 + static_cast<int>(::getpid() % 230);
     int max_zero_loss = 0, max_realtime = 0;
     for (int n : counts) {
-        const auto r = run(sim, n, domain, queue_depth, record);
+        const auto r = run(sim, n, domain, queue_depth, record, delivery);
         if (r.ok && r.lost == 0) max_zero_loss = std::max(max_zero_loss, n);
         if (r.ok && r.lost == 0 && r.fused_share >= 0.95) max_realtime = std::max(max_realtime, n);
     }

@@ -96,6 +96,28 @@ TEST(CycloneddsXml, NoMinimumBufferAboveTheKernelsDefault) {
     EXPECT_GE(size_bytes(*max), 8.0 * 1048576.0);
 }
 
+// The text of element `name` in the settings (comments removed), or "".
+std::string element(const std::string& name) {
+    const std::string xml = without_comments(cyclonedds_xml());
+    const std::size_t at = xml.find("<" + name + ">");
+    if (at == std::string::npos) return "";
+    const std::size_t begin = at + name.size() + 2;
+    const std::size_t end = xml.find("</" + name + ">", begin);
+    return end == std::string::npos ? "" : xml.substr(begin, end - begin);
+}
+
+// Datagrams of one Ethernet frame each cost the output thread about a third of a core and
+// lose clouds for a subscriber that keeps up with larger ones (bench/BENCHMARK.md,
+// "Delivery"): a message carries several fragments, and IP fragments it to the MTU.
+TEST(CycloneddsXml, MessagesCarrySeveralFragments) {
+    const std::string message = element("MaxMessageSize");
+    const std::string fragment = element("FragmentSize");
+    ASSERT_FALSE(message.empty());
+    ASSERT_FALSE(fragment.empty());
+    EXPECT_GE(size_bytes(message), 14720.0) << message;
+    EXPECT_GE(size_bytes(message), 8.0 * size_bytes(fragment)) << message << " / " << fragment;
+}
+
 TEST(CycloneddsXml, CommentsAreWellFormedXml) {
     const std::string xml = cyclonedds_xml();
     std::size_t at = 0, comments = 0;
