@@ -46,19 +46,46 @@ std::size_t SphericalGrid::cells() const {
            static_cast<std::size_t>(params_.elevation_bins);
 }
 
+BandedImage::BandedImage(int rows, int cols)
+    : cols_(cols),
+      data_(new double[static_cast<std::size_t>(std::max(rows, 0)) *
+                       static_cast<std::size_t>(std::max(cols, 0))]) {}
+
+double* BandedImage::row(int r) {
+    if (lo_ > hi_) {
+        fill(r, r);
+        lo_ = hi_ = r;
+    } else if (r < lo_) {
+        fill(r, lo_ - 1);
+        lo_ = r;
+    } else if (r > hi_) {
+        fill(hi_ + 1, r);
+        hi_ = r;
+    }
+    band_begin_ = static_cast<std::size_t>(lo_) * static_cast<std::size_t>(cols_);
+    band_end_ = static_cast<std::size_t>(hi_ + 1) * static_cast<std::size_t>(cols_);
+    return &data_[static_cast<std::size_t>(r) * static_cast<std::size_t>(cols_)];
+}
+
+void BandedImage::fill(int first_row, int last_row) {
+    const std::size_t cols = static_cast<std::size_t>(cols_);
+    std::fill(&data_[static_cast<std::size_t>(first_row) * cols],
+              &data_[static_cast<std::size_t>(last_row + 1) * cols], kInf);
+}
+
 SphericalRangeImage::SphericalRangeImage(const SphericalGridParams& params)
     : grid_(params),
-      nearest_(grid_.cells(), kInf),
-      scratch_(grid_.cells(), kInf),
-      window_min_(grid_.cells(), kInf),
+      nearest_(params.elevation_bins, params.azimuth_bins),
+      scratch_(params.elevation_bins, params.azimuth_bins),
+      window_min_(params.elevation_bins, params.azimuth_bins),
       nearest_lo_(grid_.params().elevation_bins),
       nearest_hi_(-1),
       window_lo_(grid_.params().elevation_bins),
       window_hi_(-1) {}
 
-void SphericalRangeImage::clear_rows(std::vector<double>* image, int lo, int hi) const {
-    if (lo > hi) return;
-    std::fill(image->begin() + grid_.index(0, lo), image->begin() + grid_.index(0, hi + 1), kInf);
+void SphericalRangeImage::clear_rows(BandedImage* image, int lo, int hi) const {
+    const int W = grid_.params().azimuth_bins;
+    for (int e = lo; e <= hi; ++e) std::fill(image->row(e), image->row(e) + W, kInf);
 }
 
 // Row: the last boundary at or below z/r, found from the slot's row (boundaries are at
@@ -114,7 +141,7 @@ void SphericalRangeImage::build(const std::vector<Eigen::Vector3d>& points) {
     double r = 0;
     for (const auto& p : points) {
         if (!cell_of(p, &az, &el, &r)) continue;
-        double& cell = nearest_[grid_.index(az, el)];
+        double& cell = nearest_.row(el)[az];
         cell = std::min(cell, r);
         nearest_lo_ = std::min(nearest_lo_, el);
         nearest_hi_ = std::max(nearest_hi_, el);
@@ -138,7 +165,7 @@ void SphericalRangeImage::build(const std::vector<Eigen::Vector3d>& points,
         const int index = grid_.index(az, el);
         (*cells)[i] = index;
         (*ranges_m)[i] = r;
-        double& cell = nearest_[static_cast<std::size_t>(index)];
+        double& cell = nearest_.row(el)[az];
         cell = std::min(cell, r);
         nearest_lo_ = std::min(nearest_lo_, el);
         nearest_hi_ = std::max(nearest_hi_, el);
@@ -159,13 +186,13 @@ void SphericalRangeImage::compute_window_min(int cone_bins) {
         return;
     }
     for (int e = nearest_lo_; e <= nearest_hi_; ++e) {
-        const double* in = &nearest_[static_cast<std::size_t>(grid_.index(0, e))];
+        const double* in = nearest_.row(e);
         for (int k = 0; k < c; ++k) {
             row[static_cast<std::size_t>(k)] = in[W - c + k];
             row[static_cast<std::size_t>(W + c + k)] = in[k];
         }
         std::copy(in, in + W, row.begin() + c);
-        double* out = &scratch_[static_cast<std::size_t>(grid_.index(0, e))];
+        double* out = scratch_.row(e);
         for (int a = 0; a < W; ++a) {
             double m = kInf;
             for (int d = 0; d <= 2 * c; ++d) m = std::min(m, row[static_cast<std::size_t>(a + d)]);
@@ -176,9 +203,9 @@ void SphericalRangeImage::compute_window_min(int cone_bins) {
     window_hi_ = std::min(H - 1, nearest_hi_ + c);
     for (int e = window_lo_; e <= window_hi_; ++e) {
         const int lo = std::max(nearest_lo_, e - c), hi = std::min(nearest_hi_, e + c);
-        double* out = &window_min_[static_cast<std::size_t>(grid_.index(0, e))];
+        double* out = window_min_.row(e);
         for (int k = lo; k <= hi; ++k) {
-            const double* in = &scratch_[static_cast<std::size_t>(grid_.index(0, k))];
+            const double* in = scratch_.row(k);
             for (int a = 0; a < W; ++a) out[a] = std::min(out[a], in[a]);
         }
     }

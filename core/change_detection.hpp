@@ -16,10 +16,12 @@
 // range over the window is precomputed once per scan (separable min filter), so each point
 // costs O(1). Grid and buffers are reused between calls.
 
-#include <cstdint>
-#include <vector>
-
 #include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <vector>
 
 namespace lidarfuse::core {
 
@@ -53,6 +55,31 @@ private:
 };
 
 // Per cell: the nearest range of the points whose rays fall in it (metres), +inf if none.
+// A rows x cols image of ranges, +infinity (no measurement) until written, whose rows are
+// filled, and their memory touched, only from their first use on: a sensor covers a band
+// of the grid's elevations (an OS1-64 45 of 120 degrees), and the rows outside it never
+// become resident memory (bench/BENCHMARK.md, "8 sensors on 2 cores").
+class BandedImage {
+public:
+    BandedImage(int rows, int cols);
+    // Row r, to read or write; set to +infinity on first use, with the rows between it and
+    // the rows used so far.
+    double* row(int r);
+    // The value of a cell (row-major index); +infinity in a row never used.
+    double at(std::size_t cell) const {
+        return cell >= band_begin_ && cell < band_end_ ? data_[cell] : kNone;
+    }
+
+private:
+    static constexpr double kNone = std::numeric_limits<double>::infinity();
+    void fill(int first_row, int last_row);
+
+    int cols_;
+    std::unique_ptr<double[]> data_;  // allocated untouched; rows [lo_, hi_] filled
+    int lo_ = 0, hi_ = -1;
+    std::size_t band_begin_ = 0, band_end_ = 0;  // cells of rows [lo_, hi_]
+};
+
 class SphericalRangeImage {
 public:
     explicit SphericalRangeImage(const SphericalGridParams& params = {});
@@ -67,18 +94,24 @@ public:
     // Minimum range over the (2 * cone_bins + 1)^2 window around each cell, wrapping in
     // azimuth; call after build(), before window_min().
     void compute_window_min(int cone_bins);
-    double window_min(int az, int el) const { return window_min_[grid_.index(az, el)]; }
-    double window_min_at(std::int32_t cell) const { return window_min_[static_cast<std::size_t>(cell)]; }
-    double nearest(int az, int el) const { return nearest_[grid_.index(az, el)]; }
+    double window_min(int az, int el) const {
+        return window_min_.at(static_cast<std::size_t>(grid_.index(az, el)));
+    }
+    double window_min_at(std::int32_t cell) const {
+        return window_min_.at(static_cast<std::size_t>(cell));
+    }
+    double nearest(int az, int el) const {
+        return nearest_.at(static_cast<std::size_t>(grid_.index(az, el)));
+    }
     const SphericalGrid& grid() const { return grid_; }
 
 private:
-    void clear_rows(std::vector<double>* image, int lo, int hi) const;
+    void clear_rows(BandedImage* image, int lo, int hi) const;
 
     SphericalGrid grid_;
-    std::vector<double> nearest_;
-    std::vector<double> scratch_;
-    std::vector<double> window_min_;
+    BandedImage nearest_;
+    BandedImage scratch_;
+    BandedImage window_min_;
     std::vector<double> row_;  // one padded azimuth row (compute_window_min)
     // Rows that hold finite values (lo > hi: none). A sensor covers a band of elevations
     // (an OS1-64 45 of the 120 degrees), so the window and the clearing skip the others.

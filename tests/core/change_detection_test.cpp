@@ -122,6 +122,24 @@ TEST(ChangeDetection, NoEvidenceNoFlagAndEmptyInputs) {
     EXPECT_EQ(result.num_added, 0u);
 }
 
+// Rows come into use one band at a time: a row never used reads +infinity, a row used
+// starts at +infinity, and so do the rows between it and the band used so far.
+TEST(BandedImage, RowsOutsideTheBandReadInfinityAndNewRowsStartThere) {
+    BandedImage image(6, 3);
+    for (std::size_t cell = 0; cell < 18; ++cell) EXPECT_TRUE(std::isinf(image.at(cell)));
+    image.row(2)[1] = 4.0;
+    EXPECT_EQ(image.at(7), 4.0);
+    EXPECT_TRUE(std::isinf(image.at(6)));
+    image.row(4)[0] = 1.0;  // fills row 3 too
+    for (int c = 0; c < 3; ++c) EXPECT_TRUE(std::isinf(image.row(3)[c]));
+    EXPECT_EQ(image.at(12), 1.0);
+    EXPECT_EQ(image.at(7), 4.0);  // kept
+    image.row(0)[2] = 2.0;        // below the band: fills row 1
+    EXPECT_EQ(image.at(2), 2.0);
+    for (std::size_t cell = 3; cell < 6; ++cell) EXPECT_TRUE(std::isinf(image.at(cell)));
+    for (std::size_t cell = 15; cell < 18; ++cell) EXPECT_TRUE(std::isinf(image.at(cell)));
+}
+
 TEST(SphericalRangeImage, WindowMinimumWrapsInAzimuth) {
     SphericalGridParams grid;
     grid.azimuth_bins = 16;
