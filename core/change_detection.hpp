@@ -54,7 +54,6 @@ private:
     std::vector<std::int16_t> row_of_slot_;
 };
 
-// Per cell: the nearest range of the points whose rays fall in it (metres), +inf if none.
 // A rows x cols image of ranges, +infinity (no measurement) until written, whose rows are
 // filled, and their memory touched, only from their first use on: a sensor covers a band
 // of the grid's elevations (an OS1-64 45 of 120 degrees), and the rows outside it never
@@ -80,6 +79,7 @@ private:
     std::size_t band_begin_ = 0, band_end_ = 0;  // cells of rows [lo_, hi_]
 };
 
+// Per cell: the nearest range of the points whose rays fall in it (metres), +inf if none.
 class SphericalRangeImage {
 public:
     explicit SphericalRangeImage(const SphericalGridParams& params = {});
