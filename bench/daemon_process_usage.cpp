@@ -1,0 +1,70 @@
+#include "bench/daemon_process_usage.hpp"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <system_error>
+
+namespace lidarfuse::bench {
+
+namespace fs = std::filesystem;
+
+std::map<std::string, StageUsage> usage_by_stage(pid_t pid) {
+    std::map<std::string, StageUsage> out;
+    const double tick = static_cast<double>(::sysconf(_SC_CLK_TCK));
+    std::error_code ec;
+    for (const auto& task : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task", ec)) {
+        std::ifstream in(task.path() / "stat");
+        std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        const auto open = text.find('('), close = text.rfind(')');
+        if (open == std::string::npos || close == std::string::npos) continue;
+        const std::string comm = text.substr(open + 1, close - open - 1);
+        std::istringstream rest(text.substr(close + 2));
+        std::string field;
+        double utime = 0, stime = 0, minflt = 0;
+        for (int i = 3; i <= 15 && rest >> field; ++i) {
+            if (i == 10) minflt = std::stod(field);
+            if (i == 14) utime = std::stod(field);
+            if (i == 15) stime = std::stod(field);
+        }
+        std::string stage = "other";
+        if (comm.rfind("lf-recv", 0) == 0)
+            stage = "receive";
+        else if (comm == "lf-sync")
+            stage = "sync";
+        else if (comm == "lf-fusion")
+            stage = "fusion";
+        else if (comm == "lf-init")
+            stage = "initial";
+        else if (comm == "lf-output")
+            stage = "output";
+        else if (comm == "lf-record")
+            stage = "record";
+        else if (comm == "lidarfused")
+            stage = "main";
+        else
+            stage = "dds";  // Cyclone's recv, tev, dq.*, gc, ... threads
+        out[stage].cpu_s += (utime + stime) / tick;
+        out[stage].minor_faults += minflt;
+    }
+    return out;
+}
+
+double peak_rss_mib(pid_t pid) {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+    std::string key;
+    while (in >> key) {
+        if (key == "VmHWM:") {
+            double kib = 0;
+            in >> kib;
+            return kib / 1024.0;
+        }
+        std::getline(in, key);
+    }
+    return 0.0;
+}
+
+}  // namespace lidarfuse::bench
