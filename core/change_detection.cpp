@@ -85,7 +85,10 @@ SphericalRangeImage::SphericalRangeImage(const SphericalGridParams& params)
 
 void SphericalRangeImage::clear_rows(BandedImage* image, int lo, int hi) const {
     const int W = grid_.params().azimuth_bins;
-    for (int e = lo; e <= hi; ++e) std::fill(image->row(e), image->row(e) + W, kInf);
+    for (int e = lo; e <= hi; ++e) {
+        double* row = image->row(e);
+        std::fill(row, row + W, kInf);
+    }
 }
 
 // Row: the last boundary at or below z/r, found from the slot's row (boundaries are at
