@@ -4,10 +4,11 @@
 #include <cmath>
 #include <limits>
 
+#include "core/angles.hpp"
+
 namespace lidarfuse::core {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kElevationSlots = 4096;
 }  // namespace

@@ -5,11 +5,11 @@
 #include <cstdint>
 #include <numeric>
 
+#include "core/angles.hpp"
+
 namespace lidarfuse::core {
 
 namespace {
-
-constexpr double kDegToRad = M_PI / 180.0;
 
 struct Peak {
     int votes = 0;

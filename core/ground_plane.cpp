@@ -6,13 +6,12 @@
 #include <cstdint>
 #include <map>
 
+#include "core/angles.hpp"
 #include "core/octree_downsample.hpp"
 
 namespace lidarfuse::core {
 
 namespace {
-
-constexpr double kDegToRad = M_PI / 180.0;
 
 // Smallest rotation taking `up` (unit) to +z.
 Eigen::Matrix3d levelling_rotation(const Eigen::Vector3d& up) {

@@ -6,10 +6,11 @@
 #include <limits>
 #include <numeric>
 
+#include "core/angles.hpp"
+
 namespace lidarfuse::core {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 
 Eigen::Vector3d fold(const Eigen::Vector3d& n) { return n.z() < 0.0 ? Eigen::Vector3d(-n) : n; }
 }  // namespace

@@ -1,16 +1,16 @@
 #include "core/pipeline/sensor_track.hpp"
 
-#include "core/deskew.hpp"
-#include "core/normals.hpp"
-
 #include <algorithm>
 #include <cmath>
+
+#include "core/angles.hpp"
+#include "core/deskew.hpp"
+#include "core/normals.hpp"
 
 namespace lidarfuse::core {
 
 namespace {
 constexpr double kNsToS = 1e-9;
-constexpr double kPi = 3.14159265358979323846;
 
 // Voxel-grid downsampling of `points` (sensor frame; overwritten) on a grid fixed in the
 // frame T_grid_sensor maps into (null: the sensor frame), centroids returned in the sensor

@@ -24,7 +24,7 @@ std::vector<PointCloud> scan_all(const testing::Scene& scene,
     return clouds;
 }
 
-InitialRegistrationParams test_params() {
+InitialRegistrationParams registration_test_params() {
     InitialRegistrationParams params = default_initial_registration_params();
     params.num_threads = 2;
     return params;
@@ -34,7 +34,7 @@ InitialRegistrationParams test_params() {
 TEST(InitialRegistration, RegistersFourSensorsOfAStreet) {
     const auto T_world_sensor = testing::street_sensor_poses();
     const auto clouds = scan_all(testing::street_scene(), T_world_sensor);
-    const InitialRegistrationResult r = register_initial(clouds, test_params());
+    const InitialRegistrationResult r = register_initial(clouds, registration_test_params());
     ASSERT_EQ(r.sensors.size(), 4u);
     ASSERT_EQ(r.pairs.size(), 6u);
     for (std::size_t i = 0; i < 4; ++i) {
@@ -72,7 +72,7 @@ TEST(InitialRegistration, PlaneOnlySensorIsReportedNotInvented) {
     empty.ground_half_extent_m = 60.0;
     const auto plane = scan_all(empty, {testing::sensor_pose(0, 0, 6, 30, 10)});
     clouds.push_back(plane[0]);
-    const InitialRegistrationResult r = register_initial(clouds, test_params());
+    const InitialRegistrationResult r = register_initial(clouds, registration_test_params());
     ASSERT_EQ(r.sensors.size(), 4u);
     EXPECT_FALSE(r.sensors[3].registered);
     EXPECT_TRUE(r.sensors[3].status == SensorRegistrationStatus::kDegenerate ||
@@ -101,7 +101,7 @@ TEST(InitialRegistration, EmptyCloudsAndNoOverlap) {
     nans.points.assign(100, Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
     clouds.push_back(nans);
 
-    const InitialRegistrationResult r = register_initial(clouds, test_params());
+    const InitialRegistrationResult r = register_initial(clouds, registration_test_params());
     ASSERT_EQ(r.sensors.size(), 5u);
     EXPECT_TRUE(r.sensors[0].registered);
     EXPECT_EQ(r.sensors[2].status, SensorRegistrationStatus::kEmptyCloud);
@@ -137,7 +137,7 @@ TEST(InitialRegistration, CancelledRunRegistersNothing) {
     const auto T_world_sensor = testing::street_sensor_poses();
     const auto clouds = scan_all(testing::street_scene(), {T_world_sensor[0], T_world_sensor[1]});
     std::atomic<bool> cancel{true};
-    InitialRegistrationParams params = test_params();
+    InitialRegistrationParams params = registration_test_params();
     params.cancel = &cancel;
     const InitialRegistrationResult r = register_initial(clouds, params);
     ASSERT_EQ(r.sensors.size(), 2u);
@@ -195,7 +195,7 @@ TEST(InitialRegistration, NarrowViewLookAlikeIsRefusedNotGuessed) {
     const Eigen::Isometry3d& truth = street.truth;
     for (const double centre_deg : {0.0, 315.0}) {
         const std::vector<PointCloud> clouds{street.target, azimuth_sector(street.source, centre_deg, 90.0)};
-        const InitialRegistrationResult r = register_initial(clouds, test_params());
+        const InitialRegistrationResult r = register_initial(clouds, registration_test_params());
         ASSERT_EQ(r.sensors.size(), 2u);
         const SensorRegistration& s = r.sensors[1];
         if (s.registered) {
@@ -212,7 +212,7 @@ TEST(InitialRegistration, NarrowViewLookAlikeIsRefusedNotGuessed) {
 
         // The case is a real trap: without the ambiguity test and the weak-bridge test the
         // look-alike is taken.
-        InitialRegistrationParams guessing = test_params();
+        InitialRegistrationParams guessing = registration_test_params();
         guessing.consensus.ambiguity.enabled = false;
         guessing.consensus.min_bridge_information_per_inlier = 0.0;
         const InitialRegistrationResult g = register_initial(clouds, guessing);
@@ -230,7 +230,8 @@ TEST(InitialRegistration, WeakSinglePairIsRefusedNotTaken) {
     const Eigen::Isometry3d& truth = street.truth;
     const PointCloud& target = street.target;
     const PointCloud source = azimuth_sector(street.source, 0.0, 90.0);
-    const InitialRegistrationResult r = register_initial({target, source}, test_params());
+    const InitialRegistrationResult r =
+        register_initial({target, source}, registration_test_params());
     ASSERT_EQ(r.sensors.size(), 2u);
     EXPECT_FALSE(r.sensors[1].registered);
     EXPECT_TRUE(r.sensors[1].status == SensorRegistrationStatus::kUnconfirmed ||
@@ -239,7 +240,7 @@ TEST(InitialRegistration, WeakSinglePairIsRefusedNotTaken) {
     EXPECT_TRUE(r.pairs[0].status == PairStatus::kUnconfirmed ||
                 r.pairs[0].status == PairStatus::kAmbiguous);
 
-    InitialRegistrationParams guessing = test_params();
+    InitialRegistrationParams guessing = registration_test_params();
     guessing.consensus.ambiguity.enabled = false;
     guessing.consensus.min_bridge_information_per_inlier = 0.0;
     const InitialRegistrationResult g = register_initial({target, source}, guessing);

@@ -39,7 +39,7 @@ std::vector<Datagram> read_capture(const std::filesystem::path& path) {
     return out;
 }
 
-nlohmann::json read_json(const std::filesystem::path& path) {
+nlohmann::json read_json_file(const std::filesystem::path& path) {
     std::ifstream in(path);
     return nlohmann::json::parse(in);
 }
@@ -394,7 +394,7 @@ void check_digest(const char* pcap_name, const char* meta_name, const char* dige
         }
     }
     EXPECT_EQ(packets, w / f.columns_per_packet());
-    const nlohmann::json digest = read_json(*digest_path);
+    const nlohmann::json digest = read_json_file(*digest_path);
     // Upstream digests list "scans"; the DERIVED reference calls them "frames".
     const nlohmann::json scan = digest.contains("scans") ? digest["scans"][0] : digest["frames"][0];
     auto md5 = [](const auto& v) {
