@@ -19,7 +19,7 @@ out="${OUT:-$(mktemp -d /tmp/lidarfuse-demo.XXXXXX)}"
 bin="$top/build-release"
 echo "== building lidarfuse and lidarfused (Release) in $bin"
 "$top/scripts/build.sh" "$bin" -DCMAKE_BUILD_TYPE=Release -DLIDARFUSE_BUILD_TESTS=OFF \
-    -DLIDARFUSE_BUILD_BENCH=OFF -- lidarfuse lidarfused >"$bin.build.log" 2>&1 ||
+    -DLIDARFUSE_BUILD_BENCH=OFF -DLIDARFUSE_UNITY_BUILD=ON -- lidarfuse lidarfused >"$bin.build.log" 2>&1 ||
     { tail -n 40 "$bin.build.log"; exit 1; }
 
 echo "== simulating ${scenario}: 4 OS1-64 at 1024x20, ${seconds} s, seed ${seed} -> ${out}/sim"
