@@ -12,6 +12,22 @@ namespace lidarfuse::bench {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// The stage a thread of lidarfused works for, by its name (set in daemon/): a receiver per
+// sensor, and one thread per later stage; every other thread is Cyclone's (recv, tev, dq.*,
+// gc, ...).
+std::string stage_of_thread(const std::string& comm) {
+    if (comm.rfind("lf-recv", 0) == 0) return "receive";
+    static const std::map<std::string, std::string> kStageOfThread = {
+        {"lf-sync", "sync"},     {"lf-fusion", "fusion"}, {"lf-init", "initial"},
+        {"lf-output", "output"}, {"lf-record", "record"}, {"lidarfused", "main"}};
+    const auto it = kStageOfThread.find(comm);
+    return it == kStageOfThread.end() ? "dds" : it->second;
+}
+
+}  // namespace
+
 std::map<std::string, StageUsage> usage_by_stage(pid_t pid) {
     std::map<std::string, StageUsage> out;
     const double tick = static_cast<double>(::sysconf(_SC_CLK_TCK));
@@ -30,23 +46,7 @@ std::map<std::string, StageUsage> usage_by_stage(pid_t pid) {
             if (i == 14) utime = std::stod(field);
             if (i == 15) stime = std::stod(field);
         }
-        std::string stage = "other";
-        if (comm.rfind("lf-recv", 0) == 0)
-            stage = "receive";
-        else if (comm == "lf-sync")
-            stage = "sync";
-        else if (comm == "lf-fusion")
-            stage = "fusion";
-        else if (comm == "lf-init")
-            stage = "initial";
-        else if (comm == "lf-output")
-            stage = "output";
-        else if (comm == "lf-record")
-            stage = "record";
-        else if (comm == "lidarfused")
-            stage = "main";
-        else
-            stage = "dds";  // Cyclone's recv, tev, dq.*, gc, ... threads
+        const std::string stage = stage_of_thread(comm);
         out[stage].cpu_s += (utime + stime) / tick;
         out[stage].minor_faults += minflt;
     }

@@ -6,6 +6,5 @@ namespace lidarfuse::core {
 
 inline constexpr double kPi = 3.14159265358979323846;
 inline constexpr double kDegToRad = kPi / 180.0;  // rad per degree
-inline constexpr double kRadToDeg = 180.0 / kPi;  // degrees per rad
 
 }  // namespace lidarfuse::core
