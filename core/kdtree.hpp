@@ -1,6 +1,9 @@
 #pragma once
-// A 3-D k-d tree over a vector of points (nanoflann 1.4.3 underneath). The tree keeps a
-// reference to the points: they must outlive it and must not change while it is used.
+// A 3-D k-d tree over a vector of points, for the small clouds of registration (a few
+// thousand voxel centroids, searched a hundred thousand times a frame) as for whole scans.
+// It keeps its own copy of the points in leaf order, so that a leaf's points are
+// contiguous in memory and a search reads them without an index indirection; splits at the
+// middle of a node's widest extent. Searches are exact. Results name the caller's indices.
 // Queries are const and safe to call from several threads at once.
 
 #include <Eigen/Core>
@@ -14,7 +17,9 @@ namespace lidarfuse::core {
 
 class KdTree {
 public:
-    explicit KdTree(const std::vector<Eigen::Vector3d>& points, int leaf_max_size = 10);
+    // `num_threads` > 1 builds the upper levels' subtrees in parallel (large clouds only).
+    explicit KdTree(const std::vector<Eigen::Vector3d>& points, int leaf_max_size = 10,
+                    int num_threads = 1);
     ~KdTree();
     KdTree(const KdTree&) = delete;
     KdTree& operator=(const KdTree&) = delete;
