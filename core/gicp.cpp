@@ -174,7 +174,8 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
             std::uint32_t j = 0;
             double d2 = 0.0;
             bool certified = false;
-            if (reuse_correspondences && target_index_[i] >= 0) {
+            if (reuse_correspondences && target_index_[i] >= 0 &&
+                static_cast<std::size_t>(target_index_[i]) < target_points.size()) {
                 const auto prev = static_cast<std::size_t>(target_index_[i]);
                 const double d2_prev = (target_points[prev] - Ta).squaredNorm();
                 j = static_cast<std::uint32_t>(prev);
@@ -279,7 +280,8 @@ double GicpRegistration::evaluate(const GicpTarget& target, const PointCloud& so
 }
 
 GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& source,
-                                   const Eigen::Isometry3d& T_init) {
+                                   const Eigen::Isometry3d& T_init,
+                                   const std::vector<std::int32_t>* guess) {
     GicpResult result;
     result.T_target_source = T_init;
     result.num_source = source.size();
@@ -292,6 +294,7 @@ GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& s
         return result;
     }
 
+    const bool has_guess = guess && guess->size() == source.size();
     Eigen::Isometry3d T = T_init;
     Linearization lin;
     double lambda = params_.lm_initial_lambda;
@@ -299,7 +302,8 @@ GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& s
     result.status = GicpStatus::kMaxIterations;
 
     for (int iteration = 0; iteration < params_.max_iterations; ++iteration) {
-        linearize(target, source, T, /*reuse_correspondences=*/iteration > 0, &lin);
+        if (iteration == 0 && has_guess) target_index_ = *guess;
+        linearize(target, source, T, /*reuse_correspondences=*/iteration > 0 || has_guess, &lin);
         last_linearization_current = true;
         if (lin.num_inliers < params_.min_correspondences) {
             result.status = GicpStatus::kTooFewCorrespondences;

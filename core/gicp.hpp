@@ -155,8 +155,16 @@ public:
     void set_params(const GicpParams& params) { params_ = params; }
 
     // Aligns `source` (needs covariances) to `target`, starting from T_init.
+    // `guess` (may be null; else one entry per source point): a likely correspondence of
+    // each source point (target index, -1 for none), e.g. where it was in the previous
+    // frame. It only bounds the first iteration's search, which stays exact (see
+    // linearize()), so it changes the time, never the result.
     GicpResult align(const GicpTarget& target, const PointCloud& source,
-                     const Eigen::Isometry3d& T_init = Eigen::Isometry3d::Identity());
+                     const Eigen::Isometry3d& T_init = Eigen::Isometry3d::Identity(),
+                     const std::vector<std::int32_t>* guess = nullptr);
+    // After align(): each source point's correspondence at the last linearisation (target
+    // index, -1 for none); a guess for the next frame's alignment to the same target.
+    const std::vector<std::int32_t>& correspondences() const { return target_index_; }
 
 private:
     // Sums over the correspondences at one pose (also the per-thread partial sums).
@@ -171,8 +179,9 @@ private:
     };
     // Correspondence search + H, b, error at T (correspondences kept in the buffers).
     // reuse_correspondences: target_index_ holds this source's neighbours from the
-    // previous iteration of the same align(); the distance to that neighbour bounds the
-    // search (exact: the nearest can only be closer), which prunes most of the k-d tree.
+    // previous iteration of the same align() (or the caller's guess); the distance to that
+    // neighbour bounds the search (exact: the nearest can only be closer), which prunes
+    // most of the k-d tree.
     void linearize(const GicpTarget& target, const PointCloud& source, const Eigen::Isometry3d& T,
                    bool reuse_correspondences, Linearization* lin);
     // Robust error over the stored correspondences at T (no k-d tree search).

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace lidarfuse::core {
 
@@ -14,6 +15,8 @@ P2pErrorResult p2p_error(const std::vector<Eigen::Vector3d>& source_points,
     result.num_source = source_points.size();
     if (source_points.empty() || target_tree.size() == 0) return result;
     const double rc2 = params.cutoff_radius_m * params.cutoff_radius_m;
+    // nearest_within() finds points strictly closer than its bound: d2 < next(rc2) <=> d2 <= rc2.
+    const double bound = std::nextafter(rc2, std::numeric_limits<double>::infinity());
     const int threads = std::max(1, params.num_threads);
     // Per-thread partial sums, added in thread order (deterministic for a thread count).
     std::vector<double> partial_sum(static_cast<std::size_t>(threads), 0.0);
@@ -28,11 +31,11 @@ P2pErrorResult p2p_error(const std::vector<Eigen::Vector3d>& source_points,
             const Eigen::Vector3d u = T_target_source * source_points[i];
             std::uint32_t j = 0;
             double d2 = 0.0;
-            if (!u.allFinite() || !target_tree.nearest(u, &j, &d2)) continue;
-            if (d2 <= rc2) {  // w_i = 1
-                sum += d2;
-                ++within;
-            }
+            // Only neighbours within the cutoff count, so the search needs to look no
+            // farther (bounded: much faster for the points a wrong candidate throws away).
+            if (!u.allFinite() || !target_tree.nearest_within(u, bound, &j, &d2)) continue;
+            sum += d2;  // d2 <= rc2: w_i = 1
+            ++within;
         }
         const auto tid = static_cast<std::size_t>(omp_get_thread_num());
         partial_sum[tid] = sum;

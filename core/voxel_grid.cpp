@@ -23,49 +23,87 @@ inline std::uint64_t hash_key(std::uint64_t key) {
 
 }  // namespace
 
+std::uint32_t VoxelGrid::Table::find(std::uint64_t key) const {
+    if (keys.empty()) return VoxelIndexMap::kNoVoxel;
+    const std::size_t mask = keys.size() - 1;
+    for (std::size_t slot = static_cast<std::size_t>(hash_key(key) >> hash_shift);;
+         slot = (slot + 1) & mask) {
+        if (keys[slot] == key) return values[slot];
+        if (keys[slot] == kEmptyKey) return VoxelIndexMap::kNoVoxel;
+    }
+}
+
+void VoxelGrid::find_twins(std::vector<std::uint32_t>* twins) const {
+    twins->clear();
+    const bool comparable = previous_.voxel_size_m == table_.voxel_size_m;
+    for (std::size_t v = 0; v < voxel_keys_.size(); ++v) {
+        if (table_.output_of_voxel[v] == VoxelIndexMap::kNoVoxel) continue;
+        const std::uint32_t before =
+            comparable ? previous_.find(voxel_keys_[v]) : VoxelIndexMap::kNoVoxel;
+        twins->push_back(before == VoxelIndexMap::kNoVoxel ? before
+                                                           : previous_.output_of_voxel[before]);
+    }
+}
+
 VoxelGridStats VoxelGrid::downsample(const std::vector<Eigen::Vector3d>& points,
                                      const VoxelGridParams& params, PointCloud* out,
-                                     VoxelIndexMap* index_map) {
+                                     VoxelIndexMap* index_map, std::vector<std::uint32_t>* twins) {
     VoxelGridStats stats;
     stats.num_input = points.size();
     out->clear();
+    if (twins) twins->clear();
     const std::size_t n = points.size();
     if (index_map) {
         index_map->voxel_of_point.assign(n, VoxelIndexMap::kNoVoxel);
         index_map->offsets.assign(1, 0);
         index_map->point_indices.clear();
     }
+    std::swap(table_, previous_);
+    table_.voxel_size_m = 0.0;
+    table_.output_of_voxel.clear();
+    voxel_keys_.clear();
     if (n == 0 || !(params.voxel_size_m > 0.0) || !std::isfinite(params.voxel_size_m)) {
         stats.num_invalid = n;
         return stats;
     }
+    table_.voxel_size_m = params.voxel_size_m;
+    insert_points(points, params.voxel_size_m, &stats);
+    emit_centroids(params, out, &stats);
+    if (index_map) fill_index_map(n, stats.num_output, index_map);
+    if (twins) find_twins(twins);
+    return stats;
+}
 
-    // Open addressing with linear probing, load factor <= 0.5.
+// Every point into the table (open addressing, linear probing, load factor <= 0.5),
+// summed into its voxel.
+void VoxelGrid::insert_points(const std::vector<Eigen::Vector3d>& points, double voxel_size_m,
+                              VoxelGridStats* stats) {
+    const std::size_t n = points.size();
     std::size_t capacity = 16;
     int shift_bits = 4;
     while (capacity < 2 * n) {
         capacity <<= 1;
         ++shift_bits;
     }
-    const int hash_shift = 64 - shift_bits;
+    table_.hash_shift = 64 - shift_bits;
     const std::size_t mask = capacity - 1;
-    table_keys_.assign(capacity, kEmptyKey);
-    table_values_.resize(capacity);
+    table_.keys.assign(capacity, kEmptyKey);
+    table_.values.resize(capacity);
     voxel_of_point_.resize(n);
     sums_.clear();
     counts_.clear();
 
-    const double inv_size = 1.0 / params.voxel_size_m;
+    const double inv_size = 1.0 / voxel_size_m;
     for (std::size_t i = 0; i < n; ++i) {
         const Eigen::Vector3d& p = points[i];
         voxel_of_point_[i] = VoxelIndexMap::kNoVoxel;
         if (!p.allFinite()) {
-            ++stats.num_invalid;
+            ++stats->num_invalid;
             continue;
         }
         const Eigen::Vector3d c = (p * inv_size).array().floor();
         if ((c.array().abs() >= static_cast<double>(kAxisOffset)).any()) {
-            ++stats.num_invalid;
+            ++stats->num_invalid;
             continue;
         }
         const std::uint64_t key =
@@ -74,18 +112,19 @@ VoxelGridStats VoxelGrid::downsample(const std::vector<Eigen::Vector3d>& points,
             (static_cast<std::uint64_t>(static_cast<std::int64_t>(c.y()) + kAxisOffset)
              << kBitsPerAxis) |
             static_cast<std::uint64_t>(static_cast<std::int64_t>(c.z()) + kAxisOffset);
-        std::size_t slot = static_cast<std::size_t>(hash_key(key) >> hash_shift);
+        std::size_t slot = static_cast<std::size_t>(hash_key(key) >> table_.hash_shift);
         std::uint32_t voxel;
         while (true) {
-            const std::uint64_t k = table_keys_[slot];
+            const std::uint64_t k = table_.keys[slot];
             if (k == key) {
-                voxel = table_values_[slot];
+                voxel = table_.values[slot];
                 break;
             }
             if (k == kEmptyKey) {
                 voxel = static_cast<std::uint32_t>(sums_.size());
-                table_keys_[slot] = key;
-                table_values_[slot] = voxel;
+                table_.keys[slot] = key;
+                table_.values[slot] = voxel;
+                voxel_keys_.push_back(key);
                 sums_.emplace_back(Eigen::Vector3d::Zero());
                 counts_.push_back(0);
                 break;
@@ -96,46 +135,50 @@ VoxelGridStats VoxelGrid::downsample(const std::vector<Eigen::Vector3d>& points,
         sums_[voxel] += p;
         ++counts_[voxel];
     }
+}
 
+// One centroid per voxel with enough points, in voxel order.
+void VoxelGrid::emit_centroids(const VoxelGridParams& params, PointCloud* out,
+                               VoxelGridStats* stats) {
     const std::size_t num_voxels = sums_.size();
     const std::uint32_t min_points =
         static_cast<std::uint32_t>(std::max(1, params.min_points_per_voxel));
-    remap_.resize(num_voxels);
+    table_.output_of_voxel.resize(num_voxels);
     out->points.reserve(num_voxels);
     for (std::size_t v = 0; v < num_voxels; ++v) {
         if (counts_[v] >= min_points) {
-            remap_[v] = static_cast<std::uint32_t>(out->points.size());
+            table_.output_of_voxel[v] = static_cast<std::uint32_t>(out->points.size());
             out->points.push_back(sums_[v] / static_cast<double>(counts_[v]));
         } else {
-            remap_[v] = VoxelIndexMap::kNoVoxel;
-            stats.num_dropped_sparse += counts_[v];
+            table_.output_of_voxel[v] = VoxelIndexMap::kNoVoxel;
+            stats->num_dropped_sparse += counts_[v];
         }
     }
-    stats.num_output = out->points.size();
+    stats->num_output = out->points.size();
+}
 
-    if (index_map) {
-        // Counting sort of the input indices by output voxel (CSR).
-        auto& offsets = index_map->offsets;
-        offsets.assign(stats.num_output + 1, 0);
-        for (std::size_t i = 0; i < n; ++i) {
-            const std::uint32_t v = voxel_of_point_[i];
-            if (v == VoxelIndexMap::kNoVoxel) continue;
-            const std::uint32_t o = remap_[v];
-            index_map->voxel_of_point[i] = o;
-            if (o != VoxelIndexMap::kNoVoxel) ++offsets[o + 1];
-        }
-        for (std::size_t v = 0; v < stats.num_output; ++v) offsets[v + 1] += offsets[v];
-        index_map->point_indices.resize(offsets.back());
-        // Fill using the (already final) offsets as cursors, then restore them.
-        for (std::size_t i = 0; i < n; ++i) {
-            const std::uint32_t o = index_map->voxel_of_point[i];
-            if (o == VoxelIndexMap::kNoVoxel) continue;
-            index_map->point_indices[offsets[o]++] = static_cast<std::uint32_t>(i);
-        }
-        for (std::size_t v = stats.num_output; v > 0; --v) offsets[v] = offsets[v - 1];
-        offsets[0] = 0;
+// Counting sort of the input indices by output voxel (CSR).
+void VoxelGrid::fill_index_map(std::size_t n, std::size_t num_output,
+                               VoxelIndexMap* index_map) const {
+    auto& offsets = index_map->offsets;
+    offsets.assign(num_output + 1, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::uint32_t v = voxel_of_point_[i];
+        if (v == VoxelIndexMap::kNoVoxel) continue;
+        const std::uint32_t o = table_.output_of_voxel[v];
+        index_map->voxel_of_point[i] = o;
+        if (o != VoxelIndexMap::kNoVoxel) ++offsets[o + 1];
     }
-    return stats;
+    for (std::size_t v = 0; v < num_output; ++v) offsets[v + 1] += offsets[v];
+    index_map->point_indices.resize(offsets.back());
+    // Fill using the (already final) offsets as cursors, then restore them.
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::uint32_t o = index_map->voxel_of_point[i];
+        if (o == VoxelIndexMap::kNoVoxel) continue;
+        index_map->point_indices[offsets[o]++] = static_cast<std::uint32_t>(i);
+    }
+    for (std::size_t v = num_output; v > 0; --v) offsets[v] = offsets[v - 1];
+    offsets[0] = 0;
 }
 
 PointCloud voxel_downsample(const std::vector<Eigen::Vector3d>& points,

@@ -46,17 +46,38 @@ struct VoxelGridStats {
 class VoxelGrid {
 public:
     // `out` gets points only (normals / covariances cleared). `index_map` may be null.
+    // `twins` (may be null): per output point, the index of the previous call's output
+    // point from the same voxel, or VoxelIndexMap::kNoVoxel (no such voxel then, or another
+    // voxel size). Consecutive frames on a grid fixed in one frame share most voxels, and a
+    // point's twin is where its registration correspondence most likely is.
     VoxelGridStats downsample(const std::vector<Eigen::Vector3d>& points,
                               const VoxelGridParams& params, PointCloud* out,
-                              VoxelIndexMap* index_map = nullptr);
+                              VoxelIndexMap* index_map = nullptr,
+                              std::vector<std::uint32_t>* twins = nullptr);
 
 private:
-    std::vector<std::uint64_t> table_keys_;
-    std::vector<std::uint32_t> table_values_;
+    // Open addressing: key -> voxel (in order of first appearance), with the output index
+    // of each voxel; the previous call's table is kept for the twins.
+    struct Table {
+        std::vector<std::uint64_t> keys;
+        std::vector<std::uint32_t> values;
+        std::vector<std::uint32_t> output_of_voxel;
+        int hash_shift = 64;
+        double voxel_size_m = 0.0;
+        std::uint32_t find(std::uint64_t key) const;
+    };
+    void insert_points(const std::vector<Eigen::Vector3d>& points, double voxel_size_m,
+                       VoxelGridStats* stats);
+    void emit_centroids(const VoxelGridParams& params, PointCloud* out, VoxelGridStats* stats);
+    void fill_index_map(std::size_t n, std::size_t num_output, VoxelIndexMap* index_map) const;
+    void find_twins(std::vector<std::uint32_t>* twins) const;
+
+    Table table_;
+    Table previous_;
+    std::vector<std::uint64_t> voxel_keys_;
     std::vector<std::uint32_t> voxel_of_point_;
     std::vector<Eigen::Vector3d> sums_;
     std::vector<std::uint32_t> counts_;
-    std::vector<std::uint32_t> remap_;
 };
 
 // Convenience: a one-off downsampling with a temporary VoxelGrid.

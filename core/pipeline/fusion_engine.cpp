@@ -46,6 +46,7 @@ struct EdgeTask {
     const GicpTarget* source;  // its cloud is the source
     Eigen::Isometry3d T_init;  // T_target_source
     GicpResult result;
+    const std::vector<std::int32_t>* guess = nullptr;  // GicpRegistration::align
 };
 
 }  // namespace
@@ -173,12 +174,14 @@ FrameOutput FusionEngine::Impl::process(const FrameInput& in) {
                 tasks.push_back({EdgeKind::kPrevious, s, s, prev->frame, &track.previous_target(),
                                  &track.current_target(),
                                  prev->T_root_sensor.inverse() * predicted[s], {}});
+                tasks.back().guess = &track.previous_guess();
             }
         }
         if (track.reference_target().size() >= 3) {
             tasks.push_back({EdgeKind::kReference, s, s, track.reference_frame(),
                              &track.reference_target(), &track.current_target(),
                              track.reference_pose().inverse() * predicted[s], {}});
+            tasks.back().guess = &track.reference_guess();
         }
     }
     const int interval = std::max(1, params.window_frames - 1);
@@ -197,8 +200,15 @@ FrameOutput FusionEngine::Impl::process(const FrameInput& in) {
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (std::size_t k = 0; k < tasks.size(); ++k) {
         auto& task = tasks[k];
-        task.result = registrations[static_cast<std::size_t>(omp_get_thread_num())].align(
-            *task.target, task.source->cloud(), task.T_init);
+        GicpRegistration& registration =
+            registrations[static_cast<std::size_t>(omp_get_thread_num())];
+        task.result =
+            registration.align(*task.target, task.source->cloud(), task.T_init, task.guess);
+        // One reference edge per sensor: no two tasks write to the same track.
+        if (task.kind == EdgeKind::kReference) {
+            tracks[task.source_sensor]->set_reference_correspondences(
+                registration.correspondences());
+        }
     }
     out.timings.registration_ms = ms_since(t_reg);
 

@@ -14,15 +14,16 @@ constexpr double kNsToS = 1e-9;
 
 // Voxel-grid downsampling of `points` (sensor frame; overwritten) on a grid fixed in the
 // frame T_grid_sensor maps into (null: the sensor frame), centroids returned in the sensor
-// frame. See FusionParams::voxel_grid_in_root_frame.
+// frame. See FusionParams::voxel_grid_in_root_frame. `twins` as VoxelGrid::downsample.
 void downsample_in_grid(VoxelGrid* grid, std::vector<Eigen::Vector3d>* points, double voxel_size_m,
-                        const Eigen::Isometry3d* T_grid_sensor, PointCloud* cloud) {
+                        const Eigen::Isometry3d* T_grid_sensor, PointCloud* cloud,
+                        std::vector<std::uint32_t>* twins = nullptr) {
     if (T_grid_sensor) {
         for (auto& p : *points) p = *T_grid_sensor * p;
     }
     VoxelGridParams voxel;
     voxel.voxel_size_m = voxel_size_m;
-    grid->downsample(*points, voxel, cloud);
+    grid->downsample(*points, voxel, cloud, nullptr, twins);
     if (T_grid_sensor) {
         const Eigen::Isometry3d T_sensor_grid = T_grid_sensor->inverse();
         for (auto& p : cloud->points) p = T_sensor_grid * p;
@@ -154,7 +155,9 @@ void SensorTrack::build_current_target(bool static_only, const Eigen::Isometry3d
     }
     PointCloud cloud;
     downsample_in_grid(&voxel_grid_, &static_points_, params_.voxel_size_m,
-                       params_.voxel_grid_in_root_frame ? &T_root_sensor : nullptr, &cloud);
+                       params_.voxel_grid_in_root_frame ? &T_root_sensor : nullptr, &cloud,
+                       &twins_);
+    make_guesses();
     if (cloud.size() < 3) {
         current_target_ = GicpTarget(std::move(cloud));
         return;
@@ -180,6 +183,7 @@ void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
     reference_point_dt_s_ = point_dt_s_;
     reference_deskewed_ = false;
     reference_dynamic_at_build_ = 0;
+    previous_in_reference_.clear();
     build_current_target(false, T_root_sensor);
     // The reference target is a copy of the first frame's cloud (the current one moves on).
     if (reference_voxel_size_m() == params_.voxel_size_m) {
@@ -202,7 +206,27 @@ void SensorTrack::rebuild_reference_target() {
     GicpTarget target = reference_target_at(reference_voxel_size_m());
     if (target.size() < 3) return;  // keep the old target rather than none
     reference_target_ = std::move(target);
+    previous_in_reference_.clear();  // indices into the old target
     reference_dynamic_at_build_ = background_update_.num_reference_dynamic;
+}
+
+void SensorTrack::make_guesses() {
+    previous_guess_.clear();
+    reference_guess_.clear();
+    current_in_reference_.clear();
+    const std::size_t previous_size = previous_target_.size();
+    const bool in_reference = previous_in_reference_.size() == previous_size && previous_size > 0;
+    if (previous_size == 0) return;
+    previous_guess_.reserve(twins_.size());
+    for (const std::uint32_t twin : twins_) {
+        const bool known = twin < previous_size;
+        previous_guess_.push_back(known ? static_cast<std::int32_t>(twin) : -1);
+        if (in_reference) reference_guess_.push_back(known ? previous_in_reference_[twin] : -1);
+    }
+}
+
+void SensorTrack::set_reference_correspondences(const std::vector<std::int32_t>& correspondences) {
+    if (correspondences.size() == current_target_.size()) current_in_reference_ = correspondences;
 }
 
 void SensorTrack::prepare(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted) {
@@ -233,6 +257,8 @@ void SensorTrack::finish_frame(std::int64_t frame, std::int64_t t_ns,
     while (history_.size() > 3) history_.pop_front();
     previous_target_ = std::move(current_target_);
     current_target_ = GicpTarget();
+    previous_in_reference_ = std::move(current_in_reference_);
+    current_in_reference_.clear();
 }
 
 }  // namespace lidarfuse::core

@@ -87,6 +87,16 @@ public:
     const GicpTarget& current_target() const { return current_target_; }
     std::optional<PoseSample> previous() const;
 
+    // Where each current point's G-ICP correspondence probably is (target indices, -1 for
+    // none; empty when there is no guess): in the previous target, the point of the same
+    // voxel of the grid; in the reference target, where the previous frame's point of that
+    // voxel found its own. The guesses only speed the search up (GicpRegistration::align).
+    const std::vector<std::int32_t>& previous_guess() const { return previous_guess_; }
+    const std::vector<std::int32_t>& reference_guess() const { return reference_guess_; }
+    // The current points' correspondences in the reference target after this frame's
+    // alignment, for the next frame's reference guess.
+    void set_reference_correspondences(const std::vector<std::int32_t>& correspondences);
+
     // The prepared current frame: all cropped points (sensor frame, deskewed) with their
     // dynamic flags, for the fused cloud.
     const std::vector<Eigen::Vector3d>& current_points() const { return points_; }
@@ -101,6 +111,8 @@ private:
     // Rebuilds the reference target without the reference points the background model
     // found to have left (vehicles present in the first frame).
     void rebuild_reference_target();
+    // The guesses for the current points from their voxels' twins (VoxelGrid::downsample).
+    void make_guesses();
 
     const FusionParams& params_;
     bool initialised_ = false;
@@ -113,6 +125,13 @@ private:
     BackgroundUpdate background_update_;
     std::deque<PoseSample> history_;
     VoxelGrid voxel_grid_;
+    std::vector<std::uint32_t> twins_;  // current point -> previous point of the same voxel
+    std::vector<std::int32_t> previous_guess_;
+    std::vector<std::int32_t> reference_guess_;
+    // Per point of the current / previous target, its correspondence in the reference
+    // target (empty when unknown, or the reference target has changed since).
+    std::vector<std::int32_t> current_in_reference_;
+    std::vector<std::int32_t> previous_in_reference_;
 
     std::vector<Eigen::Vector3d> points_;
     std::vector<float> point_dt_s_;

@@ -210,6 +210,39 @@ TEST_F(GicpScene, NeighbourListsChangeNothingButTheSearches) {
     expect_same_registrations(target_, source, searched, source, 1e-12, T_true);
 }
 
+// A guess of the correspondences only bounds the first search: good guesses (the true
+// ones), bad ones (random, out of range, none, the wrong length) and none at all give the
+// same registration, bit for bit.
+TEST_F(GicpScene, CorrespondenceGuessesChangeNothingButTheSearches) {
+    std::mt19937 rng(17);
+    const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
+    const PointCloud source = noisy_resampled_source(rng, T_true);
+    const Eigen::Isometry3d T_init =
+        T_true * se3_exp((Vector6d() << 0.01, -0.02, 0.01, 0.1, 0.05, -0.1).finished());
+    GicpRegistration plain;
+    const GicpResult expected = plain.align(target_, source, T_init);
+    ASSERT_TRUE(expected.converged);
+    const std::vector<std::int32_t> found = plain.correspondences();
+    ASSERT_EQ(found.size(), source.size());
+
+    const auto n = static_cast<std::int32_t>(target_.size());
+    std::uniform_int_distribution<std::int32_t> any(-5, n + 5);
+    std::vector<std::int32_t> random(source.size());
+    for (auto& j : random) j = any(rng);
+    const std::vector<std::vector<std::int32_t>> guesses = {
+        found, random, std::vector<std::int32_t>(source.size(), -1),
+        std::vector<std::int32_t>(source.size() / 2, 0)};
+    for (const auto& guess : guesses) {
+        GicpRegistration guided;
+        const GicpResult r = guided.align(target_, source, T_init, &guess);
+        EXPECT_TRUE(r.T_target_source.matrix() == expected.T_target_source.matrix());
+        EXPECT_EQ(r.iterations, expected.iterations);
+        EXPECT_EQ(r.num_inliers, expected.num_inliers);
+        EXPECT_TRUE(r.H == expected.H);
+        EXPECT_EQ(guided.correspondences(), found);
+    }
+}
+
 // The closed-form inverse of plane covariance pairs gives the matrices' result: without
 // the axes (the 3x3 inverse), the same iterations, inliers, T and H up to rounding.
 TEST_F(GicpScene, PlaneCovarianceAxesChangeNothingButTheInverse) {

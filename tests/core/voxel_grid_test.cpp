@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -95,6 +96,42 @@ TEST(VoxelGrid, OutputOrderIsFirstAppearance) {
     EXPECT_NEAR(out.points[0].x(), 5.1, 1e-12);
     EXPECT_NEAR(out.points[1].x(), 1.0, 1e-12);
     EXPECT_NEAR(out.points[2].x(), -3.0, 1e-12);
+}
+
+// A point's twin is the previous call's point from the same voxel: on a scene that moves
+// by less than a voxel most voxels have one, and each names the right previous point.
+TEST(VoxelGrid, TwinsNameThePreviousCallsPointOfTheSameVoxel) {
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(-20.0, 20.0);
+    std::vector<Eigen::Vector3d> before(5000), after;
+    for (auto& p : before) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+    for (const auto& p : before) after.push_back(p + Eigen::Vector3d(0.01, -0.02, 0.0));
+    after.push_back({500.0, 500.0, 0.0});  // a voxel the first call did not have
+    const double size = 1.0;
+    VoxelGrid grid;
+    PointCloud first, second;
+    std::vector<std::uint32_t> twins;
+    grid.downsample(before, {size, 1}, &first, nullptr, &twins);
+    EXPECT_TRUE(std::all_of(twins.begin(), twins.end(),
+                            [](std::uint32_t t) { return t == VoxelIndexMap::kNoVoxel; }));
+    grid.downsample(after, {size, 1}, &second, nullptr, &twins);
+    ASSERT_EQ(twins.size(), second.size());
+    std::size_t with_twin = 0;
+    for (std::size_t i = 0; i < second.size(); ++i) {
+        if (twins[i] == VoxelIndexMap::kNoVoxel) {
+            for (const auto& p : first.points)
+                EXPECT_NE(key_of(p, size), key_of(second.points[i], size));
+            continue;
+        }
+        ++with_twin;
+        ASSERT_LT(twins[i], first.size());
+        EXPECT_EQ(key_of(first.points[twins[i]], size), key_of(second.points[i], size));
+    }
+    EXPECT_GT(with_twin, second.size() * 8 / 10);
+    // Another voxel size: no twins.
+    grid.downsample(after, {2.0 * size, 1}, &first, nullptr, &twins);
+    EXPECT_TRUE(std::all_of(twins.begin(), twins.end(),
+                            [](std::uint32_t t) { return t == VoxelIndexMap::kNoVoxel; }));
 }
 
 }  // namespace
