@@ -5,8 +5,9 @@
 //   knn        each point's k nearest in its own cloud (the G-ICP covariances, k = 6 at 1 m);
 //   nearest    each point of the next scan's nearest within 2 voxels (G-ICP correspondences,
 //              the bound G-ICP starts from);
-//   build_full the tree over a whole scan (65k points; the initial registration's size),
-//              with 1 and 2 threads (ours only: nanoflann 1.4.3 builds serially).
+//   *_scan     the same on whole scans (the initial registration's clouds): k = 15, 1 m;
+//   build_full the tree over a whole scan with 1 and 2 threads (ours only: nanoflann 1.4.3
+//              builds serially).
 // Both trees answer every query; the bench checks that they agree (same index and distance).
 // Rounds alternate ours and nanoflann so that both see the same machine.
 //
@@ -93,7 +94,8 @@ Scene load(const fs::path& dir, double voxel_m) {
     lidarfuse::core::VoxelGridParams params;
     params.voxel_size_m = voxel_m;
     for (const auto& scan : scene.full) {
-        scene.cloud.push_back(lidarfuse::core::voxel_downsample(scan, params).points);
+        scene.cloud.push_back(voxel_m > 0 ? lidarfuse::core::voxel_downsample(scan, params).points
+                                          : scan);
     }
     return scene;
 }
@@ -116,9 +118,11 @@ void agree(std::uint32_t a, double da, std::uint32_t b, double db) {
 }
 
 // One round over every consecutive pair of clouds.
+// Whole scans (voxel 0): k = 15 and a 1 m bound, as the initial registration's normals and
+// p2p checks use them.
 void round(const Scene& scene, double voxel_m, Totals* build, Totals* knn, Totals* nearest) {
-    constexpr std::size_t k = 6;
-    const double bound = 4.0 * voxel_m * voxel_m;
+    const std::size_t k = voxel_m > 0 ? 6 : 15;
+    const double bound = voxel_m > 0 ? 4.0 * voxel_m * voxel_m : 1.0;
     for (std::size_t f = 0; f + 1 < scene.cloud.size(); ++f) {
         const Points& target = scene.cloud[f];
         const Points& source = scene.cloud[f + 1];
@@ -205,13 +209,14 @@ int main(int argc, char** argv) {
         }
     }
     const int rounds = argc > 2 ? std::max(1, std::atoi(argv[2])) : 5;
-    for (const double voxel_m : {1.0, 3.0}) {
+    for (const double voxel_m : {1.0, 3.0, 0.0}) {
         const Scene scene = load(dir, voxel_m);
         Totals build, knn, nearest;
         for (int r = 0; r < rounds; ++r) round(scene, voxel_m, &build, &knn, &nearest);
-        std::printf("kdtree_cloud_points_%.0fm %.0f points\n", voxel_m,
+        const std::string suffix =
+            voxel_m > 0 ? "_" + std::to_string(static_cast<int>(voxel_m)) + "m" : "_scan";
+        std::printf("kdtree_cloud_points%s %.0f points\n", suffix.c_str(),
                     static_cast<double>(build.points) / (rounds * (scene.cloud.size() - 1.0)));
-        const std::string suffix = "_" + std::to_string(static_cast<int>(voxel_m)) + "m";
         build.print(("build" + suffix).c_str());
         knn.print(("knn" + suffix).c_str());
         nearest.print(("nearest" + suffix).c_str());
