@@ -38,7 +38,8 @@ GicpTarget::GicpTarget(PointCloud cloud, int leaf_max_size)
       tree_(std::make_unique<KdTree>(cloud_->points, leaf_max_size)) {}
 
 GicpTarget::GicpTarget(PointCloud cloud, const NormalParams& covariances, int leaf_max_size)
-    : GicpTarget(std::move(cloud), leaf_max_size) {
+    : cloud_(std::make_unique<PointCloud>(std::move(cloud))),
+      tree_(std::make_unique<KdTree>(cloud_->points, leaf_max_size, covariances.num_threads)) {
     // Only the covariances and lists change, never the points the tree refers to.
     estimate_normals_covariances(cloud_.get(), *tree_, covariances);
 }

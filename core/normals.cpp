@@ -139,7 +139,7 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
 
 NormalStats estimate_normals_covariances(PointCloud* cloud, const NormalParams& params,
                                          std::vector<double>* curvature) {
-    const KdTree tree(cloud->points);
+    const KdTree tree(cloud->points, 10, params.num_threads);
     return estimate_normals_covariances(cloud, tree, params, curvature);
 }
 

@@ -71,7 +71,7 @@ std::size_t remove_statistical_outliers(const PointCloud& in,
         std::vector<char> keep(n, 1);
         return apply_mask(in, keep, out, kept_indices);
     }
-    const KdTree tree(in.points);
+    const KdTree tree(in.points, 10, params.num_threads);
     std::vector<double> mean_distance(n, 0.0);
     const long long count = static_cast<long long>(n);
 #pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1)
@@ -104,7 +104,7 @@ std::size_t remove_radius_outliers(const PointCloud& in, const RadiusOutlierPara
     const std::size_t n = in.points.size();
     std::vector<char> keep(n, 0);
     if (n > 0) {
-        const KdTree tree(in.points);
+        const KdTree tree(in.points, 10, params.num_threads);
         // The query point itself is among its neighbours, hence + 1.
         const std::size_t needed = static_cast<std::size_t>(std::max(0, params.min_neighbors)) + 1;
         const double r2 = params.radius_m * params.radius_m;

@@ -110,6 +110,28 @@ TEST(KdTree, NearestMatchesBruteForceAndKnnOne) {
     }
 }
 
+// A tree built with two threads (its upper subtrees as parallel tasks) is the serial tree:
+// every query gets the same answer, also among duplicates.
+TEST(KdTree, ParallelBuildAnswersAsTheSerialOne) {
+    auto points = random_points(40000, 31);
+    for (std::size_t i = 0; i < 1000; ++i) points.push_back(points[i * 13]);
+    const auto queries = random_points(500, 32);
+    const KdTree serial(points, 10, 1);
+    const KdTree parallel(points, 10, 2);
+    ASSERT_EQ(parallel.size(), points.size());
+    constexpr std::size_t k = 12;
+    for (const auto& q : queries) {
+        std::uint32_t ia[k], ib[k];
+        double da[k], db[k];
+        ASSERT_EQ(serial.knn(q, k, ia, da), k);
+        ASSERT_EQ(parallel.knn(q, k, ib, db), k);
+        for (std::size_t j = 0; j < k; ++j) {
+            EXPECT_EQ(ia[j], ib[j]);
+            EXPECT_EQ(da[j], db[j]);
+        }
+    }
+}
+
 TEST(KdTree, EmptyTreeAnswersNothing) {
     std::vector<Eigen::Vector3d> none;
     KdTree tree(none);
