@@ -2,7 +2,8 @@
 // tree core/ used before) on the searches a frame of continuous registration makes, on
 // simulated OS1-64 scans decoded with the production ingest:
 //   build      the tree over one voxelised scan;
-//   knn        each point's k nearest in its own cloud (the G-ICP covariances, k = 6 at 1 m);
+//   knn        each point's k nearest in its own cloud (the G-ICP covariances, k = 6 at 1 m),
+//              ours in its leaf order (as estimate_normals_covariances asks);
 //   nearest    each point of the next scan's nearest within 2 voxels (G-ICP correspondences,
 //              the bound G-ICP starts from);
 //   *_scan     the same on whole scans (the initial registration's clouds): k = 15, 1 m;
@@ -133,7 +134,7 @@ void round(const Scene& scene, double voxel_m, Totals* build, Totals* knn, Total
         std::unique_ptr<lidarfuse::core::KdTree> ours;
         build->ours += timed([&] { ours = std::make_unique<lidarfuse::core::KdTree>(target); });
         knn->ours += timed([&] {
-            for (std::size_t i = 0; i < target.size(); ++i)
+            for (const std::uint32_t i : ours->leaf_order())
                 ours->knn(target[i], k, &ia[i * k], &da[i * k]);
         });
         nearest->ours += timed([&] {

@@ -256,6 +256,8 @@ KdTree::~KdTree() = default;
 
 std::size_t KdTree::size() const { return impl_->points.size(); }
 
+const std::vector<std::uint32_t>& KdTree::leaf_order() const { return impl_->original; }
+
 std::size_t KdTree::knn(const Eigen::Vector3d& query, std::size_t k, std::uint32_t* indices,
                         double* squared_distances) const {
     if (k == 0 || size() == 0) return 0;

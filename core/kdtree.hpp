@@ -25,6 +25,10 @@ public:
     KdTree& operator=(const KdTree&) = delete;
 
     std::size_t size() const;
+    // The caller's indices in the tree's leaf order: neighbours in space are neighbours
+    // here, so queries for every point of the cloud taken in this order share their paths
+    // through the tree and its cached points (the same answers, found sooner).
+    const std::vector<std::uint32_t>& leaf_order() const;
 
     // Up to k nearest neighbours of `query`, nearest first. Writes indices and squared
     // distances (m^2) into the caller's arrays (capacity >= k); returns how many.

@@ -75,6 +75,8 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
     if (n == 0) return stats;
 
     const std::size_t k = static_cast<std::size_t>(std::max(3, params.k_neighbors));
+    const bool own_tree = tree.size() == n;
+    const std::vector<std::uint32_t>& order = tree.leaf_order();
     const long long count = static_cast<long long>(n);
     std::size_t degenerate = 0;
 #pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1) \
@@ -84,7 +86,9 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
         std::vector<double> d2(k);
         Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
 #pragma omp for schedule(static)
-        for (long long i = 0; i < count; ++i) {
+        for (long long t = 0; t < count; ++t) {
+            // In the tree's leaf order when the tree is over this cloud (kdtree.hpp).
+            const long long i = own_tree ? static_cast<long long>(order[t]) : t;
             const Eigen::Vector3d& p = cloud->points[i];
             const std::size_t found = tree.knn(p, k, idx.data(), d2.data());
             if (lists)
