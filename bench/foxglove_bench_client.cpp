@@ -52,7 +52,7 @@ bool FoxgloveBenchClient::start(std::uint16_t port, const fs::path& out) {
         ::_exit(127);
     }
     const fs::path ready = out.string() + ".ready";
-    for (int i = 0; i < 1000 && !fs::exists(ready); ++i)
+    for (int i = 0; i < 6000 && !fs::exists(ready); ++i)
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     if (fs::exists(ready)) return true;
     std::fprintf(stderr, "daemon_latency_bench: the Foxglove client did not subscribe (%s.log)\n",

@@ -25,7 +25,7 @@ class FoxgloveBenchClient {
 public:
     // Starts the client on ws://127.0.0.1:`port` and waits until it has subscribed. False
     // (with a line on stderr) when node or the client's packages are missing or it did not
-    // subscribe within 10 s.
+    // subscribe within 60 s (node starts slowly on a loaded machine).
     bool start(std::uint16_t port, const std::filesystem::path& out);
     // Stops it (SIGTERM) and reads what it counted.
     FoxgloveCounts stop();

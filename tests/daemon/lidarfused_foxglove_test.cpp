@@ -46,7 +46,8 @@ Json stop_client(ChildGuard* client, const std::filesystem::path& out) {
 }
 
 bool wait_for_file(const std::filesystem::path& file) {
-    return test::eventually([&] { return std::filesystem::exists(file); }, 3000);
+    // Node starts slowly on a loaded machine (seen: over 10 s at a load of 7 on 2 cores).
+    return test::eventually([&] { return std::filesystem::exists(file); }, 6000);
 }
 
 // The last "fused N frames" of the daemon's stop line.
