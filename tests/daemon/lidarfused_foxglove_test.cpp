@@ -212,13 +212,24 @@ TEST(LidarfusedFoxglove, ANodeClientDecodesCloudsAndTfOfAReplayWhileAStalledOneO
     EXPECT_GE(static_cast<long>(frames.size()), fused * 9 / 10) << text;
     EXPECT_GE(fused, baseline / 3) << text;
 
-    // The stalled client's losses are counted: in the diagnostics the viewer read (its own
-    // line "sent N dropped M") and in the stop line; the refused connection too.
+    // The refused connection is counted, and so are the stalled client's losses (in the
+    // diagnostics the viewer read and in the stop line) once more was sent than its buffers
+    // hold: its 2 MiB and the kernel's (the server's socket grows to 4 MiB, net.ipv4.tcp_wmem;
+    // a receiver that never reads keeps its initial window). A slow build (a sanitizer on a
+    // loaded machine: 4 clouds, 1.7 MB) may send less than that; it says so.
     const auto& pipeline = seen["lastPipeline"];
     EXPECT_EQ(pipeline.value("foxglove_refused", ""), "1") << pipeline;
-    EXPECT_NE(pipeline.value("foxglove_messages_dropped", "0"), "0") << pipeline;
     EXPECT_THAT(text, HasSubstr("foxglove: 2 connections (1 refused)"));
-    EXPECT_THAT(text, ::testing::Not(HasSubstr(", 0 dropped for slow clients")));
+    const double cloud_mb = seen["cloudBytes"].get<double>() * 1e-6;
+    if (cloud_mb > 12.0) {
+        EXPECT_NE(pipeline.value("foxglove_messages_dropped", "0"), "0") << pipeline;
+        EXPECT_THAT(text, ::testing::Not(HasSubstr(", 0 dropped for slow clients")));
+    } else {
+        std::printf(
+            "foxglove: only %.1f MB of clouds sent, within the stalled client's buffers: "
+            "its drops not checked\n",
+            cloud_mb);
+    }
     stop_client(&stalled, s.dir / "stalled.json");
 }
 

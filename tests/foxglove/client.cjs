@@ -33,6 +33,7 @@ const seen = {
   messages: 0,
   clouds: 0,
   cloudPoints: 0,
+  cloudBytes: 0,
   cloudFrame: "",
   cloudFields: [],
   cloudSizeErrors: 0,
@@ -61,6 +62,7 @@ function stampNs(stamp) {
 function onCloud(m) {
   seen.clouds += 1;
   seen.cloudPoints += m.width * m.height;
+  seen.cloudBytes += m.data.length;
   seen.cloudFrame = m.header.frame_id;
   seen.cloudFields = m.fields.map((f) => `${f.name}:${f.offset}:${f.datatype}`);
   if (m.data.length !== m.row_step * m.height || m.row_step !== m.point_step * m.width) {
