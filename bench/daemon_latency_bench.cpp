@@ -14,6 +14,9 @@
 // Usage: daemon_latency_bench [--sensors 2,4,6,8] [--seconds 5] [--scenario curve]
 //                             [--queue-depth 1]   (sync.queue_depth of the daemon; 1 its default)
 //                             [--record 1]        (output.record on: the recorder's CPU and drops)
+//                             [--foxglove off|server|client]  (output.foxglove: off; the live
+//                                 view's server on with no client; or with a Node client
+//                                 subscribed to every channel, bench/foxglove_bench_client.hpp)
 //                             [--keep 1]          (leave the folder: daemon logs, outputs)
 //                             [--cyclonedds bench|default|FILE]  (Cyclone's configuration of the
 //                                 daemon and the reader: bench = loopback with 64 kB fragments,
@@ -54,6 +57,7 @@
 #include <vector>
 
 #include "bench/daemon_process_usage.hpp"
+#include "bench/foxglove_bench_client.hpp"
 #include "daemon/dds_messages.hpp"
 #include "drivers/ouster/metadata.hpp"
 #include "drivers/ouster/packet_format.hpp"
@@ -103,6 +107,8 @@ struct Delivery {
     int reader_depth = 20;
     std::string reader_netns;  // empty: this process's network namespace
 };
+
+enum class FoxgloveMode { kOff, kServer, kClient };
 
 struct Received {
     std::mutex mutex;
@@ -262,7 +268,7 @@ void set_cyclone_uri(const std::string& uri) {
 }
 
 RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool record,
-              const Delivery& delivery) {
+              FoxgloveMode foxglove, const Delivery& delivery) {
     RunResult result;
     const fs::path out_dir = sim / ("out" + std::to_string(n));
     std::ofstream config(sim / ("daemon" + std::to_string(n) + ".yaml"));
@@ -286,6 +292,7 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool reco
     if (record)
         config << "  record: {enabled: true, directory: "
                << (sim / ("rec" + std::to_string(n))).string() << "}\n";
+    if (foxglove != FoxgloveMode::kOff) config << "  foxglove: {enabled: true, port: 0}\n";
     config.close();
 
     const pid_t bench_pid = ::getpid();
@@ -310,6 +317,17 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool reco
     for (int i = 0; i < 1000 && !matched.load(); ++i)
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    bench::FoxgloveBenchClient viewer;
+    if (foxglove == FoxgloveMode::kClient) {
+        const fs::path log = sim / ("daemon" + std::to_string(n) + ".log");
+        std::uint16_t port = 0;
+        for (int i = 0; i < 500 && port == 0; ++i) {
+            port = bench::foxglove_port_in_log(log);
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
+        if (port == 0 || !viewer.start(port, sim / ("foxglove" + std::to_string(n) + ".json")))
+            std::fprintf(stderr, "daemon_latency_bench: measuring without the Foxglove client\n");
+    }
     const auto cpu0 = usage_by_stage(pid);
     const std::int64_t t0 = monotonic_ns();
     replay(sim / "capture.pcap", &sensors);
@@ -317,6 +335,7 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool reco
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // fusion catches up
     const auto cpu1 = usage_by_stage(pid);
     const double rss_mib = peak_rss_mib(pid);
+    const bench::FoxgloveCounts viewed = viewer.stop();
     ::kill(pid, SIGTERM);
     int status = 0;
     ::waitpid(pid, &status, 0);
@@ -361,7 +380,7 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool reco
     std::printf("daemon_latency_p99_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.99));
     std::printf("daemon_latency_samples_%s %zu frames\n", tag.c_str(), latency_ms.size());
     for (const char* stage :
-         {"receive", "sync", "fusion", "initial", "output", "record", "dds", "main"}) {
+         {"receive", "sync", "fusion", "initial", "output", "record", "foxglove", "dds", "main"}) {
         const StageUsage before = cpu0.count(stage) ? cpu0.at(stage) : StageUsage{};
         const StageUsage after = cpu1.count(stage) ? cpu1.at(stage) : before;
         std::printf("daemon_cpu_%s_%s %.1f %%\n", stage, tag.c_str(),
@@ -393,6 +412,17 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool reco
     std::printf("daemon_mean_fusion_%s %s ms\n", tag.c_str(), value("mean_fusion_ms").c_str());
     std::printf("daemon_dds_write_failures_%s %s writes\n", tag.c_str(),
                 value("dds_write_failures").c_str());
+    if (foxglove != FoxgloveMode::kOff) {
+        std::printf("daemon_foxglove_messages_sent_%s %s messages\n", tag.c_str(),
+                    value("foxglove_messages_sent").c_str());
+        std::printf("daemon_foxglove_messages_dropped_%s %s messages\n", tag.c_str(),
+                    value("foxglove_messages_dropped").c_str());
+        std::printf("daemon_foxglove_queue_drops_%s %s messages\n", tag.c_str(),
+                    value("foxglove_queue_drops").c_str());
+        std::printf("daemon_foxglove_client_clouds_%s %ld frames\n", tag.c_str(), viewed.clouds);
+        std::printf("daemon_foxglove_client_cloud_bytes_%s %.1f MiB\n", tag.c_str(),
+                    viewed.cloud_mib);
+    }
     if (record) {
         std::printf("daemon_record_datagrams_%s %s datagrams\n", tag.c_str(),
                     value("record_datagrams").c_str());
@@ -425,6 +455,7 @@ int main(int argc, char** argv) {
     std::string scenario = "curve";
     int queue_depth = 1;  // the daemon's default
     bool record = false;  // --record 1: output.record on (into the bench's folder)
+    FoxgloveMode foxglove = FoxgloveMode::kOff;
     bool keep = false;  // --keep 1: leave the capture, configs, daemon logs and outputs
     Delivery delivery;
     delivery.daemon_uri = delivery.reader_uri = cyclone_uri("bench");
@@ -443,6 +474,11 @@ int main(int argc, char** argv) {
             scenario = argv[i + 1];
         } else if (arg == "--record") {
             record = argv[i + 1] == std::string("1");
+        } else if (arg == "--foxglove") {
+            const std::string mode = argv[i + 1];
+            foxglove = mode == "client"   ? FoxgloveMode::kClient
+                       : mode == "server" ? FoxgloveMode::kServer
+                                          : FoxgloveMode::kOff;
         } else if (arg == "--keep") {
             keep = argv[i + 1] == std::string("1");
         } else if (arg == "--cyclonedds") {
@@ -470,7 +506,7 @@ int main(int argc, char** argv) {
     const int domain = 1 + static_cast<int>(::getpid() % 230);
     int max_zero_loss = 0, max_realtime = 0;
     for (int n : counts) {
-        const auto r = run(sim, n, domain, queue_depth, record, delivery);
+        const auto r = run(sim, n, domain, queue_depth, record, foxglove, delivery);
         if (r.ok && r.lost == 0) max_zero_loss = std::max(max_zero_loss, n);
         if (r.ok && r.lost == 0 && r.fused_share >= 0.95) max_realtime = std::max(max_realtime, n);
     }

@@ -21,7 +21,8 @@ std::string stage_of_thread(const std::string& comm) {
     if (comm.rfind("lf-recv", 0) == 0) return "receive";
     static const std::map<std::string, std::string> kStageOfThread = {
         {"lf-sync", "sync"},     {"lf-fusion", "fusion"}, {"lf-init", "initial"},
-        {"lf-output", "output"}, {"lf-record", "record"}, {"lidarfused", "main"}};
+        {"lf-output", "output"}, {"lf-record", "record"}, {"lf-foxglove", "foxglove"},
+        {"lidarfused", "main"}};
     const auto it = kStageOfThread.find(comm);
     return it == kStageOfThread.end() ? "dds" : it->second;
 }

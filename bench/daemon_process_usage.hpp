@@ -16,7 +16,8 @@ struct StageUsage {
 
 // Thread CPU (s) and minor page faults of process `pid` by stage: receive (lf-recv-*),
 // sync, fusion (with its OpenMP team), initial (lf-init, with its team), output, record,
-// main, and dds (every other thread: Cyclone's recv, tev, dq.*, gc, ...).
+// foxglove (the live view's server), main, and dds (every other thread: Cyclone's recv, tev, dq.*,
+// gc, ...).
 std::map<std::string, StageUsage> usage_by_stage(pid_t pid);
 
 // The peak resident set of a process (VmHWM, MiB), 0 when unreadable.

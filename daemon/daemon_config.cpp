@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "drivers/net/ipv4_address.hpp"
 #include "drivers/station/fusion_config.hpp"
 #include "drivers/station/yaml_reader.hpp"
 
@@ -95,6 +96,29 @@ void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
            &c->diagnostics_period_ms);
 }
 
+void read_foxglove(YamlReader& r, const YAML::Node& n, FoxgloveConfig* c) {
+    if (!n || !r.optional_map(n, "output.foxglove")) return;
+    const std::string p = "output.foxglove.";
+    r.only_keys(n, "output.foxglove",
+                {"enabled", "bind_address", "port", "max_clients", "client_buffer_mb"});
+    set_if(r.boolean(n["enabled"], p + "enabled"), &c->enabled);
+    if (auto address = r.string(n["bind_address"], p + "bind_address", false)) {
+        try {
+            net::parse_ipv4(*address);
+            c->bind_address = *address;
+        } catch (const std::invalid_argument&) {
+            r.problems.push_back(p +
+                                 "bind_address: expected an IPv4 address such as 127.0.0.1 "
+                                 "or 0.0.0.0, got \"" +
+                                 *address + "\"");
+        }
+    }
+    set_if(r.integer(n["port"], p + "port", 0, 65535, false), &c->port);
+    set_if(r.integer(n["max_clients"], p + "max_clients", 1, 64, false), &c->max_clients);
+    set_if(r.number(n["client_buffer_mb"], p + "client_buffer_mb", 0.1, 1024, false),
+           &c->client_buffer_mb);
+}
+
 void read_record(YamlReader& r, const YAML::Node& n, const std::filesystem::path& base,
                  RecordConfig* c) {
     if (!n || !r.optional_map(n, "output.record")) return;
@@ -119,9 +143,10 @@ void read_record(YamlReader& r, const YAML::Node& n, const std::filesystem::path
 
 void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path& base, OutputConfig* c) {
     if (!n || !r.optional_map(n, "output")) return;
-    r.only_keys(n, "output",
-                {"directory", "poses_csv", "extrinsics_yaml", "extrinsics_interval_frames",
-                 "record_clouds_every", "record_clouds_format", "stamp", "dds", "record"});
+    r.only_keys(
+        n, "output",
+        {"directory", "poses_csv", "extrinsics_yaml", "extrinsics_interval_frames",
+         "record_clouds_every", "record_clouds_format", "stamp", "dds", "foxglove", "record"});
     if (auto d = r.string(n["directory"], "output.directory", false)) {
         const std::filesystem::path dir = *d;
         c->directory = dir.is_absolute() ? dir : (base / dir).lexically_normal();
@@ -141,6 +166,12 @@ void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path
         c->stamp = *stamp == 0 ? StampSource::kSensor : StampSource::kHost;
     }
     read_dds(r, n["dds"], &c->dds);
+    read_foxglove(r, n["foxglove"], &c->foxglove);
+    if (c->foxglove.enabled && !c->dds.enabled) {
+        r.problems.push_back(
+            "output.foxglove.enabled: needs output.dds.enabled (the live view sends the CDR "
+            "bytes of the DDS samples); enable DDS or disable output.foxglove");
+    }
     read_record(r, n["record"], base, &c->record);
 }
 

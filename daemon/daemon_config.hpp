@@ -48,6 +48,18 @@ struct DdsConfig {
     double diagnostics_period_ms = 1000.0;
 };
 
+// output.foxglove (daemon/foxglove_server.hpp): the Foxglove WebSocket protocol for a live
+// view without ROS. It sends the CDR bytes of the DDS samples, so it needs output.dds.
+struct FoxgloveConfig {
+    bool enabled = false;
+    std::string bind_address = "127.0.0.1";  // loopback: only this host, unless opened up
+    int port = 8765;                         // Foxglove's default; 0: any free port (logged)
+    int max_clients = 8;                     // further connections are refused and counted
+    // Bytes waiting for one client's socket; a message that would go past it is dropped for
+    // that client and counted. 16 MiB holds four clouds of 4 OS1-64 (3.7 MB each, measured).
+    double client_buffer_mb = 16.0;
+};
+
 // The clock of every published stamp (daemon/frame_stamps.hpp): the sensors' own (kSensor,
 // PTP-synchronised stations) or the host's CLOCK_REALTIME when a scan's last packet arrived
 // (kHost, sensors not synchronised with the host).
@@ -82,6 +94,7 @@ struct OutputConfig {
     enum class CloudFormat { kPly, kPcd } record_clouds_format = CloudFormat::kPly;
     StampSource stamp = StampSource::kSensor;  // clouds, tf, poses and diagnostics on DDS
     DdsConfig dds;
+    FoxgloveConfig foxglove;
     RecordConfig record;
 };
 

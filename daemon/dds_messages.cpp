@@ -169,6 +169,25 @@ std::string number(double v, const char* format = "%.3f") {
 
 }  // namespace
 
+// The live view's clients, and per client (at most max_clients) what it was sent and what
+// it lost to a full send buffer: "127.0.0.1:40312 sent 120 dropped 30".
+void DiagnosticsBuilder::add_foxglove(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values,
+                                      const FoxgloveStats& f) {
+    add(values, "foxglove_port", std::to_string(f.port));
+    add(values, "foxglove_clients", std::to_string(f.clients.size()));
+    add(values, "foxglove_connections", std::to_string(f.connections));
+    add(values, "foxglove_refused", std::to_string(f.refused));
+    add(values, "foxglove_messages_sent", std::to_string(f.sent));
+    add(values, "foxglove_messages_dropped", std::to_string(f.dropped));
+    add(values, "foxglove_queue_drops", std::to_string(f.queue_drops));
+    for (std::size_t i = 0; i < f.clients.size(); ++i) {
+        const auto& c = f.clients[i];
+        strings_.push_back("foxglove_client_" + std::to_string(i));
+        add(values, strings_.back().c_str(),
+            c.peer + " sent " + std::to_string(c.sent) + " dropped " + std::to_string(c.dropped));
+    }
+}
+
 const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
     const PipelineStats& stats, std::int64_t stamp_ns) {
     strings_.clear();
@@ -280,6 +299,7 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
         add(v, "record_queue_drops", std::to_string(r.queue_drops));
         add(v, "record_write_errors", std::to_string(r.write_errors));
     }
+    if (stats.foxglove.enabled) add_foxglove(v, stats.foxglove);
     for (std::size_t i = 0; i < status_.size(); ++i) {
         status_[i].values._buffer = values_[i].data();
         status_[i].values._length = status_[i].values._maximum =

@@ -84,6 +84,8 @@ public:
 private:
     void add(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values, const char* key,
              std::string value);
+    void add_foxglove(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values,
+                      const FoxgloveStats& foxglove);
 
     StationFrames frames_;
     // Strings of the current message; the C structs point into them. A deque never moves

@@ -3,7 +3,9 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "daemon/foxglove_server.hpp"
 #include "daemon/ros_type_hash.hpp"
+#include "daemon/sensor_ingest.hpp"
 
 namespace lidarfuse::daemon {
 
@@ -102,7 +104,12 @@ DdsPublisher::~DdsPublisher() {
     if (participant_ > 0) dds_delete(participant_);
 }
 
-bool DdsPublisher::write(dds_entity_t writer, const void* sample, Counter* topic_counter) {
+bool DdsPublisher::write(dds_entity_t writer, const dds_topic_descriptor_t& type,
+                         const void* sample, Counter* topic_counter, FoxgloveChannel channel) {
+    // The live view first: a DDS write that timed out must not hide the sample there too.
+    if (foxglove_ && foxglove_->wants(channel)) {
+        foxglove_->publish(channel, realtime_ns(), cdr_.write(type, sample));
+    }
     const dds_return_t rc = dds_write(writer, sample);
     if (rc == DDS_RETCODE_OK) {
         written_.value.fetch_add(1, std::memory_order_relaxed);
@@ -119,10 +126,16 @@ void DdsPublisher::publish_frame(const core::FrameOutput& frame, const FrameStam
         unstamped_.value.fetch_add(1, std::memory_order_relaxed);
         return;
     }
-    if (points_writer_ > 0) write(points_writer_, &frame_builder_.cloud(frame, stamps), &clouds_);
+    if (points_writer_ > 0) {
+        write(points_writer_, sensor_msgs_msg_dds__PointCloud2__desc,
+              &frame_builder_.cloud(frame, stamps), &clouds_, FoxgloveChannel::kPoints);
+    }
     const auto& tf = frame_builder_.tf(frame, stamps);
-    if (tf.transforms._length > 0) write(tf_writer_, &tf, &tf_);
-    write(poses_writer_, &frame_builder_.poses(frame, stamps), &poses_);
+    if (tf.transforms._length > 0) {
+        write(tf_writer_, tf2_msgs_msg_dds__TFMessage__desc, &tf, &tf_, FoxgloveChannel::kTf);
+    }
+    write(poses_writer_, lidarfuse_msgs_msg_dds__FramePoses__desc,
+          &frame_builder_.poses(frame, stamps), &poses_, FoxgloveChannel::kPoses);
 }
 
 void DdsPublisher::publish_static(const Eigen::Isometry3d& T_parent_fused, std::int64_t stamp_ns) {
@@ -137,14 +150,17 @@ void DdsPublisher::publish_static(const Eigen::Isometry3d& T_parent_fused, std::
     message.transforms._buffer = &t;
     message.transforms._length = message.transforms._maximum = 1;
     message.transforms._release = false;
-    if (write(tf_static_writer_, &message, &tf_static_)) {
+    if (write(tf_static_writer_, tf2_msgs_msg_dds__TFMessage__desc, &message, &tf_static_,
+              FoxgloveChannel::kTfStatic)) {
         static_sent_ = true;
         static_sent_pose_ = T_parent_fused;
     }
 }
 
 void DdsPublisher::publish_diagnostics(const PipelineStats& stats, std::int64_t stamp_ns) {
-    write(diagnostics_writer_, &diagnostics_builder_.build(stats, stamp_ns), &diagnostics_);
+    write(diagnostics_writer_, diagnostic_msgs_msg_dds__DiagnosticArray__desc,
+          &diagnostics_builder_.build(stats, stamp_ns), &diagnostics_,
+          FoxgloveChannel::kDiagnostics);
 }
 
 DdsCounters DdsPublisher::counters() const {

@@ -20,6 +20,11 @@
 // the type hash as rmw_cyclonedds writes it (daemon/ros_type_hash.hpp). Writes never
 // throw: failures (and timeouts among them) are counted.
 //
+// Live view: with mirror_to(server), every sample written is also handed to the Foxglove
+// server (daemon/foxglove_server.hpp) as the CDR bytes Cyclone builds for it
+// (daemon/cdr_sample.hpp), but only while a client is subscribed to its channel (or the
+// channel is latched): no serialisation otherwise.
+//
 // Threads: construct and destroy on one thread; publish_* from one thread at a time (the
 // output thread); counters() from any thread.
 
@@ -31,11 +36,15 @@
 #include <string>
 
 #include "core/pipeline/fusion_types.hpp"
+#include "daemon/cdr_sample.hpp"
 #include "daemon/daemon_config.hpp"
 #include "daemon/dds_messages.hpp"
+#include "daemon/foxglove_schemas.hpp"
 #include "daemon/pipeline.hpp"
 
 namespace lidarfuse::daemon {
+
+class FoxgloveServer;
 
 struct DdsCounters {
     std::uint64_t written = 0;   // samples accepted by dds_write
@@ -72,6 +81,10 @@ public:
     // with a stamp that is not positive.
     void publish_static(const Eigen::Isometry3d& T_parent_fused, std::int64_t stamp_ns);
 
+    // Mirror every sample to `server` (not owned; it outlives the publishing), or to none.
+    // Before the output thread starts.
+    void mirror_to(FoxgloveServer* server) { foxglove_ = server; }
+
     DdsCounters counters() const;
     int domain_id() const { return domain_id_; }
 
@@ -79,7 +92,9 @@ private:
     struct Counter {
         std::atomic<std::uint64_t> value{0};
     };
-    bool write(dds_entity_t writer, const void* sample, Counter* topic_counter);
+    // dds_write, counted, and the sample mirrored to the live view's `channel`.
+    bool write(dds_entity_t writer, const dds_topic_descriptor_t& type, const void* sample,
+               Counter* topic_counter, FoxgloveChannel channel);
 
     DdsConfig config_;
     StationFrames frames_;
@@ -92,6 +107,8 @@ private:
                  tf_static_writer_ = 0;
     FrameMessageBuilder frame_builder_;
     DiagnosticsBuilder diagnostics_builder_;
+    FoxgloveServer* foxglove_ = nullptr;
+    CdrSampleWriter cdr_;
     Counter written_, failures_, timeouts_, clouds_, tf_, tf_static_, poses_, diagnostics_,
         unstamped_;
 };

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "daemon/daemon_config.hpp"
+#include "daemon/foxglove_schemas.hpp"
 #include "daemon/pipeline.hpp"
 #include "daemon/status_line.hpp"
 #include "daemon/systemd_notify.hpp"
@@ -124,6 +125,14 @@ int main(int argc, char** argv) {
                   pipeline->dds_domain_id(), config.output.dds.topic_namespace, config.output.dds.frame_id,
                   config.output.stamp == lidarfuse::daemon::StampSource::kHost ? "host's" : "sensors'");
     }
+    if (pipeline->foxglove_port() > 0) {
+        std::string topics;
+        for (const auto& c :
+             lidarfuse::daemon::foxglove_channels(config.output.dds.topic_namespace))
+            topics += (topics.empty() ? "" : ", ") + c.topic;
+        log->info("foxglove: live view on ws://{}:{} ({})", config.output.foxglove.bind_address,
+                  pipeline->foxglove_port(), topics);
+    }
     notifier.ready("listening on UDP " + ports);
 
     const auto watchdog_period = notifier.watchdog_period().value_or(std::chrono::seconds(5));
@@ -161,6 +170,13 @@ int main(int argc, char** argv) {
     if (pipeline->dds_domain_id() >= 0) {
         log->info("DDS: {} samples written, {} writes failed ({} timed out)", st.dds_samples_written,
                   st.dds_write_failures, st.dds_write_timeouts);
+    }
+    if (st.foxglove.enabled) {
+        log->info(
+            "foxglove: {} connections ({} refused), {} messages sent, {} dropped for slow "
+            "clients, {} before any client",
+            st.foxglove.connections, st.foxglove.refused, st.foxglove.sent, st.foxglove.dropped,
+            st.foxglove.queue_drops);
     }
     return 0;
 }

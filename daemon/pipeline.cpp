@@ -129,6 +129,13 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         const bool geo = config.world.params.kind == core::WorldFrameKind::kGeo;
         dds = std::make_unique<DdsPublisher>(config.output.dds, names,
                                              geo ? config.world.frame_id : "");
+        // The config check refuses output.foxglove without output.dds.
+        if (config.output.foxglove.enabled) {
+            foxglove = std::make_unique<FoxgloveServer>(
+                config.output.foxglove, foxglove_channels(config.output.dds.topic_namespace),
+                "lidarfused " + config.station.station, logger("foxglove"));
+            dds->mirror_to(foxglove.get());
+        }
     }
     heartbeat_ns = steady_ns();
 }
@@ -147,7 +154,8 @@ Pipeline::Pipeline(const DaemonConfig& config) : impl_(std::make_unique<Impl>(co
 Pipeline::~Pipeline() { stop(); }
 
 // Thread names (at most 15 characters) let `top -H` and the daemon bench tell the stages
-// apart: lf-recv-<port>, lf-sync, lf-fusion (and its lf-init worker), lf-output.
+// apart: lf-recv-<port>, lf-sync, lf-fusion (and its lf-init worker), lf-output,
+// lf-foxglove.
 void Pipeline::start() {
     Impl& m = *impl_;
     for (auto& r : m.receivers) {
@@ -158,6 +166,7 @@ void Pipeline::start() {
         });
     }
     for (auto& f : m.fetchers) f->start();
+    if (m.foxglove) m.foxglove->start();
     m.sync_thread = std::thread([&m] {
         ::pthread_setname_np(::pthread_self(), "lf-sync");
         m.sync_loop();
@@ -191,6 +200,7 @@ void Pipeline::stop() {
     if (m.fusion_thread.joinable()) m.fusion_thread.join();
     m.results.close();
     if (m.output_thread.joinable()) m.output_thread.join();
+    if (m.foxglove) m.foxglove->stop();  // after the output thread, its only publisher
 }
 
 std::chrono::steady_clock::time_point Pipeline::heartbeat() const {
@@ -200,6 +210,10 @@ std::chrono::steady_clock::time_point Pipeline::heartbeat() const {
 void Pipeline::request_reopen() { impl_->reopen.store(true); }
 
 int Pipeline::dds_domain_id() const { return impl_->dds ? impl_->dds->domain_id() : -1; }
+
+std::uint16_t Pipeline::foxglove_port() const {
+    return impl_->foxglove ? impl_->foxglove->port() : 0;
+}
 
 std::vector<std::uint16_t> Pipeline::bound_ports() const {
     std::vector<std::uint16_t> ports;

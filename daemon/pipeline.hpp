@@ -8,6 +8,8 @@
 //       frame's poses and cloud re-expressed in the fused frame; frames before it is
 //       known are counted, not published) -> result queue; beats the heartbeat
 //   output thread: poses.csv, extrinsics.yaml, clouds, diagnostics log
+//   lf-foxglove (output.foxglove): the live view's WebSocket server; the output thread
+//       hands it the DDS samples' bytes (daemon/foxglove_server.hpp), never waits for it
 //   recorder thread (output.record): every received datagram, copied by the receivers,
 //       into rotating pcap files (daemon/recorder.hpp)
 //
@@ -24,6 +26,7 @@
 #include <vector>
 
 #include "daemon/daemon_config.hpp"
+#include "daemon/foxglove_server.hpp"
 #include "daemon/metadata_status.hpp"
 #include "daemon/recorder.hpp"
 
@@ -79,6 +82,7 @@ struct PipelineStats {
     std::vector<int> granted_receive_buffers;
     std::vector<SensorStats> sensors;
     RecorderStats record;  // output.record (enabled false when off)
+    FoxgloveStats foxglove;  // output.foxglove (enabled false when off)
 };
 
 class Pipeline {
@@ -99,6 +103,8 @@ public:
     std::vector<std::uint16_t> bound_ports() const;
     // The DDS domain the publisher joined, or -1 when output.dds.enabled is false.
     int dds_domain_id() const;
+    // The live view's TCP port (output.foxglove.port, or the one picked for 0), 0 when off.
+    std::uint16_t foxglove_port() const;
 
 private:
     struct Impl;

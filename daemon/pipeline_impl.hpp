@@ -38,6 +38,8 @@ struct Pipeline::Impl {
     std::atomic<bool> reopen{false};
     std::shared_ptr<spdlog::logger> ingest_log, sync_log, fusion_log, output_log;
 
+    // Declared before `dds`, which mirrors into it: destroyed after it.
+    std::unique_ptr<FoxgloveServer> foxglove;  // null when output.foxglove.enabled is false
     std::unique_ptr<DdsPublisher> dds;  // null when output.dds.enabled is false
     std::unique_ptr<Recorder> recorder;  // null when output.record.enabled is false
     std::vector<std::unique_ptr<MetadataFetcher>> fetchers;  // sensors named by hostname

@@ -183,6 +183,7 @@ PipelineStats Pipeline::Impl::collect_stats() const {
     out.world_residual_rms_m = m.world_frame.residual_rms_m;
     out.world_residual_max_m = m.world_frame.residual_max_m;
     if (m.recorder) out.record = m.recorder->stats();
+    if (m.foxglove) out.foxglove = m.foxglove->stats();
     if (m.dds) {
         const auto c = m.dds->counters();
         out.dds_samples_written = c.written;

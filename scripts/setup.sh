@@ -15,11 +15,13 @@ packages=(
     libpcap-dev nlohmann-json3-dev libembree-dev libssl-dev liblzf-dev
     libspdlog-dev libyaml-cpp-dev libcpp-httplib-dev
     cyclonedds-dev libsystemd-dev procps
+    libwebsocketpp-dev libasio-dev
 )
 # Tests, sanitizers, fuzzers and benchmarks on top.
 test_packages=(
     git clang libclang-rt-dev cyclonedds-tools systemd
     libgtest-dev libgmock-dev libbenchmark-dev iproute2 lintian
+    nodejs npm
 )
 demo=0
 for arg in "$@"; do
@@ -36,6 +38,12 @@ if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
 
 missing=()
 for p in "${packages[@]}"; do
+    # A node from elsewhere (e.g. NodeSource's nodejs, which bundles npm and conflicts with
+    # Debian's npm package) serves the live view's test client as well.
+    case "$p" in
+        nodejs) command -v node >/dev/null && continue ;;
+        npm) command -v npm >/dev/null && continue ;;
+    esac
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if [ "${#missing[@]}" -eq 0 ]; then

@@ -21,6 +21,10 @@ unity=(-DLIDARFUSE_UNITY_BUILD=ON -DLIDARFUSE_TEST_BUNDLES=ON)
 
 stage "release build (RelWithDebInfo, -Werror)"
 "$top/scripts/build.sh" "$top/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo "${unity[@]}" "${data_args[@]}"
+# The live view's test client (Foxglove's npm packages, exactly package-lock.json's
+# versions) into the build folder; lidarfused_foxglove_test skips without it.
+stage "foxglove test client (npm ci)"
+"$top/tests/foxglove/install.sh" "$top/build"
 stage "release tests"
 ctest --test-dir "$top/build" -j "$jobs" --output-on-failure --timeout 600
 
@@ -31,6 +35,7 @@ stage "sanitizer build (ASan + UBSan, -O1, assertions on)"
 "$top/scripts/build.sh" "$top/build-asan" -DCMAKE_BUILD_TYPE=Debug \
     -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DCMAKE_C_FLAGS_DEBUG="-O1 -g1" \
     -DLIDARFUSE_SANITIZE=address,undefined -DLIDARFUSE_BUILD_BENCH=OFF "${unity[@]}" "${data_args[@]}"
+"$top/tests/foxglove/install.sh" "$top/build-asan"
 stage "sanitizer tests"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
@@ -48,14 +53,18 @@ UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 # TSan, so its own thread handling is reported as races (seen: ddsrt_mutex_destroy).
 # The daemon's threads are exercised under TSan by sensor_outage_test instead (DDS off).
 stage "thread sanitizer build (pipeline tests)"
+# lidarfused_foxglove_test subscribes over Foxglove's WebSocket from Node, not DDS: the
+# daemon's own threads (lf-output handing samples to lf-foxglove) are what TSan watches.
 tsan_tests=(drop_oldest_queue_test frame_synchroniser_test net_udp_receiver_test lidarfused_test
-            sensor_outage_test malformed_config_test recorder_test sensor_hostname_test)
+            sensor_outage_test malformed_config_test recorder_test sensor_hostname_test
+            lidarfused_foxglove_test)
 CCACHE_BASEDIR="$top" CCACHE_NOHASHDIR=true cmake -S "$top" -B "$top/build-tsan" -G Ninja \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
     -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DLIDARFUSE_WERROR=ON -DLIDARFUSE_SANITIZE=thread \
     -DLIDARFUSE_BUILD_BENCH=OFF -DLIDARFUSE_UNITY_BUILD=ON "${data_args[@]}" >"$top/build-tsan.configure.log" 2>&1 ||
     { cat "$top/build-tsan.configure.log"; exit 1; }
 CCACHE_BASEDIR="$top" CCACHE_NOHASHDIR=true cmake --build "$top/build-tsan" -j "$jobs" --target "${tsan_tests[@]}"
+"$top/tests/foxglove/install.sh" "$top/build-tsan"
 stage "thread sanitizer tests"
 for t in "${tsan_tests[@]}"; do
     filter="*"

@@ -205,6 +205,71 @@ output:
     EXPECT_NO_THROW(parse_daemon_config(sensors_ + "output: {dds: {namespace: \"\"}}\n", "s.yaml", dir_.path()));
 }
 
+TEST_F(DaemonConfigTest, FoxgloveIsOffByDefaultAndEveryKeyIsRead) {
+    const auto defaults = parse_daemon_config(sensors_, "s.yaml", dir_.path());
+    EXPECT_FALSE(defaults.output.foxglove.enabled);
+    EXPECT_EQ(defaults.output.foxglove.bind_address, "127.0.0.1");  // this host only
+    EXPECT_EQ(defaults.output.foxglove.port, 8765);
+    EXPECT_EQ(defaults.output.foxglove.max_clients, 8);
+    EXPECT_DOUBLE_EQ(defaults.output.foxglove.client_buffer_mb, 16.0);
+    const auto c = parse_daemon_config(sensors_ + R"(
+output:
+  foxglove: {enabled: true, bind_address: 0.0.0.0, port: 9090, max_clients: 2,
+             client_buffer_mb: 4.5}
+)",
+                                       "s.yaml", dir_.path());
+    EXPECT_TRUE(c.output.foxglove.enabled);
+    EXPECT_EQ(c.output.foxglove.bind_address, "0.0.0.0");
+    EXPECT_EQ(c.output.foxglove.port, 9090);
+    EXPECT_EQ(c.output.foxglove.max_clients, 2);
+    EXPECT_DOUBLE_EQ(c.output.foxglove.client_buffer_mb, 4.5);
+    // 0: any free port (the daemon logs the one it got).
+    EXPECT_EQ(
+        parse_daemon_config(sensors_ + "output: {foxglove: {port: 0}}\n", "s.yaml", dir_.path())
+            .output.foxglove.port,
+        0);
+}
+
+TEST_F(DaemonConfigTest, EveryFoxgloveProblemIsListedWithItsKey) {
+    try {
+        parse_daemon_config(sensors_ + R"(
+output:
+  foxglove: {enabled: yes please, bind_address: localhost, port: 70000, max_clients: 0,
+             client_buffer_mb: 0, clients: 3}
+)",
+                            "bad.yaml", dir_.path());
+        FAIL() << "no error";
+    } catch (const station::ConfigError& error) {
+        const std::string text = error.what();
+        for (const char* expected :
+             {"output.foxglove.enabled", "output.foxglove.port", "output.foxglove.max_clients",
+              "output.foxglove.client_buffer_mb", "output.foxglove.clients: unknown key",
+              "output.foxglove.bind_address: expected an IPv4 address such as 127.0.0.1 or "
+              "0.0.0.0, got \"localhost\""}) {
+            EXPECT_THAT(text, HasSubstr(expected));
+        }
+        EXPECT_EQ(error.problems().size(), 6u) << text;
+    }
+    EXPECT_THROW(parse_daemon_config(sensors_ + "output: {foxglove: [1]}\n", "s.yaml", dir_.path()),
+                 station::ConfigError);
+}
+
+// The live view sends the DDS samples' CDR bytes: without DDS it would have nothing to send.
+TEST_F(DaemonConfigTest, FoxgloveWithoutDdsIsRefused) {
+    try {
+        parse_daemon_config(
+            sensors_ + "output: {dds: {enabled: false}, foxglove: {enabled: true}}\n", "s.yaml",
+            dir_.path());
+        FAIL() << "no error";
+    } catch (const station::ConfigError& error) {
+        EXPECT_THAT(error.what(), HasSubstr("output.foxglove.enabled: needs output.dds.enabled"));
+        EXPECT_EQ(error.problems().size(), 1u);
+    }
+    EXPECT_NO_THROW(parse_daemon_config(
+        sensors_ + "output: {dds: {enabled: false}, foxglove: {enabled: false}}\n", "s.yaml",
+        dir_.path()));
+}
+
 // config/station.example.yaml says it lists every key with its default: its registration
 // and dynamics sections read back as exactly lidarfused's defaults.
 TEST(DaemonConfigExample, RegistrationAndDynamicsHoldTheDefaults) {
