@@ -26,6 +26,7 @@
 #include <functional>
 #include <memory>
 #include <nanoflann.hpp>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -191,24 +192,22 @@ void full_builds(const Scene& scene, int rounds) {
     }
 }
 
+// A short simulated capture in a temporary folder (removed by main), when none is given.
+fs::path simulated_capture() {
+    const fs::path out =
+        fs::temp_directory_path() / ("lidarfuse_kdtree_" + std::to_string(::getpid()));
+    const std::string sim = std::string("\"") + LIDARFUSE_TOOL_PATH +
+                            "\" sim --scenario curve --seed 1 --seconds 0.3 --quiet --out \"" +
+                            out.string() + "\" > /dev/null";
+    if (std::system(sim.c_str()) != 0) throw std::runtime_error("kdtree_bench: " + sim + " failed");
+    return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-    fs::path dir;
-    fs::path temporary;
-    if (argc > 1) {
-        dir = argv[1];
-    } else {
-        temporary = fs::temp_directory_path() / ("lidarfuse_kdtree_" + std::to_string(::getpid()));
-        dir = temporary;
-        const std::string cmd = std::string("\"") + LIDARFUSE_TOOL_PATH +
-                                "\" sim --scenario curve --seed 1 --seconds 0.3 --quiet --out \"" +
-                                dir.string() + "\" > /dev/null";
-        if (std::system(cmd.c_str()) != 0) {
-            std::fprintf(stderr, "kdtree_bench: %s failed\n", cmd.c_str());
-            return 1;
-        }
-    }
+    const bool simulated = argc < 2;
+    const fs::path dir = simulated ? simulated_capture() : fs::path(argv[1]);
     const int rounds = argc > 2 ? std::max(1, std::atoi(argv[2])) : 5;
     for (const double voxel_m : {1.0, 3.0, 0.0}) {
         const Scene scene = load(dir, voxel_m);
@@ -224,6 +223,6 @@ int main(int argc, char** argv) {
         if (voxel_m == 1.0) full_builds(scene, rounds);
     }
     std::printf("kdtree_disagreements %d queries\n", g_mismatches);
-    if (!temporary.empty()) fs::remove_all(temporary);
+    if (simulated) fs::remove_all(dir);
     return g_mismatches == 0 ? 0 : 2;
 }
