@@ -32,10 +32,7 @@
 //   frame was fixed)
 // Needs the built `lidarfuse` (sim) and `lidarfused` beside it (build/tools, build/daemon).
 // The replay runs in this process (one thread); the machine's other load shares the cores.
-#include <dds/dds.h>
-#include <fcntl.h>
 #include <netinet/in.h>
-#include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
@@ -50,15 +47,14 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "bench/daemon_process_usage.hpp"
+#include "bench/dds_bench_reader.hpp"
 #include "bench/foxglove_bench_client.hpp"
-#include "daemon/dds_messages.hpp"
 #include "drivers/ouster/metadata.hpp"
 #include "drivers/ouster/packet_format.hpp"
 #include "drivers/pcap/pcap_reader.hpp"
@@ -66,16 +62,13 @@
 namespace {
 
 using namespace lidarfuse;
+using bench::Delivery;
+using bench::monotonic_ns;
 using bench::peak_rss_mib;
+using bench::Received;
 using bench::StageUsage;
 using bench::usage_by_stage;
 namespace fs = std::filesystem;
-
-std::int64_t monotonic_ns() {
-    timespec ts{};
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 std::string tool_dir() { return fs::path(LIDARFUSE_TOOL_PATH).parent_path().string(); }
 std::string daemon_path() {
@@ -98,107 +91,7 @@ struct SensorReplay {
     std::uint64_t datagrams = 0;
 };
 
-// How the clouds travel: Cyclone's configuration (CYCLONEDDS_URI; empty = unset) of each
-// side and the reader's QoS.
-struct Delivery {
-    std::string daemon_uri;
-    std::string reader_uri;
-    bool reader_reliable = true;
-    int reader_depth = 20;
-    std::string reader_netns;  // empty: this process's network namespace
-};
-
 enum class FoxgloveMode { kOff, kServer, kClient };
-
-struct Received {
-    std::mutex mutex;
-    std::map<std::int64_t, std::int64_t> cloud_arrival_ns;  // by header stamp
-    std::map<std::int64_t, std::vector<std::int64_t>>
-        members;  // by stamp: included sensors' t_ns (0: absent)
-    std::map<std::string, std::map<std::string, std::string>>
-        last_diagnostics;  // status name -> values
-};
-
-// Reads clouds, poses and diagnostics until `stop`; arrival times taken on wake-up.
-void subscribe(int domain, const Delivery& delivery, std::atomic<bool>* stop,
-               std::atomic<bool>* matched, Received* out) {
-    if (!delivery.reader_netns.empty()) {
-        // Only this thread moves; the threads Cyclone starts from it follow it.
-        const std::string path = "/var/run/netns/" + delivery.reader_netns;
-        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-        if (fd < 0 || ::setns(fd, CLONE_NEWNET) != 0) {
-            std::fprintf(stderr, "daemon_latency_bench: cannot enter %s\n", path.c_str());
-            std::exit(1);
-        }
-        ::close(fd);
-    }
-    const dds_entity_t participant =
-        dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr);
-    dds_qos_t* qos = dds_create_qos();
-    if (delivery.reader_reliable)
-        dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
-    else
-        dds_qset_reliability(qos, DDS_RELIABILITY_BEST_EFFORT, 0);
-    dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, delivery.reader_depth);
-    const auto reader = [&](const dds_topic_descriptor_t* type, const char* name) {
-        const dds_entity_t topic = dds_create_topic(participant, type, name, nullptr, nullptr);
-        return dds_create_reader(participant, topic, qos, nullptr);
-    };
-    const dds_entity_t points =
-        reader(&sensor_msgs_msg_dds__PointCloud2__desc, "rt/lidarfuse/points");
-    const dds_entity_t poses =
-        reader(&lidarfuse_msgs_msg_dds__FramePoses__desc, "rt/lidarfuse/poses");
-    const dds_entity_t diagnostics =
-        reader(&diagnostic_msgs_msg_dds__DiagnosticArray__desc, "rt/diagnostics");
-    dds_delete_qos(qos);
-    const dds_entity_t waitset = dds_create_waitset(participant);
-    for (dds_entity_t r : {points, poses, diagnostics}) {
-        dds_waitset_attach(waitset, dds_create_readcondition(r, DDS_ANY_STATE), r);
-    }
-    while (!stop->load()) {
-        dds_waitset_wait(waitset, nullptr, 0, DDS_MSECS(50));
-        const std::int64_t now = monotonic_ns();
-        dds_subscription_matched_status_t st{};
-        dds_get_subscription_matched_status(points, &st);
-        if (st.current_count > 0) matched->store(true);
-        void* samples[8] = {};
-        dds_sample_info_t infos[8];
-        std::lock_guard<std::mutex> lock(out->mutex);
-        dds_return_t n = dds_take(points, samples, infos, 8, 8);
-        for (int i = 0; i < n; ++i) {
-            if (!infos[i].valid_data) continue;
-            const auto* m = static_cast<const sensor_msgs_msg_dds__PointCloud2_*>(samples[i]);
-            out->cloud_arrival_ns.emplace(daemon::from_ros_time(m->header.stamp), now);
-        }
-        if (n > 0) dds_return_loan(points, samples, n);
-        n = dds_take(poses, samples, infos, 8, 8);
-        for (int i = 0; i < n; ++i) {
-            if (!infos[i].valid_data) continue;
-            const auto* m = static_cast<const lidarfuse_msgs_msg_dds__FramePoses_*>(samples[i]);
-            auto& v = out->members[daemon::from_ros_time(m->header.stamp)];
-            for (std::uint32_t s = 0; s < m->sensors._length; ++s) {
-                const auto& p = m->sensors._buffer[s];
-                v.push_back(p.included ? daemon::from_ros_time(p.stamp) : 0);
-            }
-        }
-        if (n > 0) dds_return_loan(poses, samples, n);
-        n = dds_take(diagnostics, samples, infos, 8, 8);
-        for (int i = 0; i < n; ++i) {
-            if (!infos[i].valid_data) continue;
-            const auto* m =
-                static_cast<const diagnostic_msgs_msg_dds__DiagnosticArray_*>(samples[i]);
-            for (std::uint32_t s = 0; s < m->status._length; ++s) {
-                auto& values = out->last_diagnostics[m->status._buffer[s].name];
-                for (std::uint32_t k = 0; k < m->status._buffer[s].values._length; ++k) {
-                    values[m->status._buffer[s].values._buffer[k].key] =
-                        m->status._buffer[s].values._buffer[k].value;
-                }
-            }
-        }
-        if (n > 0) dds_return_loan(diagnostics, samples, n);
-    }
-    dds_delete(participant);
-}
 
 // Sends the capture's datagrams for the chosen sensors at recorded speed (absolute
 // deadlines), noting per scan when its last datagram left.
