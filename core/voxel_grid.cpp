@@ -23,14 +23,17 @@ inline std::uint64_t hash_key(std::uint64_t key) {
 
 }  // namespace
 
+std::size_t VoxelGrid::Table::slot_of(std::uint64_t key) const {
+    const std::size_t mask = keys.size() - 1;
+    std::size_t slot = static_cast<std::size_t>(hash_key(key) >> hash_shift);
+    while (keys[slot] != key && keys[slot] != kEmptyKey) slot = (slot + 1) & mask;
+    return slot;
+}
+
 std::uint32_t VoxelGrid::Table::find(std::uint64_t key) const {
     if (keys.empty()) return VoxelIndexMap::kNoVoxel;
-    const std::size_t mask = keys.size() - 1;
-    for (std::size_t slot = static_cast<std::size_t>(hash_key(key) >> hash_shift);;
-         slot = (slot + 1) & mask) {
-        if (keys[slot] == key) return values[slot];
-        if (keys[slot] == kEmptyKey) return VoxelIndexMap::kNoVoxel;
-    }
+    const std::size_t slot = slot_of(key);
+    return keys[slot] == key ? values[slot] : VoxelIndexMap::kNoVoxel;
 }
 
 void VoxelGrid::find_twins(std::vector<std::uint32_t>* twins) const {
@@ -86,7 +89,6 @@ void VoxelGrid::insert_points(const std::vector<Eigen::Vector3d>& points, double
         ++shift_bits;
     }
     table_.hash_shift = 64 - shift_bits;
-    const std::size_t mask = capacity - 1;
     table_.keys.assign(capacity, kEmptyKey);
     table_.values.resize(capacity);
     voxel_of_point_.resize(n);
@@ -112,25 +114,15 @@ void VoxelGrid::insert_points(const std::vector<Eigen::Vector3d>& points, double
             (static_cast<std::uint64_t>(static_cast<std::int64_t>(c.y()) + kAxisOffset)
              << kBitsPerAxis) |
             static_cast<std::uint64_t>(static_cast<std::int64_t>(c.z()) + kAxisOffset);
-        std::size_t slot = static_cast<std::size_t>(hash_key(key) >> table_.hash_shift);
-        std::uint32_t voxel;
-        while (true) {
-            const std::uint64_t k = table_.keys[slot];
-            if (k == key) {
-                voxel = table_.values[slot];
-                break;
-            }
-            if (k == kEmptyKey) {
-                voxel = static_cast<std::uint32_t>(sums_.size());
-                table_.keys[slot] = key;
-                table_.values[slot] = voxel;
-                voxel_keys_.push_back(key);
-                sums_.emplace_back(Eigen::Vector3d::Zero());
-                counts_.push_back(0);
-                break;
-            }
-            slot = (slot + 1) & mask;
+        const std::size_t slot = table_.slot_of(key);
+        if (table_.keys[slot] == kEmptyKey) {
+            table_.keys[slot] = key;
+            table_.values[slot] = static_cast<std::uint32_t>(sums_.size());
+            voxel_keys_.push_back(key);
+            sums_.emplace_back(Eigen::Vector3d::Zero());
+            counts_.push_back(0);
         }
+        const std::uint32_t voxel = table_.values[slot];
         voxel_of_point_[i] = voxel;
         sums_[voxel] += p;
         ++counts_[voxel];

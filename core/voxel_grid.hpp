@@ -64,6 +64,8 @@ private:
         std::vector<std::uint32_t> output_of_voxel;
         int hash_shift = 64;
         double voxel_size_m = 0.0;
+        // The slot holding `key`, or the empty slot where it would go (linear probing).
+        std::size_t slot_of(std::uint64_t key) const;
         std::uint32_t find(std::uint64_t key) const;
     };
     void insert_points(const std::vector<Eigen::Vector3d>& points, double voxel_size_m,
