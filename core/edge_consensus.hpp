@@ -20,11 +20,8 @@
 // pairs where the two trees use different candidates, their figures pooled (support and
 // free-space shares summed, p2p error as the support-weighted RMS); a rival that is
 // clearly better replaces the winner; otherwise the sensors the two trees place
-// differently are refused (their pairs get kAmbiguous) rather than guessed. Pooling
-// matters on the simulated intersection (seed 5, no pole motion): the right tree and a
-// look-alike tree each explain 4 of 6 pairs, and on the 3 pairs where they differ the
-// support is 11502 vs 11324 points and the p2p error 0.34 vs 0.35 m, while the
-// violation shares 0.021-0.032 vs 0.038-0.042 sum to 0.075 vs 0.119.
+// differently are refused (their pairs get kAmbiguous) rather than guessed. Pooled, so that
+// small per-pair differences (above all in free-space share) add up to a clear one.
 //
 // Deterministic for fixed params. Single-threaded.
 
@@ -40,18 +37,14 @@ namespace lidarfuse::core {
 // transform explains both scans: p2p support N (more is better), p2p error (less is
 // better) and free-space violation share (less is better). A candidate is clearly better
 // when it is worse than the other by no more than the figure's tolerance on every figure
-// and better by at least that much on one. Measured on the synthetic street, source cut
-// to 90 deg (registration_sweep_bench, SWEEP_VERBOSE=1): the right candidate against the
-// best look-alike N 0.682 vs 0.633 of the source, error 0.353 vs 0.429 m, violations
-// 0.007 vs 0.072 (clearly better on two figures); two look-alikes against each other
-// N 0.850 vs 0.847, error 0.448 vs 0.490 m, violations 0.058 vs 0.046 (neither), and
-// N 0.678 vs 0.422, error 0.414 vs 0.397 m, violations 0.077 vs 0.019 (neither).
+// and better by at least that much on one. The tolerances separate a right candidate from
+// its best look-alike, but not two look-alikes from each other (bench/BENCHMARK.md).
 struct AmbiguityParams {
     bool enabled = true;
     // A candidate with less than this share of the other's p2p support is clearly worse
     // whatever its error (PairRegistrationParams::min_support_share: a transform that
-    // overlaps a small patch trivially has a low p2p error). Measured on the simulated
-    // captures: look-alikes 0.16-0.28 of the source against the right candidates' 0.4-0.7.
+    // overlaps a small patch trivially has a low p2p error). Look-alikes support a smaller
+    // share of the source than right candidates (bench/BENCHMARK.md).
     double min_support_share = 0.5;
     double support_share = 0.10;     // relative to the larger N
     double error_share = 0.10;       // relative to the larger p2p error

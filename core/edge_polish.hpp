@@ -7,12 +7,13 @@
 // bound there drops right candidates for low overlap. Once a pair is
 // chosen, a tighter bound only has to sharpen it: the correspondences that a 0.5 m bound
 // admits across neighbouring surfaces (a pole next to a wall, the kerb next to the road)
-// pull the two clouds' voxel centroids towards each other and leave a bias of 1-3 cm.
+// pull the two clouds' voxel centroids towards each other and leave a centimetre-level
+// bias (bench/BENCHMARK.md).
 //
 // The runs use each sensor's finer polish cloud (SensorFeatureParams::polish_voxel_size_m,
 // 0.25 m) when it has one. The cloud and bound were chosen on the 30 simulated captures,
 // for a smaller worst error at the same median; the table and the cost are in
-// bench/BENCHMARK.md ("Measured behind the defaults").
+// bench/BENCHMARK.md ("Edge polish").
 //
 // A polished edge replaces the pair's transform and information (and the figures that
 // describe them: G-ICP inliers and Hessian eigenvalues, and the p2p error recomputed on

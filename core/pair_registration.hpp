@@ -33,14 +33,13 @@ namespace lidarfuse::core {
 struct PairRegistrationParams {
     // Our addition: candidates from the exhaustive yaw/translation vote in the levelled
     // ground frames come first (ground_aligned_search.hpp); the paper's RANSAC rounds run
-    // only when none of them survives the checks below. Measured on `lidarfuse sim`
-    // captures, the descriptor matches RANSAC gets are 0.1-1 % right (the rest of the
-    // reasoning is in ground_aligned_search.hpp).
+    // only when none of them survives the checks below: few of the descriptor matches RANSAC
+    // gets are right (bench/BENCHMARK.md; the reasoning is in ground_aligned_search.hpp).
     bool use_ground_aligned_search = true;
     GroundAlignedSearchParams ground_search{};
     // Coarse free-space check on a ground-aligned candidate before G-ICP (its error is
-    // about one vote cell and one yaw step). Measured: right candidates 0.029-0.083, the
-    // intersection's look-alikes 0.05-0.08, most other wrong peaks 0.1-0.5.
+    // about one vote cell and one yaw step): loose, above the right candidates' shares, so it
+    // drops only clearly wrong peaks; G-ICP and the finer checks judge the rest.
     double max_ground_coarse_free_space_violation_share = 0.15;
     FeatureMatchingParams matching{};
     RansacParams ransac{};
@@ -61,20 +60,18 @@ struct PairRegistrationParams {
     double min_overlap_share = 0.15;
     // Candidates that put the source sensor within this distance of the target sensor are
     // dropped (m): two sensors cannot share a place, and on a symmetric site the best
-    // look-alike is "the source sees what the target sees" (measured on the intersection:
-    // overlap 0.8-0.9 and p2p error 0.13-0.2 m, better than the right candidates' 0.35-0.4
-    // and 0.34 m). Sensors mounted closer than this on one pole cannot be calibrated.
+    // look-alike is "the source sees what the target sees", with more overlap and less p2p
+    // error than the right candidate. Sensors mounted closer than this on one pole cannot be
+    // calibrated.
     double min_sensor_separation_m = 0.5;
     // Candidates whose transforms differ by less than this (m, at the source origin) are
     // one alternative.
     double alternative_separation_m = 1.0;
     // Our addition: a candidate counts only if the smallest eigenvalue of its G-ICP
     // Hessian per G-ICP inlier reaches this (the unitless information of covariances with
-    // epsilon 1e-3). On the synthetic streets a correct alignment measured 30-80 and a
-    // wrong one that mostly matches the ground below ~2; but on the simulator's captures
-    // (curve, seed 1) a correct pair (lidar3-lidar0, 1.3 cm off the truth) fell below 10,
-    // while wrong candidates passed it easily. Off (0) by default since the free-space
-    // check below rejects wrong candidates on principle.
+    // epsilon 1e-3). Off (0) by default: on the simulator's captures a right pair fell below
+    // what wrong candidates passed easily, and the free-space check below rejects wrong ones
+    // on principle (bench/BENCHMARK.md).
     double min_information_per_inlier = 0.0;
     // Our addition (visibility, free_space_check.hpp): a candidate is dropped when more
     // than this share of one sensor's points lie in the other sensor's observed free space

@@ -28,10 +28,8 @@ namespace lidarfuse::core {
 
 struct SensorFeatureParams {
     RangeFilterParams range{1.0, 120.0, Eigen::Vector3d::Zero()};
-    // Voxel grid (centroids) right after the range crop (m; 0 = off). 0.15 m cuts the
-    // outlier and normal k-NN work by ~40 % (45k -> ~25k points), but on the simulated
-    // matrix it moved two intersection sensors from 2.5-2.8 cm to 3.1-3.7 cm: off until the
-    // accuracy margin is understood.
+    // Voxel grid (centroids) right after the range crop (m; 0 = off). Off: it saves outlier
+    // and normal k-NN work, but cost accuracy on the simulated captures (bench/BENCHMARK.md).
     double pre_voxel_size_m = 0.0;
     bool remove_outliers = true;
     StatisticalOutlierParams outliers{};
@@ -49,8 +47,8 @@ struct SensorFeatureParams {
     // G-ICP / p2p cloud: voxel size (m) and the k of its covariances.
     double gicp_voxel_size_m = 0.5;
     int gicp_k_neighbors = 20;
-    // The finer cloud of the last G-ICP run on chosen pairs (edge_polish.hpp has the
-    // measurements; same k); 0: that run uses the G-ICP cloud above.
+    // The finer cloud of the last G-ICP run on chosen pairs (edge_polish.hpp says why; same
+    // k); 0: that run uses the G-ICP cloud above.
     double polish_voxel_size_m = 0.25;
     // The octree cloud is "plane only" when the second largest eigenvalue of its normals'
     // scatter matrix (1/N sum n n^T) is below this: every normal (nearly) parallel.

@@ -67,17 +67,15 @@ struct WorldFrameParams {
     // a swaying pole's sensor is up to its sway amplitude off its rest position at any one
     // frame. The average has to span at least one whole sway period to cancel: the paper's
     // pole (an inverted pendulum, 6 m) swings with 2 pi sqrt(6 m / 9.81 m/s^2) = 4.9 s, so
-    // 100 frames (5 s at 20 Hz, 10 s at 10 Hz). Measured on the simulator (curve, seed 2):
-    // over 100 frames every sensor's mean is within 0.2-0.9 cm of its rest position, over
-    // 20 frames (1 s) 8-32 cm, no better than one frame (sway up to 36 cm). An anchor counts
-    // when it had a pose in at least half of the frames; 1: one frame's poses.
+    // 100 frames (5 s at 20 Hz, 10 s at 10 Hz; bench/BENCHMARK.md). An anchor counts when it
+    // had a pose in at least half of the frames; 1: one frame's poses.
     int geo_average_frames = 100;
     // road: the plane is estimated on the fused cloud of a frame at least this many frames
     // after the root's first: with deskew, FusionEngine re-anchors the root's reference
     // FusionParams::deskew_reference_after_frames after it, which tilts the root frame by the
-    // root's motion over half a sweep (measured: 3 cm of road height 60 m away), and the road
-    // must be found in the frame the poses are in from then on. Set it to
-    // deskew_reference_after_frames + 1 with deskew, 0 without (world_frame_settle_frames()).
+    // root's motion over half a sweep (bench/BENCHMARK.md), and the road must be found in the
+    // frame the poses are in from then on. Set it to deskew_reference_after_frames + 1 with
+    // deskew, 0 without (world_frame_settle_frames()).
     int settle_frames = 0;
 };
 

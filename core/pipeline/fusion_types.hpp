@@ -46,8 +46,8 @@ struct FusionParams {
     // k of the G-ICP covariances (the point itself included); 0: from each cloud's voxel
     // size v, round(6 / sqrt(v)) clamped to 4..16 (v = 0.5 m: 8, 1 m: 6, 3 m: 4). Too many
     // neighbours describe the street rather than the surface (10 voxels of 3 m span its
-    // width), too few a line rather than a plane (the k sweep behind the rule: "Measured
-    // behind the defaults" in bench/BENCHMARK.md).
+    // width), too few a line rather than a plane (bench/BENCHMARK.md, "G-ICP covariance
+    // neighbours").
     int covariance_neighbors = 0;
     // G-ICP per edge; max correspondence distance = this factor * voxel_size_m.
     GicpParams gicp{};
@@ -55,9 +55,9 @@ struct FusionParams {
     // Huber delta of the pose graph in sigmas (edge information is calibrated, see engine).
     double huber_delta = 3.0;
     // Levenberg-Marquardt iterations of the pose graph per frame. Warm-started at the
-    // predicted poses, the robust window problem is not converged to the solver's tolerances
-    // even after 50; poses after 10 are as accurate on the paper table (bench/BENCHMARK.md)
-    // at a third of the graph's time.
+    // predicted poses, the robust window problem can take many iterations to meet the
+    // solver's tolerances, and the poses gain nothing from them (bench/BENCHMARK.md, "Pose
+    // graph").
     int graph_max_iterations = 10;
     // Per-column motion compensation (core/deskew.hpp): every scan is moved into the sensor
     // frame at its timestamp t_ns (the instant poses refer to) with the body twist of the
@@ -65,8 +65,8 @@ struct FusionParams {
     // the feedback between velocity and registration). Without it a rigid fit of a swaying
     // sensor's sweep lands near its mid-sweep pose, T/2 after t_ns. The reference (first)
     // scan is deskewed once its motion is known, deskew_reference_after_frames later, and
-    // the reference poses re-anchored to the scan timestamps (engine). It halves the
-    // rotation error at 1 m (bench/BENCHMARK.md, "Measured behind the defaults").
+    // the reference poses re-anchored to the scan timestamps (engine). It lowers the
+    // rotation error (bench/BENCHMARK.md, "Deskew").
     bool deskew = true;
     double deskew_max_span_s = 0.3;        // poses further apart: no velocity, no deskew
     double deskew_max_rate_deg_s = 30.0;   // faster (a knock, a glitch): no deskew
@@ -94,13 +94,13 @@ struct FusionParams {
     bool remove_dynamic = true;
     BackgroundModelParams background{};
     InitialRegistrationParams initial = default_initial_registration_params();
-    // Where the initial registration (~1 s) runs. false (real time): process() hands it out
-    // as FrameOutput::initial_job and keeps fusing the sensors it already tracks; the caller
-    // must run the job (any thread) and keep calling process(), which applies the result once
-    // the job is done. The root starts tracking on its first frame at once. While no other
-    // sensor tracks (the first registration, or a retry after all failed) the job uses
-    // `num_threads` OpenMP threads, as inline; otherwise `initial_threads`, so that it
-    // leaves the fusion thread a core for the sensors it tracks.
+    // Where the initial registration (many frame periods long) runs. false (real time):
+    // process() hands it out as FrameOutput::initial_job and keeps fusing the sensors it
+    // already tracks; the caller must run the job (any thread) and keep calling process(),
+    // which applies the result once the job is done. The root starts tracking on its first
+    // frame at once. While no other sensor tracks (the first registration, or a retry after
+    // all failed) the job uses `num_threads` OpenMP threads, as inline; otherwise
+    // `initial_threads`, so that it leaves the fusion thread a core for the sensors it tracks.
     // true (offline, deterministic): process() runs it inline and applies it in the same
     // frame; the result does not depend on timing.
     bool initial_registration_inline = false;
