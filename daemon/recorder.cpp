@@ -307,7 +307,10 @@ void Recorder::Impl::run() {
             pos += record_bytes(h.size);
             consumed += record_bytes(h.size);
         }
-        {
+        // Nothing consumed: tail is left alone. A producer that found the ring empty since the
+        // snapshot has moved head and tail back to 0 and written there; the snapshot's tail
+        // would point the next pass at stale bytes.
+        if (consumed > 0) {
             std::lock_guard<std::mutex> lock(mutex);
             tail = pos;
             used -= consumed;
