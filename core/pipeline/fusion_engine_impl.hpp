@@ -1,31 +1,29 @@
 #pragma once
 // FusionEngine's state and its steps, shared by the files that implement them (internal to
 // core/pipeline; the interface is fusion_engine.hpp):
-//   fusion_engine.cpp                  process(): one frame, steps 1-6
+//   fusion_engine.cpp                  process(): one frame, steps 1-6, and steps 1-3
+//   fusion_engine_graph.cpp            steps 4-6: the pose graph, poses and health, the
+//                                      window, the fused cloud
 //   fusion_engine_initialisation.cpp   initial registrations handed out and applied
 //   fusion_engine_references.cpp       reference frames: deskew re-anchoring, fine edges,
 //                                      removing a sensor's nodes
 // Not thread safe, like FusionEngine.
 
+#include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <optional>
-#include <set>
+#include <utility>
 #include <vector>
 
 #include "core/pipeline/fusion_engine.hpp"
 #include "core/pipeline/initial_registration_job.hpp"
 #include "core/pipeline/sensor_track.hpp"
+#include "core/pipeline/sliding_window.hpp"
 #include "core/pose_graph.hpp"
 
 namespace lidarfuse::core {
-
-// Graph node of `sensor` at `frame` (at most 64 sensors).
-inline PoseGraph::NodeId node_id(std::size_t sensor, std::int64_t frame) {
-    return frame * 64 + static_cast<std::int64_t>(sensor);
-}
-inline std::size_t node_sensor(PoseGraph::NodeId id) { return static_cast<std::size_t>(id % 64); }
-inline std::int64_t node_frame(PoseGraph::NodeId id) { return id / 64; }
 
 // An initial registration handed out (or run inline) and what applying it needs.
 struct PendingInitialisation {
@@ -35,6 +33,44 @@ struct PendingInitialisation {
     std::vector<std::size_t> order;       // the root, then the sensors to register
     std::vector<SensorScanInput> scans;   // their scans of `frame`, in `order`
     Eigen::Isometry3d T_root0_root = Eigen::Isometry3d::Identity();  // root pose at `frame`
+};
+
+using Clock = std::chrono::steady_clock;
+inline double ms_since(Clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+enum class EdgeKind { kPrevious, kReference, kInterSensor };
+
+// One G-ICP edge of a frame: the source sensor's current scan against a target (its own
+// previous or reference scan, or another sensor's current scan).
+struct EdgeTask {
+    EdgeKind kind;
+    std::size_t source_sensor;
+    std::size_t target_sensor;
+    std::int64_t target_frame;
+    const GicpTarget* target;
+    const GicpTarget* source;  // its cloud is the source
+    Eigen::Isometry3d T_init;  // T_target_source
+    GicpResult result;
+    const std::vector<std::int32_t>* guess = nullptr;  // GicpRegistration::align
+};
+
+// What the steps of one process() call hand each other.
+struct FrameWork {
+    std::int64_t frame = 0;
+    FrameOutput out;
+    std::vector<char> usable;                  // the scan is there and holds enough points
+    std::vector<std::size_t> started;          // sensors whose track started this frame
+    std::vector<std::size_t> active;           // tracked sensors with a usable scan
+    std::vector<Eigen::Isometry3d> predicted;  // T_root_sensor at this frame's scan
+    bool reanchored = false;                   // a reference frame was re-anchored (deskew)
+    std::vector<EdgeTask> tasks;               // step 3's edges, with their results
+    std::vector<std::pair<PoseGraph::EdgeId, std::size_t>> edges;  // in the graph: edge, source
+
+    bool is_started(std::size_t s) const {
+        return std::find(started.begin(), started.end(), s) != started.end();
+    }
 };
 
 struct FusionEngine::Impl {
@@ -47,7 +83,7 @@ struct FusionEngine::Impl {
     std::int64_t last_retry_frame = -1'000'000;
     std::vector<int> suspicious;         // consecutive suspicious frames per sensor
     std::vector<bool> needs_reinit;
-    std::set<PoseGraph::NodeId> window_nodes;  // non-reference nodes in the graph
+    SlidingWindow window;
     std::optional<PendingInitialisation> pending;
     std::vector<bool> started_first;  // this frame: started by the station's first registration
     // Deskew (FusionParams::deskew): edges measured between reference nodes in their own
@@ -68,6 +104,25 @@ struct FusionEngine::Impl {
 
     FrameOutput process(const FrameInput& in);
 
+    // The steps of process(), in order (fusion_engine.cpp, fusion_engine_graph.cpp).
+    FrameWork begin_frame(const FrameInput& in);
+    bool initialise(const FrameInput& in, FrameWork* w);
+    void reinitialise_due_sensors(const FrameInput& in, FrameWork* w);
+    void prepare_tracks(const FrameInput& in, FrameWork* w);
+    void register_edges(FrameWork* w);
+    void plan_track_edges(FrameWork* w) const;
+    void plan_inter_sensor_edges(FrameWork* w) const;
+    void solve_graph(FrameWork* w);
+    std::vector<PoseGraph::NodeId> add_edges(FrameWork* w);
+    void report_poses(FrameWork* w);
+    void report_edges(FrameWork* w) const;
+    void detect_divergence(FrameWork* w);
+    void slide_window(const FrameInput& in, const FrameWork& w);
+    // Started on this very frame's scan (its reference): nothing to register this frame.
+    bool is_fresh(const FrameWork& w, std::size_t s) const {
+        return w.is_started(s) && tracks[s]->reference_frame() == w.frame;
+    }
+
     // Starts an initial registration of `sensors` on this frame's scans, relative to the
     // root's pose at this frame (T_root0_root_now). Inline: runs and applies it at once.
     // Otherwise hands it out in out->initial_job; on the station's first frame the root
@@ -85,8 +140,6 @@ struct FusionEngine::Impl {
     // Removes every graph node of sensor `s` (window and reference) and forgets its
     // reference edges (a sensor that diverged and is registered again).
     void remove_track_nodes(std::size_t s);
-    // Removes the window nodes (and their edges) of sensor `s`.
-    void remove_window_nodes(std::size_t s);
     // Deskews the reference scans whose motion is now known and re-anchors their poses to
     // the scan timestamps (SensorTrack::deskew_reference). The root goes first: its
     // correction changes the meaning of the root frame, so the sensors registered against
@@ -102,8 +155,9 @@ struct FusionEngine::Impl {
     // Pairs: at least one of `fresh`, the other any sensor whose reference is final (deskew
     // on: deskewed) and shares the frame.
     void add_fine_reference_edges(const std::vector<std::size_t>& fresh, bool deskewed_only);
-    // Step 6: the fused cloud of the sensors in `active`, in the root frame.
-    void build_fused_cloud(const std::vector<std::size_t>& active, FrameOutput* out) const;
+    // Step 6: the fused cloud of the active sensors, in the root frame (when asked for).
+    void build_fused_cloud(FrameWork* w) const;
+    void copy_fused_points(const std::vector<std::size_t>& active, FrameOutput* out) const;
 
     // G-ICP Hessian scaled so that whitened residuals are in sigmas (fusion_engine.hpp).
     Matrix6d calibrated_information(const GicpResult& r) const {

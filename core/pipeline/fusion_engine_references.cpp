@@ -8,19 +8,8 @@
 
 namespace lidarfuse::core {
 
-void FusionEngine::Impl::remove_window_nodes(std::size_t s) {
-    for (auto it = window_nodes.begin(); it != window_nodes.end();) {
-        if (node_sensor(*it) == s) {
-            graph.remove_node(*it);
-            it = window_nodes.erase(it);
-        } else {
-            ++it;
-        }
-    }
-}
-
 void FusionEngine::Impl::remove_track_nodes(std::size_t s) {
-    remove_window_nodes(s);
+    window.remove_sensor(s);
     if (tracks[s]->initialised()) graph.remove_node(node_id(s, tracks[s]->reference_frame()));
     reference_edges.erase(std::remove_if(reference_edges.begin(), reference_edges.end(),
                                          [s](const ReferenceEdge& e) { return e.a == s || e.b == s; }),
@@ -51,7 +40,7 @@ bool FusionEngine::Impl::reanchor_references(std::int64_t frame, const std::vect
             left = *root_reanchor;
         }
         track.reanchor(left, *right);
-        remove_window_nodes(s);
+        window.remove_sensor(s);
         for (auto it = reference_edges.begin(); it != reference_edges.end();) {
             if (it->a == s || it->b == s) {
                 graph.remove_edge(it->edge);
