@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "core/pipeline/frame_input.hpp"
 #include "daemon/pipeline_impl.hpp"
 
 namespace lidarfuse::daemon {
@@ -107,17 +108,7 @@ void Pipeline::Impl::fusion_loop() {
         heartbeat_ns.store(steady_ns(), std::memory_order_release);
         auto frame = frames.pop_wait(std::chrono::milliseconds(100));
         if (!frame) continue;
-        core::FrameInput input;
-        input.sensors.resize(sensors.size());
-        for (std::size_t s = 0; s < sensors.size(); ++s) {
-            if (!frame->members[s]) continue;
-            auto& in = input.sensors[s];
-            in.present = true;
-            in.t_ns = frame->members[s]->t_ns;
-            in.points = std::move(frame->members[s]->points);
-            in.point_dt_s = std::move(frame->members[s]->point_dt_s);
-            in.intensity = std::move(frame->members[s]->intensity);
-        }
+        const core::FrameInput input = core::frame_input(&*frame, sensors.size());
         auto out = engine->process(input);
         if (out.initial_job) {
             last_job = std::move(out.initial_job);

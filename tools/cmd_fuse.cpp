@@ -6,12 +6,13 @@
 #include <limits>
 #include <set>
 
+#include "core/pipeline/frame_input.hpp"
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/fusion_engine.hpp"
 #include "core/world_frame.hpp"
 #include "drivers/capture/station_capture.hpp"
-#include "drivers/io/fused_cloud_file.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
+#include "drivers/io/fused_cloud_file.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "drivers/ouster/projection.hpp"
 #include "drivers/station/fusion_config.hpp"
@@ -153,17 +154,7 @@ int run_fuse(int argc, char** argv) {
         }
     };
     const auto fuse_frame = [&](core::SyncedFrame<PendingScan>&& frame) {
-        core::FrameInput input;
-        input.sensors.resize(n);
-        for (std::size_t s = 0; s < n; ++s) {
-            if (!frame.members[s]) continue;
-            auto& in = input.sensors[s];
-            in.present = true;
-            in.t_ns = frame.members[s]->t_ns;
-            in.points = std::move(frame.members[s]->points);
-            in.point_dt_s = std::move(frame.members[s]->point_dt_s);
-            in.intensity = std::move(frame.members[s]->intensity);
-        }
+        const core::FrameInput input = core::frame_input(&frame, n);
         const double cpu0_ms = process_cpu_ms();
         auto out = engine.process(input);
         const double cpu_ms = process_cpu_ms() - cpu0_ms;
