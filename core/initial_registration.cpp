@@ -1,20 +1,14 @@
 #include "core/initial_registration.hpp"
 
 #include <algorithm>
-#include <chrono>
 
 #include "core/edge_consensus.hpp"
 #include "core/se3.hpp"
+#include "core/stopwatch.hpp"
 
 namespace lidarfuse::core {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // Poses of the sensors reachable from the root over the good pairs, by a maximum spanning
 // tree (Prim, edge weight = p2p support): the pose graph's starting point. Unreached
@@ -144,7 +138,7 @@ StageTimeSums sum_stage_timings(const InitialRegistrationResult& result) {
 
 InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds,
                                            const InitialRegistrationParams& params) {
-    const auto start_total = Clock::now();
+    const Stopwatch whole;
     InitialRegistrationResult result;
     const std::size_t n = clouds.size();
     const int threads = std::max(1, params.num_threads);
@@ -167,12 +161,12 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
             sr.status = SensorRegistrationStatus::kCancelled;
             sr.T_root_sensor = Eigen::Isometry3d::Identity();
         }
-        result.timings.total_s = seconds_since(start_total);
+        result.timings.total_s = whole.seconds();
         return result;
     };
 
     // Steps 2-4 per sensor, sensors in parallel.
-    auto start = Clock::now();
+    Stopwatch stage;
     std::vector<SensorFeatures> features(n);
     std::atomic<std::size_t> done{0};
     report("features", 0, n);
@@ -187,11 +181,11 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
             report("features", ++done, n);
         }
     }
-    result.timings.features_s = seconds_since(start);
+    result.timings.features_s = stage.seconds();
     if (cancelled()) return give_up();
 
     // Steps 5-8 for every pair i > j, pairs in parallel.
-    start = Clock::now();
+    stage.restart();
     for (std::size_t i = 1; i < n; ++i) {
         for (std::size_t j = 0; j < i; ++j) {
             PairResult pair;
@@ -216,13 +210,13 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
             report("pairs", ++done, result.pairs.size());
         }
     }
-    result.timings.pairs_s = seconds_since(start);
+    result.timings.pairs_s = stage.seconds();
     if (cancelled()) return give_up();
 
     // Step 9: pose graph over the good pairs, root fixed; drop edges that break cycle
     // consistency, one at a time (the worst first), and solve again.
     report("pose graph", 0, 1);
-    start = Clock::now();
+    stage.restart();
     std::vector<bool> edge_ok(result.pairs.size());
     for (std::size_t e = 0; e < result.pairs.size(); ++e) {
         edge_ok[e] = result.pairs[e].status == PairStatus::kOk;
@@ -237,17 +231,17 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
     std::vector<bool> refused(n, false);
     for (std::size_t i = 0; i < n; ++i) refused[i] = ambiguous[i] || unconfirmed[i];
     close_loops(features, refused, params, threads, &result.pairs, &edge_ok);
-    result.timings.pose_graph_s = seconds_since(start);
+    result.timings.pose_graph_s = stage.seconds();
 
-    start = Clock::now();
+    stage.restart();
     EdgePolishParams polish = params.polish;
     polish.gicp = params.pair.gicp;
     polish.p2p_cutoff_m = params.pair.p2p_cutoff_m;
     polish.num_threads = threads;
     result.polish = polish_edges(features, edge_ok, polish, &result.pairs);
-    result.timings.polish_s = seconds_since(start);
+    result.timings.polish_s = stage.seconds();
 
-    start = Clock::now();
+    stage.restart();
     std::vector<Eigen::Isometry3d> poses;
     std::vector<bool> reached;
     while (true) {
@@ -295,7 +289,7 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
         result.pairs[worst].status = PairStatus::kRejectedByPoseGraph;
         edge_ok[worst] = false;
     }
-    result.timings.pose_graph_s += seconds_since(start);
+    result.timings.pose_graph_s += stage.seconds();
 
     // Per-sensor outcome, with the reason when unregistered.
     for (std::size_t i = 0; i < n; ++i) {
@@ -335,7 +329,7 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
                    : any_ok         ? SensorRegistrationStatus::kNotConnectedToRoot
                                     : SensorRegistrationStatus::kNoConsistentCorrespondences;
     }
-    result.timings.total_s = seconds_since(start_total);
+    result.timings.total_s = whole.seconds();
     return result;
 }
 

@@ -2,13 +2,13 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
-#include <chrono>
 #include <cstdint>
 #include <limits>
 #include <utility>
 #include <vector>
 
 #include "core/se3.hpp"
+#include "core/stopwatch.hpp"
 
 namespace lidarfuse::core {
 
@@ -75,12 +75,6 @@ void PairResult::choose(const PairAlternative& a) {
 }
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // What every stage of one pair reads; all of it outlives the register_pair call.
 struct PairInputs {
@@ -151,11 +145,11 @@ bool near_any(const Eigen::Isometry3d& T_target_source, const Items& items, doub
 
 // Step 5a: descriptor matching.
 Correspondences match_descriptors(const PairInputs& pair, PairResult& result) {
-    const auto start = Clock::now();
+    const Stopwatch stage;
     Correspondences matches =
         match_features(pair.source.descriptors, pair.target.descriptors, pair.params.matching);
     result.num_matches = matches.size();
-    result.timings.matching_s = seconds_since(start);
+    result.timings.matching_s = stage.seconds();
     return matches;
 }
 
@@ -217,10 +211,10 @@ CandidateOutcome check_after_refinement(const PairInputs& pair, PairRefiner& ref
     if (candidate.gicp.inlier_ratio < params.min_overlap_share) {
         return CandidateOutcome::kLowOverlap;
     }
-    const auto start = Clock::now();
+    const Stopwatch stage;
     candidate.p2p = p2p_error(pair.source.gicp.cloud().points, pair.target.gicp.tree(),
                               candidate.T_target_source, refiner.p2p_params);
-    timings.p2p_s += seconds_since(start);
+    timings.p2p_s += stage.seconds();
     // No overlap at all within r_c: not a candidate.
     if (!candidate.p2p.valid) return CandidateOutcome::kNoP2pOverlap;
     record.p2p_error_m = candidate.p2p.error_m;
@@ -286,9 +280,9 @@ void consider_candidate(const PairInputs& pair, const CandidateSeed& seed, PairR
     candidate.ransac_inliers = seed.support;
     candidate.T_target_source = seed.T_target_source;
     if (record.outcome == CandidateOutcome::kKept) {
-        const auto start = Clock::now();
+        const Stopwatch stage;
         const bool refined = refine_coarse_to_fine(pair, refiner, candidate);
-        result.timings.gicp_s += seconds_since(start);
+        result.timings.gicp_s += stage.seconds();
         record.T_refined = candidate.T_target_source;
         record.gicp_inlier_ratio = candidate.gicp.inlier_ratio;
         record.outcome =
@@ -305,14 +299,14 @@ void consider_ground_peaks(const PairInputs& pair, PairRefiner& refiner, Candida
                            PairResult& result) {
     const SensorFeatures& source = pair.source;
     const SensorFeatures& target = pair.target;
-    const auto start = Clock::now();
+    const Stopwatch stage;
     const GroundAlignedKeypoints s{&source.keypoint_points, &source.keypoint_normals,
                                    &source.descriptors, source.ground.T_ground_sensor};
     const GroundAlignedKeypoints t{&target.keypoint_points, &target.keypoint_normals,
                                    &target.descriptors, target.ground.T_ground_sensor};
     const std::vector<GroundAlignedCandidate> peaks =
         ground_aligned_search(s, t, pair.params.ground_search);
-    result.timings.ground_search_s = seconds_since(start);
+    result.timings.ground_search_s = stage.seconds();
     result.ground_candidates = static_cast<int>(peaks.size());
     set.any_consensus = !peaks.empty();
     for (const GroundAlignedCandidate& peak : peaks) {
@@ -346,14 +340,14 @@ void consider_ransac_rounds(const PairInputs& pair, Correspondences remaining, P
     const PairRegistrationParams& params = pair.params;
     for (int round = 0; round < std::max(1, params.max_candidates) && remaining.size() >= 3;
          ++round) {
-        const auto start = Clock::now();
+        const Stopwatch stage;
         RansacParams ransac_params = params.ransac;
         ransac_params.seed = params.ransac.seed + static_cast<std::uint32_t>(round);
         ransac_params.source_up = up_direction(pair.source);
         ransac_params.target_up = up_direction(pair.target);
         const RansacResult ransac = ransac_registration(
             pair.source.keypoint_points, pair.target.keypoint_points, remaining, ransac_params);
-        result.timings.ransac_s += seconds_since(start);
+        result.timings.ransac_s += stage.seconds();
         if (!ransac.success) break;
         set.any_consensus = true;
         const CandidateSeed seed{ransac.T_target_source, ransac.inliers.size(),

@@ -1,19 +1,13 @@
 #include "core/sensor_features.hpp"
 
 #include <Eigen/Eigenvalues>
-#include <chrono>
 
+#include "core/stopwatch.hpp"
 #include "core/voxel_grid.hpp"
 
 namespace lidarfuse::core {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // Second largest eigenvalue of (1/N) sum n n^T: ~0 when every normal is parallel.
 double normal_spread(const std::vector<Eigen::Vector3d>& normals) {
@@ -44,7 +38,7 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     const int threads = std::max(1, params.num_threads);
 
     // Step 2: pre-processing. Only positions are carried (normals are computed after).
-    auto start = Clock::now();
+    Stopwatch stage;
     PointCloud positions;
     positions.points = cloud.points;
     PointCloud cropped;
@@ -64,28 +58,28 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
         clean = std::move(cropped);
     }
     out.num_preprocessed_points = clean.size();
-    out.timings.preprocess_s = seconds_since(start);
+    out.timings.preprocess_s = stage.seconds();
     if (clean.size() < static_cast<std::size_t>(std::max(params.normals.k_neighbors, 3))) return out;
 
     // Normals (towards the sensor) and curvature, once per cloud.
-    start = Clock::now();
+    stage.restart();
     NormalParams normal_params = params.normals;
     normal_params.compute_normals = true;
     normal_params.compute_covariances = false;
     normal_params.num_threads = threads;
     std::vector<double> curvature;
     estimate_normals_covariances(&clean, normal_params, &curvature);
-    out.timings.normals_s = seconds_since(start);
+    out.timings.normals_s = stage.seconds();
 
     // Step 3: normal-adaptive octree.
-    start = Clock::now();
+    stage.restart();
     out.octree = octree_downsample(clean, curvature, params.octree);
     out.normal_spread = normal_spread(out.octree.cloud.normals);
-    out.timings.octree_s = seconds_since(start);
+    out.timings.octree_s = stage.seconds();
 
     // The G-ICP / p2p cloud (also built for failed sensors: cheap, and keeps the result
     // uniform).
-    start = Clock::now();
+    stage.restart();
     auto covariance_cloud = [&](double voxel_size_m) {
         VoxelGridParams voxel;
         voxel.voxel_size_m = voxel_size_m;
@@ -100,7 +94,7 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     };
     out.gicp = covariance_cloud(params.gicp_voxel_size_m);
     if (params.polish_voxel_size_m > 0.0) out.polish = covariance_cloud(params.polish_voxel_size_m);
-    out.timings.gicp_cloud_s = seconds_since(start);
+    out.timings.gicp_cloud_s = stage.seconds();
 
     if (out.octree.cloud.size() < 3) return out;  // kEmptyCloud
     if (out.normal_spread < params.min_normal_spread) {
@@ -109,16 +103,16 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     }
 
     // Step 4: SIFT-3D keypoints on curvature, FPFH at them, both on the octree cloud.
-    start = Clock::now();
+    stage.restart();
     SiftKeypointParams sift = params.sift;
     sift.num_threads = threads;
     out.keypoints = detect_sift_keypoints(out.octree.cloud.points, out.octree.curvature, sift).indices;
-    out.timings.keypoints_s = seconds_since(start);
+    out.timings.keypoints_s = stage.seconds();
     if (out.keypoints.size() < min_keypoints) {
         out.status = SensorFeatureStatus::kTooFewKeypoints;
         return out;
     }
-    start = Clock::now();
+    stage.restart();
     FpfhParams fpfh = params.fpfh;
     fpfh.num_threads = threads;
     out.descriptors = compute_fpfh(out.octree.cloud, out.keypoints, fpfh);
@@ -126,11 +120,11 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
         out.keypoint_points.push_back(out.octree.cloud.points[k]);
         out.keypoint_normals.push_back(out.octree.cloud.normals[k]);
     }
-    out.timings.fpfh_s = seconds_since(start);
-    start = Clock::now();
+    out.timings.fpfh_s = stage.seconds();
+    stage.restart();
     out.ground = estimate_ground_plane(clean.points, clean.normals, params.ground);
     out.free_space = FreeSpaceMap(clean.points, clean.normals, params.free_space);
-    out.timings.ground_s = seconds_since(start);
+    out.timings.ground_s = stage.seconds();
     out.status = SensorFeatureStatus::kOk;
     return out;
 }

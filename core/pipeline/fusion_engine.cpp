@@ -52,7 +52,7 @@ FusionEngine::Impl::~Impl() {
 
 // The continuous registration of one frame (PAPER.md), in the paper's steps.
 FrameOutput FusionEngine::Impl::process(const FrameInput& in) {
-    const auto t_start = Clock::now();
+    const Stopwatch frame_time;
     FrameWork w = begin_frame(in);
     if (in.sensors.size() != n) return std::move(w.out);  // wrong shape: nothing invented
     if (!initialise(in, &w)) return std::move(w.out);     // 1. initial registration
@@ -64,7 +64,7 @@ FrameOutput FusionEngine::Impl::process(const FrameInput& in) {
     detect_divergence(&w);
     slide_window(in, w);
     build_fused_cloud(&w);  // 6. the fused cloud
-    w.out.timings.total_ms = ms_since(t_start);
+    w.out.timings.total_ms = frame_time.milliseconds();
     return std::move(w.out);
 }
 
@@ -102,7 +102,7 @@ FrameWork FusionEngine::Impl::begin_frame(const FrameInput& in) {
 bool FusionEngine::Impl::initialise(const FrameInput& in, FrameWork* w) {
     const std::size_t root = params.root_sensor;
     started_first.assign(n, false);
-    const auto t_init = Clock::now();
+    const Stopwatch init_time;
     if (pending && pending->job->done()) apply_initialisation(w->frame, &w->started, &w->out);
     if (!pending && !tracks[root]->initialised()) {
         if (!w->usable[root]) return false;
@@ -116,7 +116,7 @@ bool FusionEngine::Impl::initialise(const FrameInput& in, FrameWork* w) {
         reinitialise_due_sensors(in, w);
     }
     w->out.initial_registration_pending = pending.has_value();
-    w->out.timings.initial_ms = ms_since(t_init);
+    w->out.timings.initial_ms = init_time.milliseconds();
     return true;
 }
 
@@ -144,7 +144,7 @@ void FusionEngine::Impl::reinitialise_due_sensors(const FrameInput& in, FrameWor
 // Step 2. Every tracked sensor with a scan, in parallel: its pose predicted, its scan cropped,
 // deskewed, split into static and dynamic points and made a G-ICP target.
 void FusionEngine::Impl::prepare_tracks(const FrameInput& in, FrameWork* w) {
-    const auto t_prep = Clock::now();
+    const Stopwatch prep_time;
     w->reanchored = params.deskew && reanchor_references(w->frame, w->usable, w->started);
     // The first registration's references: fine edges at once (with deskew they are
     // replaced when the references are deskewed). At 3 m the tracking-voxel edges alone
@@ -167,13 +167,13 @@ void FusionEngine::Impl::prepare_tracks(const FrameInput& in, FrameWork* w) {
         const std::size_t s = w->active[k];
         if (!is_fresh(*w, s)) tracks[s]->prepare(in.sensors[s], w->predicted[s]);
     }
-    w->out.timings.preprocess_ms = ms_since(t_prep);
+    w->out.timings.preprocess_ms = prep_time.milliseconds();
 }
 
 // Step 3. G-ICP of each sensor against its previous and reference scans, every frame, and
 // between sensors every (window - 1) frames and whenever a reference changed; in parallel.
 void FusionEngine::Impl::register_edges(FrameWork* w) {
-    const auto t_reg = Clock::now();
+    const Stopwatch reg_time;
     plan_track_edges(w);
     const int interval = std::max(1, params.window_frames - 1);
     if (w->frame % interval == 0 || !w->started.empty() || w->reanchored)
@@ -193,7 +193,7 @@ void FusionEngine::Impl::register_edges(FrameWork* w) {
                 registration.correspondences());
         }
     }
-    w->out.timings.registration_ms = ms_since(t_reg);
+    w->out.timings.registration_ms = reg_time.milliseconds();
 }
 
 // Each active sensor's edges to its own previous frame (while that node is in the graph)

@@ -12,7 +12,7 @@ namespace lidarfuse::core {
 // Step 4. This frame's nodes at their predicted poses, the converged edges, one solve. A
 // node with no edge at all would float: it is held at its prediction for this solve.
 void FusionEngine::Impl::solve_graph(FrameWork* w) {
-    const auto t_graph = Clock::now();
+    const Stopwatch graph_time;
     for (std::size_t s : w->active) {
         if (!is_fresh(*w, s)) window.add(s, w->frame, w->predicted[s]);
     }
@@ -20,7 +20,7 @@ void FusionEngine::Impl::solve_graph(FrameWork* w) {
     for (auto id : held) graph.set_node_fixed(id, true);
     w->out.graph_usable = graph.optimize().usable;
     for (auto id : held) graph.set_node_fixed(id, false);
-    w->out.timings.graph_ms = ms_since(t_graph);
+    w->out.timings.graph_ms = graph_time.milliseconds();
 }
 
 // Adds the edges that converged (inter-sensor ones also need half the minimum fitness);
@@ -148,9 +148,9 @@ void FusionEngine::Impl::slide_window(const FrameInput& in, const FrameWork& w) 
 // every sensor fills its own slice. Serial: a copy at memory speed gains nothing from a
 // second thread that a loaded machine may not schedule at once.
 void FusionEngine::Impl::build_fused_cloud(FrameWork* w) const {
-    const auto t_fuse = Clock::now();
+    const Stopwatch fuse_time;
     if (params.build_fused_cloud) copy_fused_points(w->active, &w->out);
-    w->out.timings.fuse_ms = ms_since(t_fuse);
+    w->out.timings.fuse_ms = fuse_time.milliseconds();
 }
 
 void FusionEngine::Impl::copy_fused_points(const std::vector<std::size_t>& active,

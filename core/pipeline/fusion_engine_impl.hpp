@@ -10,7 +10,6 @@
 // Not thread safe, like FusionEngine.
 
 #include <algorithm>
-#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -22,6 +21,7 @@
 #include "core/pipeline/sensor_track.hpp"
 #include "core/pipeline/sliding_window.hpp"
 #include "core/pose_graph.hpp"
+#include "core/stopwatch.hpp"
 
 namespace lidarfuse::core {
 
@@ -34,11 +34,6 @@ struct PendingInitialisation {
     std::vector<SensorScanInput> scans;   // their scans of `frame`, in `order`
     Eigen::Isometry3d T_root0_root = Eigen::Isometry3d::Identity();  // root pose at `frame`
 };
-
-using Clock = std::chrono::steady_clock;
-inline double ms_since(Clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 enum class EdgeKind { kPrevious, kReference, kInterSensor };
 

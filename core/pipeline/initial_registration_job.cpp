@@ -1,7 +1,8 @@
 #include "core/pipeline/initial_registration_job.hpp"
 
-#include <chrono>
 #include <exception>
+
+#include "core/stopwatch.hpp"
 
 namespace lidarfuse::core {
 
@@ -16,7 +17,7 @@ void InitialRegistrationJob::run() {
     if (cancelled()) {
         error_ = "cancelled before it started";
     } else {
-        const auto t0 = std::chrono::steady_clock::now();
+        const Stopwatch run;
         try {
             result_ = register_initial(clouds_, params_);
         } catch (const std::exception& e) {
@@ -25,7 +26,7 @@ void InitialRegistrationJob::run() {
             result_ = InitialRegistrationResult{};
             error_ = e.what();
         }
-        run_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        run_ms_ = run.milliseconds();
     }
     clouds_.clear();
     clouds_.shrink_to_fit();
