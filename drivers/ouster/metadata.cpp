@@ -52,15 +52,9 @@ constexpr const char* kNestedSections[] = {"sensor_info",      "beam_intrinsics"
                                            "lidar_intrinsics", "imu_intrinsics",
                                            "lidar_data_format", "config_params"};
 
-SensorInfo parse_root(const json& root, const std::string& source) {
-    std::vector<std::string> problems;
-    std::set<std::string> bad;
-    if (!root.is_object()) {
-        throw MetadataError(source, {"(root): expected a JSON object, got " + type_name(root)});
-    }
-    Reader r(root, &problems, &bad);
-
-    SensorInfo info;
+// Nested when any of its sections is present, else legacy flat. Reports sections that are
+// not objects, and the two sections the nested form cannot do without.
+MetadataForm read_form(const json& root, Reader& r) {
     int nested_sections = 0;
     for (const char* s : kNestedSections) {
         if (root.contains(s)) {
@@ -68,19 +62,25 @@ SensorInfo parse_root(const json& root, const std::string& source) {
             if (!root[s].is_object()) r.problem(s, "expected an object, got " + type_name(root[s]));
         }
     }
-    info.form = nested_sections > 0 ? MetadataForm::kNested : MetadataForm::kLegacyFlat;
-    const detail::MetadataPaths p = paths_for(info.form);
-    if (info.form == MetadataForm::kNested) {
+    const MetadataForm form =
+        nested_sections > 0 ? MetadataForm::kNested : MetadataForm::kLegacyFlat;
+    if (form == MetadataForm::kNested) {
         for (const char* s : {"sensor_info", "beam_intrinsics"}) {
             if (!root.contains(s)) r.problem(s, "missing (required in the nested form)");
         }
     }
-    auto absent = [&](const std::string& path) {
-        if (!r.has(path)) info.defaults_applied.push_back(path);
-        return !r.has(path);
-    };
+    return form;
+}
 
-    // Identity.
+// True when `path` is absent; the caller then applies Ouster's default, so the key is
+// listed in info.defaults_applied.
+bool absent(const Reader& r, const std::string& path, SensorInfo& info) {
+    if (!r.has(path)) info.defaults_applied.push_back(path);
+    return !r.has(path);
+}
+
+// sensor_info: serial, product, firmware, status, initialization id.
+void read_identity(Reader& r, const detail::MetadataPaths& p, SensorInfo& info) {
     r.string_or_integer(p.sensor + "prod_sn", &info.prod_sn);
     r.string(p.sensor + "prod_line", &info.prod_line);
     r.string(p.sensor + "prod_pn", &info.prod_pn);
@@ -88,8 +88,11 @@ SensorInfo parse_root(const json& root, const std::string& source) {
     r.string(p.sensor + "image_rev", &info.image_rev);
     r.string(p.sensor + "status", &info.status);
     r.integer_as(p.sensor + "initialization_id", 0, 0xFFFFFF, &info.init_id);
+}
 
-    // Mode: lidar_mode, else columns_per_frame (+ fps) from the data format.
+// Columns and frame rate: lidar_mode, else columns_per_frame (+ fps) from the data format;
+// when both are given they must agree.
+void read_mode(Reader& r, const detail::MetadataPaths& p, SensorInfo& info) {
     const bool have_mode = r.string(p.config + "lidar_mode", &info.lidar_mode);
     std::optional<std::array<int, 2>> mode;
     if (have_mode) {
@@ -129,8 +132,10 @@ SensorInfo parse_root(const json& root, const std::string& source) {
         info.lidar_mode = std::to_string(cpf) + "x" + std::to_string(info.frames_per_second);
         if (!parse_lidar_mode(info.lidar_mode)) info.lidar_mode.clear();
     }
+}
 
-    // Beam intrinsics (required).
+// beam_intrinsics: altitude and azimuth angle per beam in degrees (required, no default).
+void read_beam_angles(Reader& r, const detail::MetadataPaths& p, SensorInfo& info) {
     if (!r.numbers(p.beam + "beam_altitude_angles", &info.beam_altitude_angles_deg) &&
         !r.has(p.beam + "beam_altitude_angles")) {
         r.problem(p.beam + "beam_altitude_angles", "missing");
@@ -139,9 +144,12 @@ SensorInfo parse_root(const json& root, const std::string& source) {
         !r.has(p.beam + "beam_azimuth_angles")) {
         r.problem(p.beam + "beam_azimuth_angles", "missing");
     }
+}
 
-    // Data format.
-    if (absent(p.format + "pixels_per_column")) {
+// Rows per column and columns per UDP packet. The nested form may give columns_per_packet
+// in config_params as well; the two must agree.
+void read_packet_layout(Reader& r, const detail::MetadataPaths& p, SensorInfo& info) {
+    if (absent(r, p.format + "pixels_per_column", info)) {
         info.pixels_per_column = static_cast<int>(info.beam_altitude_angles_deg.size());
     } else {
         r.integer_as(p.format + "pixels_per_column", 1, 4096, &info.pixels_per_column);
@@ -149,7 +157,9 @@ SensorInfo parse_root(const json& root, const std::string& source) {
     const bool cpp_in_format = r.has(p.format + "columns_per_packet");
     const bool cpp_in_config =
         info.form == MetadataForm::kNested && r.has(p.config + "columns_per_packet");
-    if (!cpp_in_format && !cpp_in_config) info.defaults_applied.push_back(p.format + "columns_per_packet");
+    if (!cpp_in_format && !cpp_in_config) {
+        info.defaults_applied.push_back(p.format + "columns_per_packet");
+    }
     int cpp_config = 0;
     if (cpp_in_config) {
         r.integer_as(p.config + "columns_per_packet", 1, 65535, &cpp_config);
@@ -162,23 +172,30 @@ SensorInfo parse_root(const json& root, const std::string& source) {
                   std::to_string(info.columns_per_packet) + " contradicts " + p.config +
                       "columns_per_packet " + std::to_string(cpp_config));
     }
+}
 
-    auto read_profile = [&](const std::string& path, UdpProfileLidar* out) {
-        std::string name;
-        if (!r.string(path, &name)) return false;
-        const auto prof = udp_profile_lidar_from_string(name);
-        if (!prof) {
-            r.problem(path, "unknown UDP lidar profile \"" + name + "\"");
-            return false;
-        }
-        *out = *prof;
-        return true;
-    };
+bool read_lidar_profile(Reader& r, const std::string& path, UdpProfileLidar* out) {
+    std::string name;
+    if (!r.string(path, &name)) return false;
+    const auto prof = udp_profile_lidar_from_string(name);
+    if (!prof) {
+        r.problem(path, "unknown UDP lidar profile \"" + name + "\"");
+        return false;
+    }
+    *out = *prof;
+    return true;
+}
+
+// UDP lidar and IMU packet profiles, from the data format or (nested form) config_params;
+// when both give the lidar profile they must agree.
+void read_udp_profiles(Reader& r, const detail::MetadataPaths& p, SensorInfo& info) {
     UdpProfileLidar prof_format = UdpProfileLidar::kLegacy;
     UdpProfileLidar prof_config = UdpProfileLidar::kLegacy;
-    const bool have_prof_format = read_profile(p.format + "udp_profile_lidar", &prof_format);
+    const bool have_prof_format =
+        read_lidar_profile(r, p.format + "udp_profile_lidar", &prof_format);
     const bool have_prof_config =
-        info.form == MetadataForm::kNested && read_profile(p.config + "udp_profile_lidar", &prof_config);
+        info.form == MetadataForm::kNested &&
+        read_lidar_profile(r, p.config + "udp_profile_lidar", &prof_config);
     if (have_prof_format && have_prof_config && prof_format != prof_config) {
         r.problem(p.format + "udp_profile_lidar",
                   std::string(to_string(prof_format)) + " contradicts " + p.config +
@@ -200,8 +217,12 @@ SensorInfo parse_root(const json& root, const std::string& source) {
             info.udp_profile_imu = *imu;
         }
     }
+}
 
-    if (absent(p.format + "column_window")) {
+// Which measurement ids the sensor fills, and each row's stagger in columns. Runs after
+// the mode and the beam angles, whose values the defaults are built from.
+void read_column_layout(Reader& r, const detail::MetadataPaths& p, SensorInfo& info) {
+    if (absent(r, p.format + "column_window", info)) {
         info.column_window = {0, info.columns_per_frame - 1};
     } else {
         std::vector<int> w;
@@ -214,20 +235,25 @@ SensorInfo parse_root(const json& root, const std::string& source) {
             }
         }
     }
-    if (absent(p.format + "pixel_shift_by_row")) {
+    if (absent(r, p.format + "pixel_shift_by_row", info)) {
         info.pixel_shift_by_row = default_pixel_shift_by_row(
             info.beam_azimuth_angles_deg, info.pixels_per_column, info.columns_per_frame);
     } else {
         r.integers(p.format + "pixel_shift_by_row", -65535, 65535, &info.pixel_shift_by_row);
     }
+}
 
-    // Beam origin and transforms.
+// beam_intrinsics: the beam origin offset n (mm) and beam_to_lidar_transform, whose x/z
+// translation encodes the same n; they must agree. Runs after the identity, as n's
+// default depends on prod_line.
+void read_beam_origin(Reader& r, const detail::MetadataPaths& p, SensorInfo& info) {
     const bool have_n = r.number(p.beam + "lidar_origin_to_beam_origin_mm",
                                  &info.lidar_origin_to_beam_origin_mm);
-    if (absent(p.beam + "lidar_origin_to_beam_origin_mm")) {
-        info.lidar_origin_to_beam_origin_mm = default_lidar_origin_to_beam_origin_mm(info.prod_line);
+    if (absent(r, p.beam + "lidar_origin_to_beam_origin_mm", info)) {
+        info.lidar_origin_to_beam_origin_mm =
+            default_lidar_origin_to_beam_origin_mm(info.prod_line);
     }
-    if (absent(p.beam + "beam_to_lidar_transform")) {
+    if (absent(r, p.beam + "beam_to_lidar_transform", info)) {
         info.beam_to_lidar_transform = Eigen::Matrix4d::Identity();
         info.beam_to_lidar_transform(0, 3) = info.lidar_origin_to_beam_origin_mm;
     } else if (r.matrix4(p.beam + "beam_to_lidar_transform", &info.beam_to_lidar_transform)) {
@@ -235,8 +261,8 @@ SensorInfo parse_root(const json& root, const std::string& source) {
             std::hypot(info.beam_to_lidar_transform(0, 3), info.beam_to_lidar_transform(2, 3));
         if (!have_n) {
             // n absent: the matrix says where the beams start. The product line's default
-            // would contradict it (fuzz_ouster_metadata: the nested form written back then
-            // failed to parse), so n follows the matrix.
+            // could contradict it, and the nested form written back (to_nested_json) would
+            // then fail to parse, so n follows the matrix.
             info.lidar_origin_to_beam_origin_mm = n_from_matrix;
         } else if (std::fabs(n_from_matrix - info.lidar_origin_to_beam_origin_mm) > 1e-3) {
             std::ostringstream msg;
@@ -246,31 +272,40 @@ SensorInfo parse_root(const json& root, const std::string& source) {
             r.problem(p.beam + "beam_to_lidar_transform", msg.str());
         }
     }
-    if (absent(p.lidar_to_sensor)) {
+}
+
+// lidar_intrinsics / imu_intrinsics: lidar and IMU frames in the sensor frame (mm).
+void read_sensor_transforms(Reader& r, const detail::MetadataPaths& p, SensorInfo& info) {
+    if (absent(r, p.lidar_to_sensor, info)) {
         info.lidar_to_sensor_transform = default_lidar_to_sensor_transform();
     } else {
         r.matrix4(p.lidar_to_sensor, &info.lidar_to_sensor_transform);
     }
-    if (absent(p.imu_to_sensor)) {
+    if (absent(r, p.imu_to_sensor, info)) {
         info.imu_to_sensor_transform = default_imu_to_sensor_transform();
     } else {
         r.matrix4(p.imu_to_sensor, &info.imu_to_sensor_transform);
     }
+}
 
-    // Network / timing configuration (top level in the flat form).
-    if (absent(p.config + "udp_port_lidar")) {
+// config_params (top level in the flat form): UDP ports and destination, timestamp mode,
+// azimuth window in millidegrees.
+void read_network_config(Reader& r, const detail::MetadataPaths& p, SensorInfo& info) {
+    if (absent(r, p.config + "udp_port_lidar", info)) {
         info.udp_port_lidar = 7502;
     } else {
         r.integer_as(p.config + "udp_port_lidar", 0, 65535, &info.udp_port_lidar);
     }
-    if (absent(p.config + "udp_port_imu")) {
+    if (absent(r, p.config + "udp_port_imu", info)) {
         info.udp_port_imu = 7503;
     } else {
         r.integer_as(p.config + "udp_port_imu", 0, 65535, &info.udp_port_imu);
     }
-    if (!r.string(p.config + "udp_dest", &info.udp_dest)) r.string(p.config + "udp_ip", &info.udp_dest);
+    if (!r.string(p.config + "udp_dest", &info.udp_dest)) {
+        r.string(p.config + "udp_ip", &info.udp_dest);
+    }
     r.string(p.config + "timestamp_mode", &info.timestamp_mode);
-    if (!absent(p.config + "azimuth_window")) {
+    if (!absent(r, p.config + "azimuth_window", info)) {
         std::vector<int> w;
         if (r.integers(p.config + "azimuth_window", 0, 360000, &w)) {
             if (w.size() != 2) {
@@ -282,6 +317,30 @@ SensorInfo parse_root(const json& root, const std::string& source) {
             }
         }
     }
+}
+
+// Every part is read even after problems so that one error lists them all. The order is
+// the order of the problems in that error, and later parts use earlier parts' values.
+SensorInfo parse_root(const json& root, const std::string& source) {
+    std::vector<std::string> problems;
+    std::set<std::string> bad;
+    if (!root.is_object()) {
+        throw MetadataError(source, {"(root): expected a JSON object, got " + type_name(root)});
+    }
+    Reader r(root, &problems, &bad);
+
+    SensorInfo info;
+    info.form = read_form(root, r);
+    const detail::MetadataPaths p = paths_for(info.form);
+    read_identity(r, p, info);
+    read_mode(r, p, info);
+    read_beam_angles(r, p, info);
+    read_packet_layout(r, p, info);
+    read_udp_profiles(r, p, info);
+    read_column_layout(r, p, info);
+    read_beam_origin(r, p, info);
+    read_sensor_transforms(r, p, info);
+    read_network_config(r, p, info);
 
     detail::check_semantics(info, p, bad, &problems);
     if (!problems.empty()) throw MetadataError(source, std::move(problems));
