@@ -10,14 +10,7 @@ void SlidingWindow::add(std::size_t sensor, std::int64_t frame,
 }
 
 void SlidingWindow::remove_sensor(std::size_t sensor) {
-    for (auto it = nodes_.begin(); it != nodes_.end();) {
-        if (node_sensor(*it) == sensor) {
-            graph_->remove_node(*it);
-            it = nodes_.erase(it);
-        } else {
-            ++it;
-        }
-    }
+    remove_nodes_if([sensor](PoseGraph::NodeId id) { return node_sensor(id) == sensor; });
 }
 
 void SlidingWindow::settle_reference(PoseGraph::NodeId reference, std::int64_t free_since,
@@ -26,14 +19,8 @@ void SlidingWindow::settle_reference(PoseGraph::NodeId reference, std::int64_t f
 }
 
 void SlidingWindow::slide(std::int64_t frame) {
-    for (auto it = nodes_.begin(); it != nodes_.end();) {
-        if (node_frame(*it) <= frame - window_frames_) {
-            graph_->remove_node(*it);
-            it = nodes_.erase(it);
-        } else {
-            ++it;
-        }
-    }
+    const std::int64_t oldest_kept = frame - window_frames_ + 1;
+    remove_nodes_if([oldest_kept](PoseGraph::NodeId id) { return node_frame(id) < oldest_kept; });
 }
 
 }  // namespace lidarfuse::core

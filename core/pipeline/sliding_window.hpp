@@ -39,6 +39,19 @@ public:
     void slide(std::int64_t frame);
 
 private:
+    // Removes the window nodes for which leaves(id) holds, with their edges.
+    template <typename Leaves>
+    void remove_nodes_if(Leaves leaves) {
+        for (auto it = nodes_.begin(); it != nodes_.end();) {
+            if (leaves(*it)) {
+                graph_->remove_node(*it);
+                it = nodes_.erase(it);
+            } else {
+                ++it;
+            }
+        }
+    }
+
     PoseGraph* graph_;
     int window_frames_;
     std::set<PoseGraph::NodeId> nodes_;  // window nodes in the graph (no reference nodes)
