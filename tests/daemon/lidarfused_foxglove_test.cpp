@@ -15,6 +15,12 @@ using namespace lidarfused_test;  // NOLINT(google-build-using-namespace): the t
 using ::testing::HasSubstr;
 using Json = nlohmann::json;
 
+#if defined(__SANITIZE_THREAD__)
+constexpr bool kThreadSanitizer = true;
+#else
+constexpr bool kThreadSanitizer = false;
+#endif
+
 const std::filesystem::path kClientModules =
     std::filesystem::path(LIDARFUSE_FOXGLOVE_CLIENT_DIR) / "node_modules";
 
@@ -85,6 +91,29 @@ void write_station(Station* s, bool foxglove) {
         << ", max_clients: 2, client_buffer_mb: 2}\n";
 }
 
+// After a replay: lidarfused is done once its initial registration has ended and poses.csv
+// (written as each frame is published) has stopped growing for a second. A fixed pause is not
+// enough: under TSan on a loaded machine the registration ended 3 s after the replay, and the
+// frames it held back were published after the viewer had gone.
+void wait_until_published(const std::filesystem::path& log, const std::filesystem::path& poses) {
+    EXPECT_TRUE(test::eventually(
+        [&] { return read_text(log).find("initial registration done") != std::string::npos; },
+        6000))
+        << read_text(log);
+    const auto size_of = [&] {
+        std::error_code ec;
+        const auto n = std::filesystem::file_size(poses, ec);
+        return ec ? std::uintmax_t{0} : n;
+    };
+    auto last = size_of();
+    for (int tries = 0, unchanged = 0; tries < 300 && unchanged < 10; ++tries) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        const auto now = size_of();
+        unchanged = now == last ? unchanged + 1 : 0;
+        last = now;
+    }
+}
+
 // A replay of the station through lidarfused with nothing connected: the frames fused when
 // no client costs anything, to compare with the run that has a stalled client.
 long baseline_frames(const Station& s) {
@@ -96,7 +125,7 @@ long baseline_frames(const Station& s) {
         3000));
     std::string out;
     EXPECT_EQ(test::run_command(s.replay, &out), 0) << out;
-    std::this_thread::sleep_for(std::chrono::seconds(1));  // fusion catching up
+    wait_until_published(s.dir / "plain.log", s.dir / "out-plain" / "poses.csv");
     ::kill(daemon.pid, SIGTERM);
     ::waitpid(daemon.pid, nullptr, 0);
     daemon.pid = 0;
@@ -164,7 +193,7 @@ TEST(LidarfusedFoxglove, ANodeClientDecodesCloudsAndTfOfAReplayWhileAStalledOneO
 
     std::string replay_out;
     ASSERT_EQ(test::run_command(s.replay, &replay_out), 0) << replay_out;
-    std::this_thread::sleep_for(std::chrono::seconds(1));  // fusion catching up
+    wait_until_published(log, s.dir / "out" / "poses.csv");
     const Json seen = stop_client(&viewer, s.dir / "viewer.json");
     // The daemon stops promptly although a client never reads again (its close is cut off).
     const auto stop_started = std::chrono::steady_clock::now();
@@ -217,7 +246,14 @@ TEST(LidarfusedFoxglove, ANodeClientDecodesCloudsAndTfOfAReplayWhileAStalledOneO
     // (poses.csv has rows of registered sensors only: under TSan the frames before the
     // initial registration ended have none, so the poses messages count the published.)
     EXPECT_GE(poses, fused * 9 / 10) << text;
-    EXPECT_GE(fused, baseline / 3) << text;
+    if (kThreadSanitizer) {
+        // Under TSan fusion takes about a second a frame, so both runs fuse a handful of
+        // frames, or a few dozen when the scheduler favours fusion over the registration's
+        // worker (seen: a baseline of 37 beside 4): a count that says nothing of the client.
+        std::printf("foxglove: frames fused not compared with the baseline under TSan\n");
+    } else {
+        EXPECT_GE(fused, baseline / 3) << text;
+    }
 
     // The refused connection is counted, and so are the stalled client's losses (in the
     // diagnostics the viewer read and in the stop line) once more was sent than its buffers
