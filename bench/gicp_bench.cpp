@@ -14,10 +14,10 @@
 #include <string>
 #include <vector>
 
-#include "core/gicp.hpp"
-#include "core/normals.hpp"
-#include "core/se3.hpp"
-#include "core/voxel_grid.hpp"
+#include "core/common/se3.hpp"
+#include "core/preprocess/normals.hpp"
+#include "core/preprocess/voxel_grid.hpp"
+#include "core/registration/gicp.hpp"
 
 namespace {
 

@@ -5,14 +5,14 @@
 // Usage: initial_registration_bench [threads=2] [columns=1024] [repeats=3]
 
 #include <algorithm>
-#include <ctime>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <string>
 #include <vector>
 
-#include "core/initial_registration.hpp"
-#include "core/se3.hpp"
+#include "core/common/se3.hpp"
+#include "core/initial/initial_registration.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
 using namespace lidarfuse;

@@ -1,4 +1,4 @@
-// Our k-d tree (core/kdtree.hpp) against nanoflann 1.4.3 (Debian's libnanoflann-dev, the
+// Our k-d tree (core/common/kdtree.hpp) against nanoflann 1.4.3 (Debian's libnanoflann-dev, the
 // tree core/ used before) on the searches a frame of continuous registration makes, on
 // simulated OS1-64 scans decoded with the production ingest:
 //   build      the tree over one voxelised scan;
@@ -30,8 +30,8 @@
 #include <string>
 #include <vector>
 
-#include "core/kdtree.hpp"
-#include "core/voxel_grid.hpp"
+#include "core/common/kdtree.hpp"
+#include "core/preprocess/voxel_grid.hpp"
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/station/station_config.hpp"
 

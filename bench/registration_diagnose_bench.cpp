@@ -40,10 +40,10 @@
 #include <string>
 #include <vector>
 
-#include "core/ground_aligned_search.hpp"
-#include "core/initial_registration.hpp"
-#include "core/kdtree.hpp"
-#include "core/se3.hpp"
+#include "core/common/kdtree.hpp"
+#include "core/common/se3.hpp"
+#include "core/initial/ground_aligned_search.hpp"
+#include "core/initial/initial_registration.hpp"
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/io/cloud_file.hpp"
 #include "drivers/io/pose_csv.hpp"

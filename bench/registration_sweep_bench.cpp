@@ -25,9 +25,9 @@
 #include <string>
 #include <vector>
 
-#include "core/initial_registration.hpp"
-#include "core/kdtree.hpp"
-#include "core/se3.hpp"
+#include "core/common/kdtree.hpp"
+#include "core/common/se3.hpp"
+#include "core/initial/initial_registration.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
 using namespace lidarfuse;

@@ -4,7 +4,7 @@
 //   receiver threads (one per UDP port): recvmmsg -> sensor routing -> packet parsing and
 //       scan assembly -> projection -> ScanMessage into that receiver's queue
 //   sync thread: scans -> FrameSynchroniser (steady clock deadline) -> frame queue
-//   fusion thread: FusionEngine::process -> world frame (core/world_frame.hpp: the
+//   fusion thread: FusionEngine::process -> world frame (core/pipeline/world_frame.hpp: the
 //       frame's poses and cloud re-expressed in the fused frame; frames before it is
 //       known are counted, not published) -> result queue; beats the heartbeat
 //   output thread: poses.csv, extrinsics.yaml, clouds, diagnostics log

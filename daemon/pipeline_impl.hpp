@@ -15,7 +15,7 @@
 
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/fusion_engine.hpp"
-#include "core/world_frame.hpp"
+#include "core/pipeline/world_frame.hpp"
 #include "daemon/dds_publisher.hpp"
 #include "daemon/frame_stamps.hpp"
 #include "daemon/metadata_fetcher.hpp"

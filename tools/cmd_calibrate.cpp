@@ -20,10 +20,10 @@
 #include <limits>
 #include <optional>
 
-#include "core/initial_registration.hpp"
+#include "core/common/se3.hpp"
+#include "core/initial/initial_registration.hpp"
 #include "core/pipeline/frame_synchroniser.hpp"
-#include "core/se3.hpp"
-#include "core/world_frame.hpp"
+#include "core/pipeline/world_frame.hpp"
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/io/cloud_file.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "core/evaluation.hpp"
+#include "core/evaluation/evaluation.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"

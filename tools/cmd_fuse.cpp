@@ -9,7 +9,7 @@
 #include "core/pipeline/frame_input.hpp"
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/fusion_engine.hpp"
-#include "core/world_frame.hpp"
+#include "core/pipeline/world_frame.hpp"
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/fused_cloud_file.hpp"

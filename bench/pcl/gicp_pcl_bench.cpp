@@ -38,11 +38,11 @@
 #include <string>
 #include <vector>
 
-#include "core/gicp.hpp"
-#include "core/kdtree.hpp"
-#include "core/normals.hpp"
-#include "core/se3.hpp"
-#include "core/voxel_grid.hpp"
+#include "core/common/kdtree.hpp"
+#include "core/common/se3.hpp"
+#include "core/preprocess/normals.hpp"
+#include "core/preprocess/voxel_grid.hpp"
+#include "core/registration/gicp.hpp"
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "drivers/station/station_config.hpp"

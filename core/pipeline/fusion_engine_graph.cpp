@@ -4,8 +4,8 @@
 #include <cmath>
 #include <map>
 
+#include "core/common/se3.hpp"
 #include "core/pipeline/fusion_engine_impl.hpp"
-#include "core/se3.hpp"
 
 namespace lidarfuse::core {
 

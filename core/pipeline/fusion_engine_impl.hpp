@@ -16,12 +16,12 @@
 #include <utility>
 #include <vector>
 
+#include "core/common/stopwatch.hpp"
+#include "core/graph/pose_graph.hpp"
 #include "core/pipeline/fusion_engine.hpp"
 #include "core/pipeline/initial_registration_job.hpp"
 #include "core/pipeline/sensor_track.hpp"
 #include "core/pipeline/sliding_window.hpp"
-#include "core/pose_graph.hpp"
-#include "core/stopwatch.hpp"
 
 namespace lidarfuse::core {
 

@@ -3,6 +3,8 @@
 // Frames: every input scan is in its own sensor frame; every output pose is T_root_sensor,
 // root = the root sensor at its first frame (the fused frame). Units: metres, seconds.
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -11,13 +13,10 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
-#include <Eigen/Geometry>
-
-#include "core/background_model.hpp"
-#include "core/gicp.hpp"
-#include "core/initial_registration.hpp"
-#include "core/preprocess.hpp"
+#include "core/dynamics/background_model.hpp"
+#include "core/initial/initial_registration.hpp"
+#include "core/preprocess/preprocess.hpp"
+#include "core/registration/gicp.hpp"
 
 namespace lidarfuse::core {
 
@@ -59,8 +58,8 @@ struct FusionParams {
     // solver's tolerances, and the poses gain nothing from them (bench/BENCHMARK.md, "Pose
     // graph").
     int graph_max_iterations = 10;
-    // Per-column motion compensation (core/deskew.hpp): every scan is moved into the sensor
-    // frame at its timestamp t_ns (the instant poses refer to) with the body twist of the
+    // Per-column motion compensation (core/preprocess/deskew.hpp): every scan is moved into the
+    // sensor frame at its timestamp t_ns (the instant poses refer to) with the body twist of the
     // last three pose estimates (SensorTrack::deskew_twist: two frame periods, which damps
     // the feedback between velocity and registration). Without it a rigid fit of a swaying
     // sensor's sweep lands near its mid-sweep pose, T/2 after t_ns. The reference (first)
@@ -185,8 +184,8 @@ struct FrameOutput {
     std::shared_ptr<InitialRegistrationJob> initial_job;
     bool initial_registration_pending = false;  // a job is out and not applied yet
     // The initial registration applied in this frame, if any: its result holds every
-    // sensor's road plane (SensorRegistration::ground), which core/world_frame.hpp turns into
-    // a road-aligned frame. Sensor k of the job is order[k] (order[0] is the root); its
+    // sensor's road plane (SensorRegistration::ground), which core/pipeline/world_frame.hpp turns
+    // into a road-aligned frame. Sensor k of the job is order[k] (order[0] is the root); its
     // T_root_sensor there is relative to the root at the job's frame, whose pose in the
     // root frame is T_root0_root (identity for the station's first registration).
     struct AppliedRegistration {

@@ -2,7 +2,7 @@
 
 #include <exception>
 
-#include "core/stopwatch.hpp"
+#include "core/common/stopwatch.hpp"
 
 namespace lidarfuse::core {
 

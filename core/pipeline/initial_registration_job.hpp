@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "core/initial_registration.hpp"
-#include "core/point_cloud.hpp"
+#include "core/common/point_cloud.hpp"
+#include "core/initial/initial_registration.hpp"
 
 namespace lidarfuse::core {
 

@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/angles.hpp"
-#include "core/deskew.hpp"
-#include "core/normals.hpp"
+#include "core/common/angles.hpp"
+#include "core/preprocess/deskew.hpp"
+#include "core/preprocess/normals.hpp"
 
 namespace lidarfuse::core {
 

@@ -9,10 +9,10 @@
 #include <optional>
 #include <vector>
 
-#include "core/background_model.hpp"
-#include "core/gicp.hpp"
+#include "core/dynamics/background_model.hpp"
 #include "core/pipeline/fusion_types.hpp"
-#include "core/voxel_grid.hpp"
+#include "core/preprocess/voxel_grid.hpp"
+#include "core/registration/gicp.hpp"
 
 namespace lidarfuse::core {
 

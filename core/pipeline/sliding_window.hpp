@@ -12,7 +12,7 @@
 #include <cstdint>
 #include <set>
 
-#include "core/pose_graph.hpp"
+#include "core/graph/pose_graph.hpp"
 
 namespace lidarfuse::core {
 

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "core/point_cloud.hpp"
+#include "core/common/point_cloud.hpp"
 
 namespace lidarfuse::io {
 

@@ -23,7 +23,7 @@
 #include <string>
 #include <vector>
 
-#include "core/world_frame.hpp"
+#include "core/pipeline/world_frame.hpp"
 
 namespace lidarfuse::io {
 
@@ -44,7 +44,7 @@ struct ExtrinsicsPair {
     std::map<std::string, double> figures;
 };
 
-// The world frame the station publishes in (station.yaml `world:`, core/world_frame.hpp),
+// The world frame the station publishes in (station.yaml `world:`, core/pipeline/world_frame.hpp),
 // written by lidarfused:
 //   world:
 //     frame: road                       (road | geo | sensor)

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "core/evaluation.hpp"
+#include "core/evaluation/evaluation.hpp"
 
 namespace lidarfuse::io {
 

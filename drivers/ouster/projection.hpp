@@ -14,7 +14,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/point_cloud.hpp"
+#include "core/common/point_cloud.hpp"
 #include "drivers/ouster/lidar_scan.hpp"
 #include "drivers/ouster/xyz_lut.hpp"
 

@@ -19,7 +19,7 @@
 #include <filesystem>
 #include <string>
 
-#include "core/world_frame.hpp"
+#include "core/pipeline/world_frame.hpp"
 #include "drivers/station/station_config.hpp"
 #include "drivers/station/yaml_reader.hpp"
 

@@ -1,4 +1,4 @@
-#include "core/background_model.hpp"
+#include "core/dynamics/background_model.hpp"
 
 #include <gtest/gtest.h>
 

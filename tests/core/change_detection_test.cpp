@@ -1,4 +1,4 @@
-#include "core/change_detection.hpp"
+#include "core/dynamics/change_detection.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "core/deskew.hpp"
+#include "core/preprocess/deskew.hpp"
 
 #include <gtest/gtest.h>
 

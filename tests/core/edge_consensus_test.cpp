@@ -1,8 +1,8 @@
-#include "core/edge_consensus.hpp"
+#include "core/initial/edge_consensus.hpp"
 
 #include <gtest/gtest.h>
 
-#include "core/se3.hpp"
+#include "core/common/se3.hpp"
 
 namespace lidarfuse::core {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/evaluation.hpp"
+#include "core/evaluation/evaluation.hpp"
 
 #include <gtest/gtest.h>
 

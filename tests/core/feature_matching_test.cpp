@@ -1,4 +1,4 @@
-#include "core/feature_matching.hpp"
+#include "core/features/feature_matching.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "core/fpfh.hpp"
+#include "core/features/fpfh.hpp"
 
 #include <gtest/gtest.h>
 

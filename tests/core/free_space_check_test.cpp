@@ -1,4 +1,4 @@
-#include "core/free_space_check.hpp"
+#include "core/registration/free_space_check.hpp"
 
 #include <gtest/gtest.h>
 

@@ -9,8 +9,8 @@
 #include <random>
 #include <thread>
 
+#include "core/common/se3.hpp"
 #include "core/pipeline/initial_registration_job.hpp"
-#include "core/se3.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
 namespace lidarfuse::core {

@@ -1,4 +1,4 @@
-#include "core/gicp.hpp"
+#include "core/registration/gicp.hpp"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -6,7 +6,7 @@
 #include <Eigen/Eigenvalues>
 #include <random>
 
-#include "core/normals.hpp"
+#include "core/preprocess/normals.hpp"
 #include "tests/core/synthetic_scene.hpp"
 
 namespace lidarfuse::core {

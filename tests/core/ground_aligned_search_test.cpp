@@ -1,11 +1,12 @@
 // The yaw/translation vote in levelled ground frames on the synthetic street: the true
 // relative pose is among the strongest peaks for sensors 100 degrees apart, the output is
 // deterministic, and bad input gives no candidate.
+#include "core/initial/ground_aligned_search.hpp"
+
 #include <gtest/gtest.h>
 
-#include "core/ground_aligned_search.hpp"
-#include "core/se3.hpp"
-#include "core/sensor_features.hpp"
+#include "core/common/se3.hpp"
+#include "core/features/sensor_features.hpp"
 #include "tests/core/street_features.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 

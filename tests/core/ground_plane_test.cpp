@@ -1,12 +1,13 @@
 // Ground plane and levelling on synthetic scans: a tilted sensor over a street with
 // buildings, poles and cars finds the road, its height and up direction; clouds without a
 // near-horizontal plane report none.
+#include "core/initial/ground_plane.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "core/ground_plane.hpp"
-#include "core/normals.hpp"
+#include "core/preprocess/normals.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
 namespace lidarfuse::core {

@@ -1,10 +1,10 @@
-#include "core/initial_registration.hpp"
+#include "core/initial/initial_registration.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "core/se3.hpp"
+#include "core/common/se3.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
 namespace lidarfuse::core {

@@ -1,4 +1,4 @@
-#include "core/kabsch.hpp"
+#include "core/registration/kabsch.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "core/kdtree.hpp"
+#include "core/common/kdtree.hpp"
 
 #include <gtest/gtest.h>
 

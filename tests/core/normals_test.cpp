@@ -1,4 +1,4 @@
-#include "core/normals.hpp"
+#include "core/preprocess/normals.hpp"
 
 #include <gtest/gtest.h>
 

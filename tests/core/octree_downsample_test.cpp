@@ -1,4 +1,4 @@
-#include "core/octree_downsample.hpp"
+#include "core/preprocess/octree_downsample.hpp"
 
 #include <gtest/gtest.h>
 

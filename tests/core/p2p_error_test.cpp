@@ -1,4 +1,4 @@
-#include "core/p2p_error.hpp"
+#include "core/registration/p2p_error.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,8 @@
-#include "core/pair_registration.hpp"
+#include "core/registration/pair_registration.hpp"
 
 #include <gtest/gtest.h>
 
-#include "core/se3.hpp"
+#include "core/common/se3.hpp"
 #include "tests/core/street_features.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 

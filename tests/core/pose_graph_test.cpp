@@ -1,11 +1,11 @@
-#include "core/pose_graph.hpp"
+#include "core/graph/pose_graph.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "core/relative_pose_error.hpp"
+#include "core/graph/relative_pose_error.hpp"
 
 namespace lidarfuse::core {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/preprocess.hpp"
+#include "core/preprocess/preprocess.hpp"
 
 #include <gtest/gtest.h>
 

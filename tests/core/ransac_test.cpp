@@ -1,4 +1,4 @@
-#include "core/ransac.hpp"
+#include "core/registration/ransac.hpp"
 
 #include <gtest/gtest.h>
 

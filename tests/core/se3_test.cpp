@@ -1,4 +1,4 @@
-#include "core/se3.hpp"
+#include "core/common/se3.hpp"
 
 #include <gtest/gtest.h>
 

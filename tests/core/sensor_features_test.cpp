@@ -1,4 +1,4 @@
-#include "core/sensor_features.hpp"
+#include "core/features/sensor_features.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,10 +1,10 @@
-#include "core/sift_keypoints.hpp"
+#include "core/features/sift_keypoints.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "core/normals.hpp"
+#include "core/preprocess/normals.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
 namespace lidarfuse::core {

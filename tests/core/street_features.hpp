@@ -5,7 +5,7 @@
 
 #include <cstdint>
 
-#include "core/sensor_features.hpp"
+#include "core/features/sensor_features.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
 namespace lidarfuse::testing {

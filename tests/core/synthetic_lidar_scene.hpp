@@ -12,7 +12,7 @@
 #include <random>
 #include <vector>
 
-#include "core/point_cloud.hpp"
+#include "core/common/point_cloud.hpp"
 
 namespace lidarfuse::testing {
 

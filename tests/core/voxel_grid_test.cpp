@@ -1,4 +1,4 @@
-#include "core/voxel_grid.hpp"
+#include "core/preprocess/voxel_grid.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,12 +1,12 @@
 // core/world_frame: the road frame from sensors' road planes (and the fused cloud), the geo
 // frame from known sensor positions, and the tracker that fixes one and applies it.
-#include "core/world_frame.hpp"
+#include "core/pipeline/world_frame.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "core/se3.hpp"
+#include "core/common/se3.hpp"
 
 namespace lidarfuse::core {
 namespace {

@@ -5,7 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/evaluation.hpp"
+#include "core/evaluation/evaluation.hpp"
 #include "tests/daemon/lidarfused_test_support.hpp"
 
 namespace lidarfuse {

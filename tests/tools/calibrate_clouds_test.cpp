@@ -9,7 +9,7 @@
 #include <fstream>
 #include <map>
 
-#include "core/se3.hpp"
+#include "core/common/se3.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/rig_reference.hpp"
 #include "tests/support/test_data.hpp"

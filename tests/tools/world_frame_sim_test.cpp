@@ -11,8 +11,8 @@
 #include <fstream>
 #include <map>
 
-#include "core/evaluation.hpp"
-#include "core/world_frame.hpp"
+#include "core/evaluation/evaluation.hpp"
+#include "core/pipeline/world_frame.hpp"
 #include "drivers/io/cloud_file.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/pose_csv.hpp"

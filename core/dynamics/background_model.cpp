@@ -1,0 +1,138 @@
+#include "core/dynamics/background_model.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace lidarfuse::core {
+
+namespace {
+constexpr std::uint64_t kNoKey = ~std::uint64_t{0};  // a point that is not finite
+constexpr std::size_t kPowers = 256;                 // attenuation^k tabulated below this k
+constexpr int kHotSlotBits = 16;                     // 65,536 slots, 8 KiB
+std::size_t hot_slot(std::uint64_t key) {
+    return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> (64 - kHotSlotBits));
+}
+}  // namespace
+
+BackgroundModel::BackgroundModel(const BackgroundModelParams& params)
+    : params_(params), detector_(params.change) {
+    if (!(params_.voxel_size_m > 0)) params_.voxel_size_m = 0.5;
+    voxels_.reserve(1 << 14);
+    // The same values std::pow gives, looked up instead of recomputed per point.
+    for (std::size_t k = 0; k < kPowers; ++k) {
+        attenuation_powers_.push_back(std::pow(params_.attenuation, static_cast<double>(k)));
+    }
+    hot_slots_.assign((std::size_t{1} << kHotSlotBits) / 64, 0);
+    forget_after_frames_ = ~std::uint64_t{0};
+    const double a = params_.attenuation;
+    if (a > 0 && a < 1 && params_.max_score > 0) {
+        forget_after_frames_ = static_cast<std::uint64_t>(
+            std::ceil(std::log(1e-12 / params_.max_score) / std::log(a)));
+    } else if (a <= 0) {
+        forget_after_frames_ = 1;
+    }
+}
+
+void BackgroundModel::set_reference(const std::vector<Eigen::Vector3d>& reference_points) {
+    num_reference_ = reference_points.size();
+    reference_keys_.resize(num_reference_);
+    for (std::size_t j = 0; j < num_reference_; ++j) {
+        const auto& p = reference_points[j];
+        reference_keys_[j] = std::isfinite(p.squaredNorm()) ? key_of(p) : kNoKey;
+    }
+    detector_.set_reference(reference_points);
+    voxels_.clear();
+}
+
+// 21 bits per axis around the origin: +-1048576 voxels, far beyond any LiDAR range.
+std::uint64_t BackgroundModel::key_of(const Eigen::Vector3d& p) const {
+    const auto q = [this](double v) {
+        const double c = std::clamp(std::floor(v / params_.voxel_size_m), -1048576.0, 1048575.0);
+        return static_cast<std::uint64_t>(static_cast<std::int64_t>(c) + 1048576) & 0x1FFFFF;
+    };
+    return (q(p.x()) << 42) | (q(p.y()) << 21) | q(p.z());
+}
+
+double BackgroundModel::attenuation_after(std::uint64_t frames) const {
+    return frames < kPowers ? attenuation_powers_[frames]
+                            : std::pow(params_.attenuation, static_cast<double>(frames));
+}
+
+double BackgroundModel::score_of(std::uint64_t key) const {
+    if (key == kNoKey) return 0.0;
+    const auto it = voxels_.find(key);
+    if (it == voxels_.end()) return 0.0;
+    return it->second.score * attenuation_after(frame_ - it->second.frame);
+}
+
+double BackgroundModel::score_at(const Eigen::Vector3d& p) const {
+    return std::isfinite(p.squaredNorm()) ? score_of(key_of(p)) : 0.0;
+}
+
+// Raises a voxel once per frame, however many of its points changed.
+void BackgroundModel::raise(std::uint64_t key) {
+    if (key == kNoKey) return;
+    Voxel& v = voxels_[key];
+    if (v.frame == frame_ && v.score > 0) return;
+    const double current = v.score * attenuation_after(frame_ - v.frame);
+    v.score = std::min(params_.max_score, current + params_.increment);
+    v.frame = frame_;
+}
+
+void BackgroundModel::mark_hot_voxels() {
+    std::fill(hot_slots_.begin(), hot_slots_.end(), 0);
+    for (auto it = voxels_.begin(); it != voxels_.end();) {
+        const std::uint64_t age = frame_ - it->second.frame;
+        if (age > forget_after_frames_) {
+            it = voxels_.erase(it);
+            continue;
+        }
+        if (it->second.score * attenuation_after(age) > params_.dynamic_threshold) {
+            const std::size_t slot = hot_slot(it->first);
+            hot_slots_[slot >> 6] |= std::uint64_t{1} << (slot & 63);
+        }
+        ++it;
+    }
+}
+
+bool BackgroundModel::maybe_hot(std::uint64_t key) const {
+    if (key == kNoKey) return false;
+    const std::size_t slot = hot_slot(key);
+    return (hot_slots_[slot >> 6] >> (slot & 63)) & 1;
+}
+
+void BackgroundModel::update(const std::vector<Eigen::Vector3d>& current, BackgroundUpdate* out) {
+    ++frame_;
+    detector_.detect(current, &changes_);
+    current_keys_.resize(current.size());
+    for (std::size_t i = 0; i < current.size(); ++i) {
+        const auto& p = current[i];
+        current_keys_[i] = std::isfinite(p.squaredNorm()) ? key_of(p) : kNoKey;
+    }
+    for (std::size_t i = 0; i < current.size(); ++i) {
+        if (changes_.added[i]) raise(current_keys_[i]);
+    }
+    for (std::size_t j = 0; j < num_reference_; ++j) {
+        if (changes_.removed[j]) raise(reference_keys_[j]);
+    }
+    mark_hot_voxels();
+    const auto above_threshold = [this](std::uint64_t key) {
+        return maybe_hot(key) && score_of(key) > params_.dynamic_threshold;
+    };
+    out->dynamic.assign(current.size(), 0);
+    out->num_dynamic = 0;
+    for (std::size_t i = 0; i < current.size(); ++i) {
+        const bool dyn = changes_.added[i] || above_threshold(current_keys_[i]);
+        out->dynamic[i] = dyn;
+        out->num_dynamic += dyn;
+    }
+    out->reference_dynamic.assign(num_reference_, 0);
+    out->num_reference_dynamic = 0;
+    for (std::size_t j = 0; j < num_reference_; ++j) {
+        const bool dyn = changes_.removed[j] || above_threshold(reference_keys_[j]);
+        out->reference_dynamic[j] = dyn;
+        out->num_reference_dynamic += dyn;
+    }
+}
+
+}  // namespace lidarfuse::core

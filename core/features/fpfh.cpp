@@ -1,0 +1,147 @@
+#include "core/features/fpfh.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "core/common/kdtree.hpp"
+
+namespace lidarfuse::core {
+
+namespace {
+
+using Neighbours = std::vector<std::pair<std::uint32_t, double>>;
+
+int bin_of(double value, double lo, double hi) {
+    const int bin = static_cast<int>(std::floor((value - lo) / (hi - lo) * kFpfhBinsPerAngle));
+    return std::clamp(bin, 0, kFpfhBinsPerAngle - 1);
+}
+
+// Scales each 11-bin block to sum 100 (blocks that are all zero stay zero).
+void normalise_blocks(FpfhDescriptor* h) {
+    for (int block = 0; block < 3; ++block) {
+        auto segment = h->segment<kFpfhBinsPerAngle>(block * kFpfhBinsPerAngle);
+        const float sum = segment.sum();
+        if (sum > 0.0f) segment *= 100.0f / sum;
+    }
+}
+
+// Simplified point feature histogram of point `i` against `neighbours` (its radius set).
+FpfhDescriptor spfh(const PointCloud& cloud, std::uint32_t i, const Neighbours& neighbours) {
+    FpfhDescriptor h = FpfhDescriptor::Zero();
+    for (const auto& [j, d2] : neighbours) {
+        if (j == i) continue;
+        double alpha = 0.0;
+        double phi = 0.0;
+        double theta = 0.0;
+        if (!pair_features(cloud.points[i], cloud.normals[i], cloud.points[j], cloud.normals[j],
+                           &alpha, &phi, &theta)) {
+            continue;
+        }
+        h[bin_of(alpha, -1.0, 1.0)] += 1.0f;
+        h[kFpfhBinsPerAngle + bin_of(phi, -1.0, 1.0)] += 1.0f;
+        h[2 * kFpfhBinsPerAngle + bin_of(theta, -M_PI, M_PI)] += 1.0f;
+    }
+    normalise_blocks(&h);
+    return h;
+}
+
+}  // namespace
+
+bool pair_features(const Eigen::Vector3d& p1, const Eigen::Vector3d& n1, const Eigen::Vector3d& p2,
+                   const Eigen::Vector3d& n2, double* alpha, double* phi, double* theta) {
+    Eigen::Vector3d d = p2 - p1;
+    const double length = d.norm();
+    if (!(length > 1e-12)) return false;
+    d /= length;
+    // Source: the point whose normal is closer to the connecting line (Rusu's rule), so the
+    // features do not depend on the order of the pair.
+    const bool swap = std::abs(n1.dot(d)) < std::abs(n2.dot(d));
+    const Eigen::Vector3d& ns = swap ? n2 : n1;
+    const Eigen::Vector3d& nt = swap ? n1 : n2;
+    if (swap) d = -d;
+    const Eigen::Vector3d u = ns;
+    Eigen::Vector3d v = u.cross(d);
+    const double v_norm = v.norm();
+    if (v_norm > 1e-9) {
+        v /= v_norm;
+    } else {
+        // d parallel to the normal: any axis perpendicular to u spans the frame.
+        v = u.unitOrthogonal();
+    }
+    const Eigen::Vector3d w = u.cross(v);
+    *alpha = v.dot(nt);
+    *phi = u.dot(d);
+    *theta = std::atan2(w.dot(nt), u.dot(nt));
+    return true;
+}
+
+std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud,
+                                         const std::vector<std::uint32_t>& keypoints,
+                                         const FpfhParams& params) {
+    std::vector<FpfhDescriptor> descriptors(keypoints.size(), FpfhDescriptor::Zero());
+    if (!cloud.has_normals() || keypoints.empty() || !(params.radius_m > 0.0)) return descriptors;
+    for (std::uint32_t k : keypoints) {
+        if (k >= cloud.size()) return descriptors;
+    }
+    const KdTree tree(cloud.points);
+    const int threads = std::max(1, params.num_threads);
+    const auto n_keypoints = static_cast<std::int64_t>(keypoints.size());
+
+    // 1. Radius neighbourhoods of the keypoints.
+    std::vector<Neighbours> keypoint_neighbours(keypoints.size());
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 16)
+    for (std::int64_t k = 0; k < n_keypoints; ++k) {
+        tree.radius(cloud.points[keypoints[k]], params.radius_m, &keypoint_neighbours[k]);
+    }
+
+    // 2. Every point whose SPFH is needed: the keypoints and their neighbours.
+    std::vector<std::int32_t> slot(cloud.size(), -1);
+    std::vector<std::uint32_t> needed;
+    auto require = [&](std::uint32_t i) {
+        if (slot[i] < 0) {
+            slot[i] = static_cast<std::int32_t>(needed.size());
+            needed.push_back(i);
+        }
+    };
+    for (std::size_t k = 0; k < keypoints.size(); ++k) {
+        require(keypoints[k]);
+        for (const auto& neighbour : keypoint_neighbours[k]) require(neighbour.first);
+    }
+
+    // 3. SPFH of every needed point.
+    std::vector<FpfhDescriptor> spfhs(needed.size());
+    const auto n_needed = static_cast<std::int64_t>(needed.size());
+#pragma omp parallel num_threads(threads)
+    {
+        Neighbours neighbours;
+#pragma omp for schedule(dynamic, 32)
+        for (std::int64_t s = 0; s < n_needed; ++s) {
+            tree.radius(cloud.points[needed[s]], params.radius_m, &neighbours);
+            spfhs[s] = spfh(cloud, needed[s], neighbours);
+        }
+    }
+
+    // 4. FPFH: own SPFH plus the 1/distance-weighted mean of the neighbours' SPFHs.
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (std::int64_t k = 0; k < n_keypoints; ++k) {
+        FpfhDescriptor weighted = FpfhDescriptor::Zero();
+        double weight_sum = 0.0;
+        for (const auto& [j, d2] : keypoint_neighbours[k]) {
+            if (j == keypoints[k] || !(d2 > 0.0)) continue;
+            const double weight = 1.0 / std::sqrt(d2);
+            weighted += static_cast<float>(weight) * spfhs[slot[j]];
+            weight_sum += weight;
+        }
+        FpfhDescriptor& out = descriptors[k];
+        out = spfhs[slot[keypoints[k]]];
+        if (weight_sum > 0.0) {
+            out = 0.5f * (out + weighted / static_cast<float>(weight_sum));
+        }
+        // Keep each block at sum 100 even when the point's own SPFH is empty.
+        normalise_blocks(&out);
+    }
+    return descriptors;
+}
+
+}  // namespace lidarfuse::core

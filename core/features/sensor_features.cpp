@@ -1,0 +1,139 @@
+#include "core/features/sensor_features.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include "core/common/stopwatch.hpp"
+#include "core/preprocess/voxel_grid.hpp"
+
+namespace lidarfuse::core {
+
+namespace {
+
+// Second largest eigenvalue of (1/N) sum n n^T: ~0 when every normal is parallel.
+double normal_spread(const std::vector<Eigen::Vector3d>& normals) {
+    if (normals.empty()) return 0.0;
+    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+    for (const Eigen::Vector3d& n : normals) scatter += n * n.transpose();
+    scatter /= static_cast<double>(normals.size());
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(scatter, Eigen::EigenvaluesOnly);
+    return solver.eigenvalues()(1);
+}
+
+}  // namespace
+
+const char* to_string(SensorFeatureStatus status) {
+    switch (status) {
+        case SensorFeatureStatus::kOk:
+            return "ok";
+        case SensorFeatureStatus::kEmptyCloud:
+            return "empty cloud";
+        case SensorFeatureStatus::kPlaneOnly:
+            return "degenerate: plane only";
+        case SensorFeatureStatus::kTooFewKeypoints:
+            return "too few keypoints";
+    }
+    return "unknown";
+}
+
+SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeatureParams& params,
+                                       std::size_t min_keypoints) {
+    SensorFeatures out;
+    out.num_input_points = cloud.size();
+    const int threads = std::max(1, params.num_threads);
+
+    // Step 2: pre-processing. Only positions are carried (normals are computed after).
+    Stopwatch stage;
+    PointCloud positions;
+    positions.points = cloud.points;
+    PointCloud cropped;
+    filter_range(positions, params.range, &cropped);
+    if (params.pre_voxel_size_m > 0.0) {
+        // Near the pole the scan is far denser than any later stage uses.
+        VoxelGridParams pre;
+        pre.voxel_size_m = params.pre_voxel_size_m;
+        cropped = voxel_downsample(cropped.points, pre);
+    }
+    PointCloud clean;
+    if (params.remove_outliers &&
+        cropped.size() > static_cast<std::size_t>(params.outliers.k_neighbors)) {
+        StatisticalOutlierParams outliers = params.outliers;
+        outliers.num_threads = threads;
+        remove_statistical_outliers(cropped, outliers, &clean);
+    } else {
+        clean = std::move(cropped);
+    }
+    out.num_preprocessed_points = clean.size();
+    out.timings.preprocess_s = stage.seconds();
+    if (clean.size() < static_cast<std::size_t>(std::max(params.normals.k_neighbors, 3)))
+        return out;
+
+    // Normals (towards the sensor) and curvature, once per cloud.
+    stage.restart();
+    NormalParams normal_params = params.normals;
+    normal_params.compute_normals = true;
+    normal_params.compute_covariances = false;
+    normal_params.num_threads = threads;
+    std::vector<double> curvature;
+    estimate_normals_covariances(&clean, normal_params, &curvature);
+    out.timings.normals_s = stage.seconds();
+
+    // Step 3: normal-adaptive octree.
+    stage.restart();
+    out.octree = octree_downsample(clean, curvature, params.octree);
+    out.normal_spread = normal_spread(out.octree.cloud.normals);
+    out.timings.octree_s = stage.seconds();
+
+    // The G-ICP / p2p cloud (also built for failed sensors: cheap, and keeps the result
+    // uniform).
+    stage.restart();
+    auto covariance_cloud = [&](double voxel_size_m) {
+        VoxelGridParams voxel;
+        voxel.voxel_size_m = voxel_size_m;
+        PointCloud voxels = voxel_downsample(clean.points, voxel);
+        NormalParams cov_params;
+        cov_params.k_neighbors = params.gicp_k_neighbors;
+        cov_params.compute_normals = false;
+        cov_params.compute_covariances = true;
+        cov_params.num_threads = threads;
+        if (voxels.size() < 3) return GicpTarget(std::move(voxels));
+        return GicpTarget(std::move(voxels), cov_params);
+    };
+    out.gicp = covariance_cloud(params.gicp_voxel_size_m);
+    if (params.polish_voxel_size_m > 0.0) out.polish = covariance_cloud(params.polish_voxel_size_m);
+    out.timings.gicp_cloud_s = stage.seconds();
+
+    if (out.octree.cloud.size() < 3) return out;  // kEmptyCloud
+    if (out.normal_spread < params.min_normal_spread) {
+        out.status = SensorFeatureStatus::kPlaneOnly;
+        return out;
+    }
+
+    // Step 4: SIFT-3D keypoints on curvature, FPFH at them, both on the octree cloud.
+    stage.restart();
+    SiftKeypointParams sift = params.sift;
+    sift.num_threads = threads;
+    out.keypoints =
+        detect_sift_keypoints(out.octree.cloud.points, out.octree.curvature, sift).indices;
+    out.timings.keypoints_s = stage.seconds();
+    if (out.keypoints.size() < min_keypoints) {
+        out.status = SensorFeatureStatus::kTooFewKeypoints;
+        return out;
+    }
+    stage.restart();
+    FpfhParams fpfh = params.fpfh;
+    fpfh.num_threads = threads;
+    out.descriptors = compute_fpfh(out.octree.cloud, out.keypoints, fpfh);
+    for (std::uint32_t k : out.keypoints) {
+        out.keypoint_points.push_back(out.octree.cloud.points[k]);
+        out.keypoint_normals.push_back(out.octree.cloud.normals[k]);
+    }
+    out.timings.fpfh_s = stage.seconds();
+    stage.restart();
+    out.ground = estimate_ground_plane(clean.points, clean.normals, params.ground);
+    out.free_space = FreeSpaceMap(clean.points, clean.normals, params.free_space);
+    out.timings.ground_s = stage.seconds();
+    out.status = SensorFeatureStatus::kOk;
+    return out;
+}
+
+}  // namespace lidarfuse::core

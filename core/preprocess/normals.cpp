@@ -1,0 +1,150 @@
+#include "core/preprocess/normals.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <limits>
+
+namespace lidarfuse::core {
+
+Eigen::Matrix3d regularize_plane_covariance(const Eigen::Matrix3d& covariance, double epsilon) {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+    solver.computeDirect(covariance);
+    const Eigen::Matrix3d& U = solver.eigenvectors();  // columns, eigenvalues ascending
+    const Eigen::Vector3d d(epsilon, 1.0, 1.0);
+    return U * d.asDiagonal() * U.transpose();
+}
+
+namespace {
+
+// Point i's list from its k-NN result (sorted, i itself among them): the nearest others
+// first; the reach is the distance of the first other point not listed, or of the last one
+// found when the k-NN stopped short of the list (every unlisted point is at least that
+// far), or infinity when the k-NN found the whole cloud.
+void record_neighbor_list(std::uint32_t i, const std::uint32_t* idx, const double* d2,
+                          std::size_t found, std::size_t cloud_size, PointCloud* cloud) {
+    constexpr std::size_t kList = PointCloud::kNeighborListSize;
+    std::uint32_t* list = cloud->neighbor_list.data() + static_cast<std::size_t>(i) * kList;
+    std::size_t listed = 0;
+    double reach = std::numeric_limits<double>::infinity();
+    bool reach_set = false;
+    for (std::size_t r = 0; r < found; ++r) {
+        if (idx[r] == i) continue;
+        if (listed == kList) {
+            reach = d2[r];
+            reach_set = true;
+            break;
+        }
+        list[listed++] = idx[r];
+    }
+    for (std::size_t r = listed; r < kList; ++r) list[r] = i;
+    if (!reach_set && found < cloud_size && found > 0) reach = d2[found - 1];
+    cloud->neighbor_reach_d2[i] = reach;
+}
+
+}  // namespace
+
+NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
+                                         const NormalParams& params,
+                                         std::vector<double>* curvature) {
+    NormalStats stats;
+    const std::size_t n = cloud->points.size();
+    stats.num_points = n;
+    if (params.compute_normals) cloud->normals.resize(n);
+    if (params.compute_covariances) cloud->covariances.resize(n);
+    // The plane covariances' axes (point_cloud.hpp) come with the regularisation.
+    const bool axes = params.compute_covariances && params.regularize_covariances &&
+                      params.gicp_epsilon > 0.0 && params.gicp_epsilon < 1.0;
+    if (axes) {
+        cloud->covariance_axes.resize(n);
+        cloud->covariance_epsilon = params.gicp_epsilon;
+    } else if (params.compute_covariances) {
+        cloud->covariance_axes.clear();
+        cloud->covariance_epsilon = 0.0;
+    }
+    // The neighbour lists come with the k-NN when the tree is over this cloud.
+    constexpr std::size_t kList = PointCloud::kNeighborListSize;
+    const bool lists = params.compute_covariances && tree.size() == n;
+    if (lists) {
+        cloud->neighbor_list.resize(n * kList);
+        cloud->neighbor_reach_d2.resize(n);
+    } else {
+        cloud->neighbor_list.clear();
+        cloud->neighbor_reach_d2.clear();
+    }
+    if (curvature) curvature->resize(n);
+    if (n == 0) return stats;
+
+    const std::size_t k = static_cast<std::size_t>(std::max(3, params.k_neighbors));
+    const bool own_tree = tree.size() == n;
+    const std::vector<std::uint32_t>& order = tree.leaf_order();
+    const long long count = static_cast<long long>(n);
+    std::size_t degenerate = 0;
+#pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1) \
+    reduction(+ : degenerate)
+    {
+        std::vector<std::uint32_t> idx(k);
+        std::vector<double> d2(k);
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+#pragma omp for schedule(static)
+        for (long long t = 0; t < count; ++t) {
+            // In the tree's leaf order when the tree is over this cloud (kdtree.hpp).
+            const long long i = own_tree ? static_cast<long long>(order[t]) : t;
+            const Eigen::Vector3d& p = cloud->points[i];
+            const std::size_t found = tree.knn(p, k, idx.data(), d2.data());
+            if (lists)
+                record_neighbor_list(static_cast<std::uint32_t>(i), idx.data(), d2.data(), found, n,
+                                     cloud);
+            if (found < 3) {
+                ++degenerate;
+                if (params.compute_normals) cloud->normals[i].setZero();
+                if (params.compute_covariances) cloud->covariances[i].setIdentity();
+                if (axes) cloud->covariance_axes[i].setZero();
+                if (curvature) (*curvature)[i] = 1.0 / 3.0;
+                continue;
+            }
+            // Two-pass (mean first) for accuracy far from the origin.
+            Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+            for (std::size_t j = 0; j < found; ++j) mean += cloud->points[idx[j]];
+            mean /= static_cast<double>(found);
+            Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+            for (std::size_t j = 0; j < found; ++j) {
+                const Eigen::Vector3d d = cloud->points[idx[j]] - mean;
+                C.noalias() += d * d.transpose();
+            }
+            C /= static_cast<double>(found);
+            solver.computeDirect(C);
+            const Eigen::Vector3d lambda = solver.eigenvalues().cwiseMax(0.0);
+            const Eigen::Matrix3d& U = solver.eigenvectors();
+            if (params.compute_normals) {
+                Eigen::Vector3d normal = U.col(0);
+                if (params.orient_towards_viewpoint && normal.dot(params.viewpoint - p) < 0.0) {
+                    normal = -normal;
+                }
+                cloud->normals[i] = normal;
+            }
+            if (params.compute_covariances) {
+                if (params.regularize_covariances) {
+                    const Eigen::Vector3d d(params.gicp_epsilon, 1.0, 1.0);
+                    cloud->covariances[i] = U * d.asDiagonal() * U.transpose();
+                    if (axes) cloud->covariance_axes[i] = U.col(0);
+                } else {
+                    cloud->covariances[i] = C;
+                }
+            }
+            if (curvature) {
+                const double sum = lambda.sum();
+                (*curvature)[i] = sum > 0.0 ? lambda(0) / sum : 1.0 / 3.0;
+            }
+        }
+    }
+    stats.num_degenerate = degenerate;
+    return stats;
+}
+
+NormalStats estimate_normals_covariances(PointCloud* cloud, const NormalParams& params,
+                                         std::vector<double>* curvature) {
+    const KdTree tree(cloud->points, 10, params.num_threads);
+    return estimate_normals_covariances(cloud, tree, params, curvature);
+}
+
+}  // namespace lidarfuse::core

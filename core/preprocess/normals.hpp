@@ -1,0 +1,68 @@
+#pragma once
+// Per-point covariances, normals and curvature from the k nearest neighbours, computed once
+// per cloud and stored in the PointCloud for every later stage (octree voting, SIFT, FPFH,
+// G-ICP).
+//
+// For point i with neighbours N_i (k nearest, the point itself included):
+//   C_i = 1/|N_i| * sum_{j in N_i} (p_j - mean)(p_j - mean)^T,  eigenvalues l0 <= l1 <= l2
+//   normal_i    = eigenvector of l0, oriented towards `viewpoint`
+//   curvature_i = l0 / (l0 + l1 + l2)   (surface variation, 0 on a plane, 1/3 isotropic)
+// G-ICP (Segal et al. 2009, plane-to-plane): the stored covariance is regularised to
+//   C_i' = U diag(epsilon, 1, 1) U^T  (U = eigenvectors, smallest first),
+// i.e. unit variance in the local surface and `epsilon` along the normal. The covariances
+// are unitless shapes; the Mahalanobis distances built from them are relative, not metric.
+// As C_i' = I - (1 - epsilon) u0 u0^T, cloud->covariance_axes keeps u0 (and
+// covariance_epsilon the epsilon), from which G-ICP inverts a pair in closed form.
+//
+// With the covariances, cloud->neighbor_list and neighbor_reach_d2 get each point's nearest
+// other points and the distance within which they are all listed (point_cloud.hpp), which
+// G-ICP uses to skip searches (gicp.hpp). They cost nothing: the k-NN has them. Their reach
+// is limited by k: with k <= kNeighborListSize the list holds all k - 1 others found.
+//
+// Points with fewer than 3 neighbours (tiny clouds) get normal (0,0,0), curvature 1/3 and
+// the identity covariance (point-to-point behaviour in G-ICP).
+//
+// Threading: OpenMP with `num_threads` threads for this call only (never a global setting).
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <vector>
+
+#include "core/common/kdtree.hpp"
+#include "core/common/point_cloud.hpp"
+
+namespace lidarfuse::core {
+
+struct NormalParams {
+    int k_neighbors = 15;
+    bool compute_normals = true;
+    bool compute_covariances = true;
+    // Covariance regularisation for G-ICP; false stores the raw neighbourhood covariance.
+    bool regularize_covariances = true;
+    double gicp_epsilon = 1e-3;
+    // Normals are flipped to point towards this viewpoint (the sensor origin in the
+    // cloud's frame), so that FPFH on different sensors sees consistent signs.
+    bool orient_towards_viewpoint = true;
+    Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();
+    int num_threads = 1;
+};
+
+struct NormalStats {
+    std::size_t num_points = 0;
+    std::size_t num_degenerate = 0;  // fewer than 3 neighbours
+};
+
+// Fills cloud->normals and/or cloud->covariances (as `params` asks) and, when `curvature`
+// is not null, the curvature per point. `tree` must be built over cloud->points.
+NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
+                                         const NormalParams& params,
+                                         std::vector<double>* curvature = nullptr);
+
+// Same, building a temporary k-d tree over cloud->points.
+NormalStats estimate_normals_covariances(PointCloud* cloud, const NormalParams& params,
+                                         std::vector<double>* curvature = nullptr);
+
+// The G-ICP plane regularisation of one covariance (see the file comment).
+Eigen::Matrix3d regularize_plane_covariance(const Eigen::Matrix3d& covariance, double epsilon);
+
+}  // namespace lidarfuse::core

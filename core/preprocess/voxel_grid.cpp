@@ -1,0 +1,184 @@
+#include "core/preprocess/voxel_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace lidarfuse::core {
+
+namespace {
+
+// Voxel coordinates are packed into 21 bits each (offset binary): +-2^20 voxels per axis,
+// i.e. +-10 km at 1 cm voxels. Keys therefore stay below 2^63, and all-ones marks an empty
+// hash slot.
+constexpr int kBitsPerAxis = 21;
+constexpr std::int64_t kAxisOffset = std::int64_t{1} << (kBitsPerAxis - 1);
+constexpr std::uint64_t kEmptyKey = std::numeric_limits<std::uint64_t>::max();
+
+inline std::uint64_t hash_key(std::uint64_t key) {
+    // Fibonacci hashing (multiply by 2^64 / golden ratio); the table index takes the high
+    // bits, which mix all three packed coordinates.
+    return key * 0x9E3779B97F4A7C15ull;
+}
+
+}  // namespace
+
+std::size_t VoxelGrid::Table::slot_of(std::uint64_t key) const {
+    const std::size_t mask = keys.size() - 1;
+    std::size_t slot = static_cast<std::size_t>(hash_key(key) >> hash_shift);
+    while (keys[slot] != key && keys[slot] != kEmptyKey) slot = (slot + 1) & mask;
+    return slot;
+}
+
+std::uint32_t VoxelGrid::Table::find(std::uint64_t key) const {
+    if (keys.empty()) return VoxelIndexMap::kNoVoxel;
+    const std::size_t slot = slot_of(key);
+    return keys[slot] == key ? values[slot] : VoxelIndexMap::kNoVoxel;
+}
+
+void VoxelGrid::find_twins(std::vector<std::uint32_t>* twins) const {
+    twins->clear();
+    const bool comparable = previous_.voxel_size_m == table_.voxel_size_m;
+    for (std::size_t v = 0; v < voxel_keys_.size(); ++v) {
+        if (table_.output_of_voxel[v] == VoxelIndexMap::kNoVoxel) continue;
+        const std::uint32_t before =
+            comparable ? previous_.find(voxel_keys_[v]) : VoxelIndexMap::kNoVoxel;
+        twins->push_back(before == VoxelIndexMap::kNoVoxel ? before
+                                                           : previous_.output_of_voxel[before]);
+    }
+}
+
+VoxelGridStats VoxelGrid::downsample(const std::vector<Eigen::Vector3d>& points,
+                                     const VoxelGridParams& params, PointCloud* out,
+                                     VoxelIndexMap* index_map, std::vector<std::uint32_t>* twins) {
+    VoxelGridStats stats;
+    stats.num_input = points.size();
+    out->clear();
+    if (twins) twins->clear();
+    const std::size_t n = points.size();
+    if (index_map) {
+        index_map->voxel_of_point.assign(n, VoxelIndexMap::kNoVoxel);
+        index_map->offsets.assign(1, 0);
+        index_map->point_indices.clear();
+    }
+    std::swap(table_, previous_);
+    table_.voxel_size_m = 0.0;
+    table_.output_of_voxel.clear();
+    voxel_keys_.clear();
+    if (n == 0 || !(params.voxel_size_m > 0.0) || !std::isfinite(params.voxel_size_m)) {
+        stats.num_invalid = n;
+        return stats;
+    }
+    table_.voxel_size_m = params.voxel_size_m;
+    insert_points(points, params.voxel_size_m, &stats);
+    emit_centroids(params, out, &stats);
+    if (index_map) fill_index_map(n, stats.num_output, index_map);
+    if (twins) find_twins(twins);
+    return stats;
+}
+
+// Every point into the table (open addressing, linear probing, load factor <= 0.5),
+// summed into its voxel.
+void VoxelGrid::insert_points(const std::vector<Eigen::Vector3d>& points, double voxel_size_m,
+                              VoxelGridStats* stats) {
+    const std::size_t n = points.size();
+    std::size_t capacity = 16;
+    int shift_bits = 4;
+    while (capacity < 2 * n) {
+        capacity <<= 1;
+        ++shift_bits;
+    }
+    table_.hash_shift = 64 - shift_bits;
+    table_.keys.assign(capacity, kEmptyKey);
+    table_.values.resize(capacity);
+    voxel_of_point_.resize(n);
+    sums_.clear();
+    counts_.clear();
+
+    const double inv_size = 1.0 / voxel_size_m;
+    for (std::size_t i = 0; i < n; ++i) {
+        const Eigen::Vector3d& p = points[i];
+        voxel_of_point_[i] = VoxelIndexMap::kNoVoxel;
+        if (!p.allFinite()) {
+            ++stats->num_invalid;
+            continue;
+        }
+        const Eigen::Vector3d c = (p * inv_size).array().floor();
+        if ((c.array().abs() >= static_cast<double>(kAxisOffset)).any()) {
+            ++stats->num_invalid;
+            continue;
+        }
+        const std::uint64_t key =
+            (static_cast<std::uint64_t>(static_cast<std::int64_t>(c.x()) + kAxisOffset)
+             << (2 * kBitsPerAxis)) |
+            (static_cast<std::uint64_t>(static_cast<std::int64_t>(c.y()) + kAxisOffset)
+             << kBitsPerAxis) |
+            static_cast<std::uint64_t>(static_cast<std::int64_t>(c.z()) + kAxisOffset);
+        const std::size_t slot = table_.slot_of(key);
+        if (table_.keys[slot] == kEmptyKey) {
+            table_.keys[slot] = key;
+            table_.values[slot] = static_cast<std::uint32_t>(sums_.size());
+            voxel_keys_.push_back(key);
+            sums_.emplace_back(Eigen::Vector3d::Zero());
+            counts_.push_back(0);
+        }
+        const std::uint32_t voxel = table_.values[slot];
+        voxel_of_point_[i] = voxel;
+        sums_[voxel] += p;
+        ++counts_[voxel];
+    }
+}
+
+// One centroid per voxel with enough points, in voxel order.
+void VoxelGrid::emit_centroids(const VoxelGridParams& params, PointCloud* out,
+                               VoxelGridStats* stats) {
+    const std::size_t num_voxels = sums_.size();
+    const std::uint32_t min_points =
+        static_cast<std::uint32_t>(std::max(1, params.min_points_per_voxel));
+    table_.output_of_voxel.resize(num_voxels);
+    out->points.reserve(num_voxels);
+    for (std::size_t v = 0; v < num_voxels; ++v) {
+        if (counts_[v] >= min_points) {
+            table_.output_of_voxel[v] = static_cast<std::uint32_t>(out->points.size());
+            out->points.push_back(sums_[v] / static_cast<double>(counts_[v]));
+        } else {
+            table_.output_of_voxel[v] = VoxelIndexMap::kNoVoxel;
+            stats->num_dropped_sparse += counts_[v];
+        }
+    }
+    stats->num_output = out->points.size();
+}
+
+// Counting sort of the input indices by output voxel (CSR).
+void VoxelGrid::fill_index_map(std::size_t n, std::size_t num_output,
+                               VoxelIndexMap* index_map) const {
+    auto& offsets = index_map->offsets;
+    offsets.assign(num_output + 1, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::uint32_t v = voxel_of_point_[i];
+        if (v == VoxelIndexMap::kNoVoxel) continue;
+        const std::uint32_t o = table_.output_of_voxel[v];
+        index_map->voxel_of_point[i] = o;
+        if (o != VoxelIndexMap::kNoVoxel) ++offsets[o + 1];
+    }
+    for (std::size_t v = 0; v < num_output; ++v) offsets[v + 1] += offsets[v];
+    index_map->point_indices.resize(offsets.back());
+    // Fill using the (already final) offsets as cursors, then restore them.
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::uint32_t o = index_map->voxel_of_point[i];
+        if (o == VoxelIndexMap::kNoVoxel) continue;
+        index_map->point_indices[offsets[o]++] = static_cast<std::uint32_t>(i);
+    }
+    for (std::size_t v = num_output; v > 0; --v) offsets[v] = offsets[v - 1];
+    offsets[0] = 0;
+}
+
+PointCloud voxel_downsample(const std::vector<Eigen::Vector3d>& points,
+                            const VoxelGridParams& params) {
+    VoxelGrid grid;
+    PointCloud out;
+    grid.downsample(points, params, &out);
+    return out;
+}
+
+}  // namespace lidarfuse::core
