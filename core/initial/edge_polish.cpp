@@ -1,10 +1,10 @@
 #include "core/initial/edge_polish.hpp"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cstdint>
 
 #include "core/common/se3.hpp"
+#include "core/registration/information.hpp"
 #include "core/registration/p2p_error.hpp"
 #include "core/registration/ransac.hpp"
 
@@ -37,8 +37,7 @@ bool polish_one(const SensorFeatures& source, const SensorFeatures& target,
         rotation_error_deg(T, pair->T_target_source) > params.max_rotation_deg) {
         return false;
     }
-    const Eigen::LLT<Matrix6d> llt(run.H);
-    if (llt.info() != Eigen::Success || !run.H.allFinite()) return false;
+    if (!usable_information(run.H)) return false;
     P2pErrorParams p2p_params;
     p2p_params.cutoff_radius_m = params.p2p_cutoff_m;
     const P2pErrorResult p2p =

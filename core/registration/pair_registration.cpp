@@ -1,6 +1,5 @@
 #include "core/registration/pair_registration.hpp"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cstdint>
 #include <limits>
@@ -9,6 +8,7 @@
 
 #include "core/common/se3.hpp"
 #include "core/common/stopwatch.hpp"
+#include "core/registration/information.hpp"
 
 namespace lidarfuse::core {
 
@@ -347,8 +347,7 @@ std::vector<PairAlternative> alternatives_to(const Candidate& best,
                                              double separation_m) {
     std::vector<PairAlternative> alternatives;
     for (const Candidate& c : candidates) {
-        const Eigen::LLT<Matrix6d> llt(c.gicp.H);
-        if (&c == &best || llt.info() != Eigen::Success || !c.gicp.H.allFinite()) continue;
+        if (&c == &best || !usable_information(c.gicp.H)) continue;
         // The same transform reached from another start is not an alternative.
         if (translation_error_m(c.T_target_source, best.T_target_source) < separation_m) continue;
         if (!near_any(c.T_target_source, alternatives, separation_m)) {
@@ -366,8 +365,7 @@ std::vector<PairAlternative> alternatives_to(const Candidate& best,
 // information) must be positive definite and finite.
 PairStatus chosen_status(const Candidate& best, const PairRegistrationParams& params) {
     if (best.gicp.inlier_ratio < params.min_overlap_share) return PairStatus::kLowOverlap;
-    const Eigen::LLT<Matrix6d> llt(best.gicp.H);
-    if (llt.info() != Eigen::Success || !best.gicp.H.allFinite()) return PairStatus::kDegenerate;
+    if (!usable_information(best.gicp.H)) return PairStatus::kDegenerate;
     return PairStatus::kOk;
 }
 
