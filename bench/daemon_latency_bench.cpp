@@ -293,6 +293,8 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, bool reco
     std::printf("daemon_frames_fused_%s %zu frames\n", tag.c_str(), fused);
     std::printf("daemon_frames_dropped_before_fusion_%s %s frames\n", tag.c_str(),
                 value("frame_queue_drops").c_str());
+    std::printf("daemon_initial_registration_%s %s ms\n", tag.c_str(),
+                value("last_initial_registration_ms").c_str());
     std::printf("daemon_clouds_received_%s %zu frames\n", tag.c_str(),
                 received.cloud_arrival_ns.size());
     const std::size_t before_world = std::stoull(value("frames_before_world_frame"));

@@ -285,6 +285,7 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
     add(v, "world_frame", stats.world_frame);
     add(v, "world_frame_fixed", stats.world_fixed ? "true" : "false");
     add(v, "frames_before_world_frame", std::to_string(stats.frames_before_world_frame));
+    add(v, "last_initial_registration_ms", number(stats.last_initial_registration_ms, "%.0f"));
     add(v, "world_residual_rms_m", number(stats.world_residual_rms_m, "%.4f"));
     add(v, "world_residual_max_m", number(stats.world_residual_max_m, "%.4f"));
     if (stats.record.enabled) {

@@ -78,6 +78,8 @@ struct PipelineStats {
     std::string world_frame = "sensor";
     bool world_fixed = false;
     std::uint64_t frames_before_world_frame = 0;
+    // How long the last initial registration took (wall clock, ms; 0 before the first).
+    double last_initial_registration_ms = 0.0;
     double world_residual_rms_m = 0.0, world_residual_max_m = 0.0;
     std::vector<int> granted_receive_buffers;
     std::vector<SensorStats> sensors;

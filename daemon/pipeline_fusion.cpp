@@ -94,6 +94,10 @@ void Pipeline::Impl::fusion_loop() {
             auto job = init_jobs.pop_wait(std::chrono::milliseconds(100));
             if (job) {
                 (*job)->run();
+                {
+                    std::lock_guard<std::mutex> lock(stats_mutex);
+                    last_initial_registration_ms = (*job)->run_ms();
+                }
                 const std::string& error = (*job)->error();
                 fusion_log->log(error.empty() ? spdlog::level::info : spdlog::level::warn,
                                 "initial registration done in {:.0f} ms{}", (*job)->run_ms(),

@@ -69,6 +69,7 @@ struct Pipeline::Impl {
     // thread when it becomes fixed (before the first frame in it is queued).
     core::WorldFrame world_frame;
     std::uint64_t frames_before_world_frame = 0;
+    double last_initial_registration_ms = 0;  // wall clock of the last job run
 
     explicit Impl(const DaemonConfig& c);
     static std::shared_ptr<spdlog::logger> logger(const std::string& name);

@@ -180,6 +180,7 @@ PipelineStats Pipeline::Impl::collect_stats() const {
     out.world_frame = core::to_string(m.world_frame.kind);
     out.world_fixed = m.world_frame.fixed;
     out.frames_before_world_frame = m.frames_before_world_frame;
+    out.last_initial_registration_ms = m.last_initial_registration_ms;
     out.world_residual_rms_m = m.world_frame.residual_rms_m;
     out.world_residual_max_m = m.world_frame.residual_max_m;
     if (m.recorder) out.record = m.recorder->stats();

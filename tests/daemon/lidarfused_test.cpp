@@ -198,6 +198,9 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     EXPECT_EQ(seen.last_pipeline["frames_before_world_frame"],
               std::to_string(all_fused - frames_fused));
     EXPECT_EQ(seen.last_pipeline["world_frame"], "road");
+    // The registration that made the road frame known is timed (its log line says the same).
+    EXPECT_TRUE(test::line_after(text, "initial registration done in ").has_value()) << text;
+    EXPECT_GT(std::stod(seen.last_pipeline["last_initial_registration_ms"]), 0.0);
     EXPECT_EQ(seen.last_pipeline["world_frame_fixed"], "true");
     EXPECT_EQ(seen.last_pipeline["dds_write_failures"], "0");
     EXPECT_EQ(seen.last_pipeline["kernel_drops"], "0");
