@@ -86,20 +86,23 @@ int main(int argc, char** argv) {
             worst_t = std::max(worst_t, et);
             worst_r = std::max(worst_r, er);
         }
-        std::fprintf(stderr, "sensor %zu: %s pts %zu pre %zu octree %zu keypoints %zu err %.4f m %.4f deg\n",
-                     i, core::to_string(s.status), s.num_input_points, s.num_preprocessed_points,
-                     s.num_downsampled_points, s.num_keypoints, et, er);
+        std::fprintf(
+            stderr, "sensor %zu: %s pts %zu pre %zu octree %zu keypoints %zu err %.4f m %.4f deg\n",
+            i, core::to_string(s.status), s.num_input_points, s.num_preprocessed_points,
+            s.num_downsampled_points, s.num_keypoints, et, er);
     }
     for (const auto& pair : result.pairs) {
-        const Eigen::Isometry3d truth = T_world_sensor[pair.target].inverse() * T_world_sensor[pair.source];
-        std::fprintf(stderr,
-                     "pair %d->%d: %s matches %zu ransac_inliers %zu candidates %d chosen %d p2p %.3f m "
-                     "N %zu overlap %.2f minH %.3g err %.3f m %.3f deg\n",
-                     pair.source, pair.target, core::to_string(pair.status), pair.num_matches,
-                     pair.ransac_inliers, pair.candidates, pair.chosen_candidate, pair.p2p_error_m,
-                     pair.p2p_inliers, pair.overlap_share, pair.min_hessian_eigenvalue,
-                     core::translation_error_m(pair.T_target_source, truth),
-                     core::rotation_error_deg(pair.T_target_source, truth));
+        const Eigen::Isometry3d truth =
+            T_world_sensor[pair.target].inverse() * T_world_sensor[pair.source];
+        std::fprintf(
+            stderr,
+            "pair %d->%d: %s matches %zu ransac_inliers %zu candidates %d chosen %d p2p %.3f m "
+            "N %zu overlap %.2f minH %.3g err %.3f m %.3f deg\n",
+            pair.source, pair.target, core::to_string(pair.status), pair.num_matches,
+            pair.ransac_inliers, pair.candidates, pair.chosen_candidate, pair.p2p_error_m,
+            pair.p2p_inliers, pair.overlap_share, pair.min_hessian_eigenvalue,
+            core::translation_error_m(pair.T_target_source, truth),
+            core::rotation_error_deg(pair.T_target_source, truth));
     }
     std::printf("initial_registration_registered %zu sensors\n", result.num_registered());
     std::printf("initial_registration_max_translation_error_cm %.2f cm\n", 100.0 * worst_t);

@@ -46,7 +46,9 @@ int run(const std::string& command, std::string* output) {
 
 double figure(const std::string& output, const std::string& name) {
     const auto at = output.find("\n" + name + " ");
-    const auto start = at == std::string::npos ? (output.rfind(name + " ", 0) == 0 ? 0 : std::string::npos) : at + 1;
+    const auto start = at == std::string::npos
+                           ? (output.rfind(name + " ", 0) == 0 ? 0 : std::string::npos)
+                           : at + 1;
     if (start == std::string::npos) return -1.0;
     return std::atof(output.c_str() + start + name.size() + 1);
 }
@@ -76,23 +78,32 @@ int main(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         const auto next = [&] { return i + 1 < argc ? std::atof(argv[++i]) : 0.0; };
-        if (a == "--sensors") sensors = static_cast<int>(next());
-        else if (a == "--seconds") seconds = next();
-        else if (a == "--sample-s") sample_s = next();
-        else if (a == "--capture-s") capture_s = next();
-        else if (a == "--series") series = true;
+        if (a == "--sensors")
+            sensors = static_cast<int>(next());
+        else if (a == "--seconds")
+            seconds = next();
+        else if (a == "--sample-s")
+            sample_s = next();
+        else if (a == "--capture-s")
+            capture_s = next();
+        else if (a == "--series")
+            series = true;
         else {
-            std::fprintf(stderr, "usage: load_bench [--sensors 8] [--seconds 60] [--sample-s 1] [--capture-s 4] [--series]\n");
+            std::fprintf(stderr,
+                         "usage: load_bench [--sensors 8] [--seconds 60] [--sample-s 1] "
+                         "[--capture-s 4] [--series]\n");
             return 2;
         }
     }
     const std::string tool = LIDARFUSE_TOOL_PATH;
-    const fs::path dir = fs::temp_directory_path() / ("lidarfuse_load_" + std::to_string(::getpid()));
+    const fs::path dir =
+        fs::temp_directory_path() / ("lidarfuse_load_" + std::to_string(::getpid()));
     fs::create_directories(dir);
     std::string out;
     const auto t_sim = std::chrono::steady_clock::now();
     if (run(tool + " sim --scenario curve --sensors " + std::to_string(sensors) + " --seconds " +
-                std::to_string(capture_s) + " --mode 1024x20 --profile RNG19_RFL8_SIG16_NIR16 --whole-datagrams" +
+                std::to_string(capture_s) +
+                " --mode 1024x20 --profile RNG19_RFL8_SIG16_NIR16 --whole-datagrams" +
                 " --threads 2 --out " + (dir / "sim").string(),
             &out) != 0) {
         std::fprintf(stderr, "load_bench: sim failed:\n%s", out.c_str());
@@ -105,7 +116,8 @@ int main(int argc, char** argv) {
     const int base = 33000 + (::getpid() % 1000) * 10;
     std::string port_map;
     for (int k = 0; k < sensors; ++k) {
-        config.station.sensors[static_cast<std::size_t>(k)].udp_port = static_cast<std::uint16_t>(base + k);
+        config.station.sensors[static_cast<std::size_t>(k)].udp_port =
+            static_cast<std::uint16_t>(base + k);
         port_map += " --port-map " + std::to_string(7502 + 2 * k) + ":" + std::to_string(base + k);
     }
     config.network.bind_address = "127.0.0.1";
@@ -120,8 +132,8 @@ int main(int argc, char** argv) {
     const double cpu_start = cpu_s();
     std::string replay_out;
     std::thread replay([&] {
-        run(tool + " replay " + (dir / "sim" / "capture.pcap").string() + " --to 127.0.0.1 --loop --duration " +
-                std::to_string(seconds) + port_map,
+        run(tool + " replay " + (dir / "sim" / "capture.pcap").string() +
+                " --to 127.0.0.1 --loop --duration " + std::to_string(seconds) + port_map,
             &replay_out);
     });
     const auto start = std::chrono::steady_clock::now();
@@ -129,20 +141,24 @@ int main(int argc, char** argv) {
     double rss_max = rss_start;
     for (int sample = 1;; ++sample) {
         std::this_thread::sleep_until(start + std::chrono::duration<double>(sample * sample_s));
-        const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        const double t =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (t > seconds + 0.5) break;
         const auto st = pipeline.stats();
         const double rss = rss_mib();
         rss_max = std::max(rss_max, rss);
         if (st.frames_fused > 0) latencies.push_back(st.last_latency_ms);
         if (series) {
-            std::printf("load_t %.1f s rss_mib %.1f latency_ms %.1f fusion_ms %.1f datagrams %llu kernel_drops %llu "
-                        "synchronised %llu fused %llu frame_drops %llu\n",
-                        t, rss, st.last_latency_ms, st.last_fusion_ms, static_cast<unsigned long long>(st.datagrams),
-                        static_cast<unsigned long long>(st.kernel_drops),
-                        static_cast<unsigned long long>(st.frames_synchronised),
-                        static_cast<unsigned long long>(st.frames_fused),
-                        static_cast<unsigned long long>(st.frame_queue_drops));
+            std::printf(
+                "load_t %.1f s rss_mib %.1f latency_ms %.1f fusion_ms %.1f datagrams %llu "
+                "kernel_drops %llu "
+                "synchronised %llu fused %llu frame_drops %llu\n",
+                t, rss, st.last_latency_ms, st.last_fusion_ms,
+                static_cast<unsigned long long>(st.datagrams),
+                static_cast<unsigned long long>(st.kernel_drops),
+                static_cast<unsigned long long>(st.frames_synchronised),
+                static_cast<unsigned long long>(st.frames_fused),
+                static_cast<unsigned long long>(st.frame_queue_drops));
             std::fflush(stdout);
         }
     }
@@ -167,7 +183,8 @@ int main(int argc, char** argv) {
     }
     std::sort(latencies.begin(), latencies.end());
     const auto pct = [&](double q) {
-        return latencies.empty() ? -1.0 : latencies[static_cast<std::size_t>(q * (latencies.size() - 1))];
+        return latencies.empty() ? -1.0
+                                 : latencies[static_cast<std::size_t>(q * (latencies.size() - 1))];
     };
     double load1 = 0;
     if (FILE* f = std::fopen("/proc/loadavg", "r")) {
@@ -177,24 +194,37 @@ int main(int argc, char** argv) {
     std::printf("load_sensors %d sensors\n", sensors);
     std::printf("load_duration %.1f s\n", duration);
     std::printf("load_datagrams_sent %.0f datagrams\n", sent);
-    std::printf("load_datagrams_received %llu datagrams\n", static_cast<unsigned long long>(st.datagrams));
-    std::printf("load_datagrams_assembled %llu datagrams\n", static_cast<unsigned long long>(packets));
-    std::printf("load_kernel_drops %llu datagrams\n", static_cast<unsigned long long>(st.kernel_drops));
-    std::printf("load_packet_loss %.6f share\n", sent > 0 ? 1.0 - static_cast<double>(st.datagrams) / sent : -1.0);
+    std::printf("load_datagrams_received %llu datagrams\n",
+                static_cast<unsigned long long>(st.datagrams));
+    std::printf("load_datagrams_assembled %llu datagrams\n",
+                static_cast<unsigned long long>(packets));
+    std::printf("load_kernel_drops %llu datagrams\n",
+                static_cast<unsigned long long>(st.kernel_drops));
+    std::printf("load_packet_loss %.6f share\n",
+                sent > 0 ? 1.0 - static_cast<double>(st.datagrams) / sent : -1.0);
     std::printf("load_late_packets %llu packets\n", static_cast<unsigned long long>(late));
     std::printf("load_assembler_resets %llu resets\n", static_cast<unsigned long long>(resets));
-    std::printf("load_scans_per_s %.2f scans/s/sensor\n", static_cast<double>(scans) / duration / sensors);
+    std::printf("load_scans_per_s %.2f scans/s/sensor\n",
+                static_cast<double>(scans) / duration / sensors);
     std::printf("load_scans_incomplete %llu scans\n", static_cast<unsigned long long>(incomplete));
     std::printf("load_scans_rejected %llu scans\n", static_cast<unsigned long long>(rejected));
     // A sensor flagged as not matching its metadata (ModeCheck): 0 expected for simulated data.
-    std::printf("load_mode_mismatches %llu times\n", static_cast<unsigned long long>(mode_mismatches));
-    std::printf("load_scans_mode_rejected %llu scans\n", static_cast<unsigned long long>(mode_rejected));
-    std::printf("load_frames_synchronised_per_s %.2f frames/s\n", static_cast<double>(st.frames_synchronised) / duration);
-    std::printf("load_frames_partial %llu frames\n", static_cast<unsigned long long>(st.frames_partial));
-    std::printf("load_frames_fused_per_s %.2f frames/s\n", static_cast<double>(st.frames_fused) / duration);
-    std::printf("load_scan_queue_drops %llu scans\n", static_cast<unsigned long long>(st.scan_queue_drops));
-    std::printf("load_frame_queue_drops %llu frames\n", static_cast<unsigned long long>(st.frame_queue_drops));
-    std::printf("load_result_queue_drops %llu frames\n", static_cast<unsigned long long>(st.result_queue_drops));
+    std::printf("load_mode_mismatches %llu times\n",
+                static_cast<unsigned long long>(mode_mismatches));
+    std::printf("load_scans_mode_rejected %llu scans\n",
+                static_cast<unsigned long long>(mode_rejected));
+    std::printf("load_frames_synchronised_per_s %.2f frames/s\n",
+                static_cast<double>(st.frames_synchronised) / duration);
+    std::printf("load_frames_partial %llu frames\n",
+                static_cast<unsigned long long>(st.frames_partial));
+    std::printf("load_frames_fused_per_s %.2f frames/s\n",
+                static_cast<double>(st.frames_fused) / duration);
+    std::printf("load_scan_queue_drops %llu scans\n",
+                static_cast<unsigned long long>(st.scan_queue_drops));
+    std::printf("load_frame_queue_drops %llu frames\n",
+                static_cast<unsigned long long>(st.frame_queue_drops));
+    std::printf("load_result_queue_drops %llu frames\n",
+                static_cast<unsigned long long>(st.result_queue_drops));
     std::printf("load_mean_fusion_time %.1f ms\n", st.mean_fusion_ms);
     std::printf("load_latency_median %.1f ms\n", pct(0.5));
     std::printf("load_latency_p99 %.1f ms\n", pct(0.99));

@@ -46,8 +46,15 @@ struct Frame {
     std::vector<std::uint8_t> refl, refl2;
     std::vector<std::uint64_t> timestamp, status;
     explicit Frame(std::size_t n)
-        : range(n), range2(n), signal(n), signal2(n), near_ir(n), refl(n), refl2(n),
-          timestamp(kColumns), status(kColumns) {}
+        : range(n),
+          range2(n),
+          signal(n),
+          signal2(n),
+          near_ir(n),
+          refl(n),
+          refl2(n),
+          timestamp(kColumns),
+          status(kColumns) {}
 };
 
 std::vector<std::vector<std::uint8_t>> make_frame_packets(const PacketFormat& f) {
@@ -84,8 +91,8 @@ std::vector<std::vector<std::uint8_t>> make_frame_packets(const PacketFormat& f)
 bool decode(const PacketFormat& f, const std::uint8_t* p, std::size_t size, Frame* frame) {
     if (f.classify(p, size) != PacketKind::kLidar) return false;
     if (f.check_crc(p) == CrcStatus::kInvalid) return false;
-    if (f.frame_id(p) != 42 || f.init_id(p) != (f.header_type() ==
-                                                lidarfuse::ouster::HeaderType::kLegacy ? 0u : 1234u)) {
+    if (f.frame_id(p) != 42 ||
+        f.init_id(p) != (f.header_type() == lidarfuse::ouster::HeaderType::kLegacy ? 0u : 1234u)) {
         return false;
     }
     for (int c = 0; c < f.columns_per_packet(); ++c) {
@@ -117,7 +124,8 @@ double measure(const PacketFormat& f, const std::vector<std::vector<std::uint8_t
         for (const auto& p : packets) {
             *sink += decode(f, p.data(), p.size(), &frame) ? 1 : 0;
         }
-        if (lut != nullptr) *sink += lidarfuse::ouster::project(*lut, frame.range.data(), xyz->data());
+        if (lut != nullptr)
+            *sink += lidarfuse::ouster::project(*lut, frame.range.data(), xyz->data());
         n += packets.size();
         elapsed = thread_cpu_s() - start;
     } while (elapsed < kMinSeconds);
@@ -146,9 +154,9 @@ int main() {
     }
     Eigen::Matrix4d beam_to_lidar = Eigen::Matrix4d::Identity();
     beam_to_lidar(0, 3) = 15.806;
-    const auto lut = lidarfuse::ouster::make_xyz_lut(
-        kColumns, kRows, altitude, azimuth, beam_to_lidar,
-        lidarfuse::ouster::default_lidar_to_sensor_transform());
+    const auto lut =
+        lidarfuse::ouster::make_xyz_lut(kColumns, kRows, altitude, azimuth, beam_to_lidar,
+                                        lidarfuse::ouster::default_lidar_to_sensor_transform());
     std::vector<Eigen::Vector3f> xyz(lut.size());
     std::size_t sink = 0;
 

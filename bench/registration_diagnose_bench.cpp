@@ -94,12 +94,16 @@ Frame load_frame(const std::string& dir, double truth_shift_s) {
         }
         if (before == nullptr) before = after;
         if (after == nullptr) after = before;
-        if (before == nullptr) throw std::runtime_error(dir + ": no truth for " + config.sensors[s].name);
+        if (before == nullptr)
+            throw std::runtime_error(dir + ": no truth for " + config.sensors[s].name);
         const double a = after->t_ns == before->t_ns ? 0.0
-                                                       : static_cast<double>(want - before->t_ns) / (after->t_ns - before->t_ns);
+                                                     : static_cast<double>(want - before->t_ns) /
+                                                           (after->t_ns - before->t_ns);
         Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
         T.translation() = (1 - a) * before->pose.translation() + a * after->pose.translation();
-        T.linear() = Eigen::Quaterniond(before->pose.linear()).slerp(a, Eigen::Quaterniond(after->pose.linear())).toRotationMatrix();
+        T.linear() = Eigen::Quaterniond(before->pose.linear())
+                         .slerp(a, Eigen::Quaterniond(after->pose.linear()))
+                         .toRotationMatrix();
         frame.T_world_sensor.push_back(T);
     }
     return frame;
@@ -135,7 +139,8 @@ Frame load_rig(const std::string& dir) {
         if (!root.empty() && a != root)
             throw std::runtime_error(dir + ": references from two roots, " + root + " and " + a);
         root = a;
-        references[entry.path().stem().string().substr(sep + 1)] = io::read_rig_reference(entry.path());
+        references[entry.path().stem().string().substr(sep + 1)] =
+            io::read_rig_reference(entry.path());
     }
     if (root.empty())
         throw std::runtime_error(dir + ": no station.yaml and no T_ROOT_NAME.txt references");
@@ -158,7 +163,8 @@ Frame load_rig(const std::string& dir) {
     return frame;
 }
 
-double option(const std::map<std::string, std::string>& opts, const std::string& key, double fallback) {
+double option(const std::map<std::string, std::string>& opts, const std::string& key,
+              double fallback) {
     const auto it = opts.find(key);
     return it == opts.end() ? fallback : std::atof(it->second.c_str());
 }
@@ -207,12 +213,14 @@ int main(int argc, char** argv) {
     p.matching.mutual = option(opts, "mutual", p.matching.mutual ? 1 : 0) != 0;
     p.matching.candidates_per_source =
         static_cast<int>(option(opts, "candidates_per_source", p.matching.candidates_per_source));
-    p.ransac.max_iterations = static_cast<int>(option(opts, "ransac_iterations", p.ransac.max_iterations));
+    p.ransac.max_iterations =
+        static_cast<int>(option(opts, "ransac_iterations", p.ransac.max_iterations));
     p.ransac.inlier_threshold_m = option(opts, "ransac_threshold", p.ransac.inlier_threshold_m);
     params.num_threads = static_cast<int>(option(opts, "threads", 2));
     params.consensus.min_bridge_information_per_inlier =
         option(opts, "min_bridge_info", params.consensus.min_bridge_information_per_inlier);
-    p.max_free_space_violation_share = option(opts, "max_free_space", p.max_free_space_violation_share);
+    p.max_free_space_violation_share =
+        option(opts, "max_free_space", p.max_free_space_violation_share);
     f.gicp_voxel_size_m = option(opts, "gicp_voxel", f.gicp_voxel_size_m);
     p.gicp_max_correspondence_m.back() =
         option(opts, "gicp_fine", p.gicp_max_correspondence_m.back());
@@ -232,22 +240,28 @@ int main(int argc, char** argv) {
                                 : load_rig(dir);
         const std::size_t n = frame.clouds.size();
         auto truth = [&](std::size_t target, std::size_t source) {
-            return Eigen::Isometry3d(frame.T_world_sensor[target].inverse() * frame.T_world_sensor[source]);
+            return Eigen::Isometry3d(frame.T_world_sensor[target].inverse() *
+                                     frame.T_world_sensor[source]);
         };
         if (!quiet) {
             core::SensorFeatureParams fp = params.features;
             fp.num_threads = params.num_threads;
             std::vector<core::SensorFeatures> features;
             for (std::size_t i = 0; i < n; ++i) {
-                features.push_back(core::compute_sensor_features(frame.clouds[i], fp, params.min_keypoints));
+                features.push_back(
+                    core::compute_sensor_features(frame.clouds[i], fp, params.min_keypoints));
                 const auto& g = features[i].ground;
-                const Eigen::Vector3d up_true = frame.T_world_sensor[i].linear().transpose() * Eigen::Vector3d::UnitZ();
-                std::fprintf(stderr, "%s %s: points %zu pre %zu octree %zu keypoints %zu status %s ground %d h %.3f (true %.3f) up_err %.3f deg inl %zu\n",
-                             dir.c_str(), frame.names[i].c_str(), features[i].num_input_points,
-                             features[i].num_preprocessed_points, features[i].octree.cloud.size(),
-                             features[i].keypoints.size(), core::to_string(features[i].status), g.found ? 1 : 0,
-                             g.sensor_height_m, frame.T_world_sensor[i].translation().z(),
-                             std::acos(std::min(1.0, g.up.dot(up_true))) * 180 / M_PI, g.num_inliers);
+                const Eigen::Vector3d up_true =
+                    frame.T_world_sensor[i].linear().transpose() * Eigen::Vector3d::UnitZ();
+                std::fprintf(
+                    stderr,
+                    "%s %s: points %zu pre %zu octree %zu keypoints %zu status %s ground %d h %.3f "
+                    "(true %.3f) up_err %.3f deg inl %zu\n",
+                    dir.c_str(), frame.names[i].c_str(), features[i].num_input_points,
+                    features[i].num_preprocessed_points, features[i].octree.cloud.size(),
+                    features[i].keypoints.size(), core::to_string(features[i].status),
+                    g.found ? 1 : 0, g.sensor_height_m, frame.T_world_sensor[i].translation().z(),
+                    std::acos(std::min(1.0, g.up.dot(up_true))) * 180 / M_PI, g.num_inliers);
             }
             for (std::size_t i = 1; i < n; ++i) {
                 for (std::size_t j = 0; j < i; ++j) {
@@ -266,17 +280,20 @@ int main(int argc, char** argv) {
                         const Eigen::Vector3d m = T * q;
                         if (!cloud_tree.nearest(m, &idx, &d2) || d2 > 0.25) continue;
                         ++in_overlap;
-                        if (kp_tree.nearest(m, &idx, &d2) && d2 <= threshold_m * threshold_m) ++repeated;
+                        if (kp_tree.nearest(m, &idx, &d2) && d2 <= threshold_m * threshold_m)
+                            ++repeated;
                     }
                     const core::Correspondences matches =
                         core::match_features(src.descriptors, tgt.descriptors, p.matching);
                     int true_matches = 0;
                     for (const auto& c : matches) {
-                        if ((T * src.keypoint_points[c.source] - tgt.keypoint_points[c.target]).norm() <= threshold_m) {
+                        if ((T * src.keypoint_points[c.source] - tgt.keypoint_points[c.target])
+                                .norm() <= threshold_m) {
                             ++true_matches;
                         }
                     }
-                    // Descriptor quality: rank of the true partner among all target descriptors (0 = best).
+                    // Descriptor quality: rank of the true partner among all target descriptors (0
+                    // = best).
                     std::vector<double> ranks;
                     for (std::size_t a = 0; a < src.keypoint_points.size(); ++a) {
                         const Eigen::Vector3d m = T * src.keypoint_points[a];
@@ -290,20 +307,26 @@ int main(int argc, char** argv) {
                         if (!any) continue;
                         std::sort(d.begin(), d.end());
                         for (std::size_t b = 0; b < d.size(); ++b) {
-                            if (d[b].second) { ranks.push_back(static_cast<double>(b) / d.size()); break; }
+                            if (d[b].second) {
+                                ranks.push_back(static_cast<double>(b) / d.size());
+                                break;
+                            }
                         }
                     }
                     std::sort(ranks.begin(), ranks.end());
                     if (!ranks.empty()) {
-                        std::fprintf(stderr, "  ranks %zu->%zu: n %zu p25 %.3f p50 %.3f p75 %.3f p90 %.3f\n", i, j, ranks.size(),
-                                     ranks[ranks.size() / 4], ranks[ranks.size() / 2], ranks[ranks.size() * 3 / 4], ranks[ranks.size() * 9 / 10]);
+                        std::fprintf(
+                            stderr, "  ranks %zu->%zu: n %zu p25 %.3f p50 %.3f p75 %.3f p90 %.3f\n",
+                            i, j, ranks.size(), ranks[ranks.size() / 4], ranks[ranks.size() / 2],
+                            ranks[ranks.size() * 3 / 4], ranks[ranks.size() * 9 / 10]);
                     }
-                    std::fprintf(stderr,
-                                 "  pair %zu->%zu: kp %zu/%zu in_overlap %d repeatable %d matches %zu "
-                                 "true %d (%.3f)\n",
-                                 i, j, src.keypoints.size(), tgt.keypoints.size(), in_overlap, repeated,
-                                 matches.size(), true_matches,
-                                 matches.empty() ? 0.0 : static_cast<double>(true_matches) / matches.size());
+                    std::fprintf(
+                        stderr,
+                        "  pair %zu->%zu: kp %zu/%zu in_overlap %d repeatable %d matches %zu "
+                        "true %d (%.3f)\n",
+                        i, j, src.keypoints.size(), tgt.keypoints.size(), in_overlap, repeated,
+                        matches.size(), true_matches,
+                        matches.empty() ? 0.0 : static_cast<double>(true_matches) / matches.size());
                     {
                         // The checks at the truth: what the free-space test and G-ICP say of
                         // the right transform (a right pair refused by a check shows here).
@@ -334,8 +357,12 @@ int main(int argc, char** argv) {
                             core::information_per_inlier(gr.H_eigenvalues(0), gr.num_inliers));
                     }
                     {
-                        core::GroundAlignedKeypoints ks{&src.keypoint_points, &src.keypoint_normals, &src.descriptors, src.ground.T_ground_sensor};
-                        core::GroundAlignedKeypoints kt{&tgt.keypoint_points, &tgt.keypoint_normals, &tgt.descriptors, tgt.ground.T_ground_sensor};
+                        core::GroundAlignedKeypoints ks{&src.keypoint_points, &src.keypoint_normals,
+                                                        &src.descriptors,
+                                                        src.ground.T_ground_sensor};
+                        core::GroundAlignedKeypoints kt{&tgt.keypoint_points, &tgt.keypoint_normals,
+                                                        &tgt.descriptors,
+                                                        tgt.ground.T_ground_sensor};
                         core::GroundAlignedSearchParams gp;
                         gp.descriptor_rank_share = option(opts, "rank_share", 1.0);
                         gp.max_height_difference_m = option(opts, "height_diff", 1.0);
@@ -343,24 +370,35 @@ int main(int argc, char** argv) {
                         gp.max_peaks = static_cast<int>(option(opts, "peaks", gp.max_peaks));
                         const auto t0 = std::chrono::steady_clock::now();
                         const auto cands = core::ground_aligned_search(ks, kt, gp);
-                        const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                        const double dt =
+                            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0)
+                                .count();
                         if (option(opts, "refine", 0) != 0) {
                             for (const auto& c : cands) {
                                 const auto coarse = core::free_space_violations_both(
                                     src.gicp.cloud().points, src.free_space,
                                     tgt.gicp.cloud().points, tgt.free_space, c.T_target_source);
-                                if (coarse.violation_share > p.max_ground_coarse_free_space_violation_share) continue;
+                                if (coarse.violation_share >
+                                    p.max_ground_coarse_free_space_violation_share)
+                                    continue;
                                 const core::GicpResult gr = coarse_to_fine(
                                     p, tgt.gicp, src.gicp.cloud(), c.T_target_source);
                                 const Eigen::Isometry3d Tc = gr.T_target_source;
                                 const auto fs = core::free_space_violations_both(
                                     src.gicp.cloud().points, src.free_space,
                                     tgt.gicp.cloud().points, tgt.free_space, Tc);
-                                core::P2pErrorParams pp; pp.cutoff_radius_m = p.p2p_cutoff_m;
-                                const auto pe = core::p2p_error(src.gicp.cloud().points, tgt.gicp.tree(), Tc, pp);
-                                std::fprintf(stderr, "    refined %zu->%zu: start %.2fm err %.3fm %.3fdeg fs %.4f coarse %.3f p2p %.3f N %zu inl %.2f it %d\n", i, j,
-                                             core::translation_error_m(c.T_target_source, T), core::translation_error_m(Tc, T), core::rotation_error_deg(Tc, T),
-                                             fs.violation_share, coarse.violation_share, pe.error_m, pe.num_within_cutoff, gr.inlier_ratio, gr.iterations);
+                                core::P2pErrorParams pp;
+                                pp.cutoff_radius_m = p.p2p_cutoff_m;
+                                const auto pe = core::p2p_error(src.gicp.cloud().points,
+                                                                tgt.gicp.tree(), Tc, pp);
+                                std::fprintf(stderr,
+                                             "    refined %zu->%zu: start %.2fm err %.3fm %.3fdeg "
+                                             "fs %.4f coarse %.3f p2p %.3f N %zu inl %.2f it %d\n",
+                                             i, j, core::translation_error_m(c.T_target_source, T),
+                                             core::translation_error_m(Tc, T),
+                                             core::rotation_error_deg(Tc, T), fs.violation_share,
+                                             coarse.violation_share, pe.error_m,
+                                             pe.num_within_cutoff, gr.inlier_ratio, gr.iterations);
                             }
                         }
                         std::fprintf(stderr, "    ground search %.1f ms:", dt * 1e3);
@@ -368,23 +406,27 @@ int main(int argc, char** argv) {
                             const auto fs = core::free_space_violations_both(
                                 src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points,
                                 tgt.free_space, c.T_target_source);
-                            std::fprintf(stderr, " [v%d i%zu fs%.3f %.2fm %.2fdeg]", c.votes, c.inliers.size(), fs.violation_share,
+                            std::fprintf(stderr, " [v%d i%zu fs%.3f %.2fm %.2fdeg]", c.votes,
+                                         c.inliers.size(), fs.violation_share,
                                          core::translation_error_m(c.T_target_source, T),
                                          core::rotation_error_deg(c.T_target_source, T));
                         }
                         std::fprintf(stderr, "\n");
                     }
                     core::Correspondences remaining = matches;
-                    for (int round = 0; !match_only && round < p.max_candidates && remaining.size() >= 3; ++round) {
+                    for (int round = 0;
+                         !match_only && round < p.max_candidates && remaining.size() >= 3;
+                         ++round) {
                         core::RansacParams rp = p.ransac;
                         rp.seed = p.ransac.seed + static_cast<std::uint32_t>(round);
-                        const auto r = core::ransac_registration(src.keypoint_points, tgt.keypoint_points,
-                                                                 remaining, rp);
+                        const auto r = core::ransac_registration(
+                            src.keypoint_points, tgt.keypoint_points, remaining, rp);
                         if (!r.success) break;
-                        std::fprintf(stderr, "    round %d: inliers %zu iterations %d err %.2f m %.2f deg\n",
-                                     round, r.inliers.size(), r.iterations,
-                                     core::translation_error_m(r.T_target_source, T),
-                                     core::rotation_error_deg(r.T_target_source, T));
+                        std::fprintf(
+                            stderr, "    round %d: inliers %zu iterations %d err %.2f m %.2f deg\n",
+                            round, r.inliers.size(), r.iterations,
+                            core::translation_error_m(r.T_target_source, T),
+                            core::rotation_error_deg(r.T_target_source, T));
                         std::vector<bool> used(remaining.size(), false);
                         for (auto k : r.inliers) used[k] = true;
                         core::Correspondences next;
@@ -420,35 +462,43 @@ int main(int argc, char** argv) {
         }
         for (const auto& pair : result.pairs) {
             const Eigen::Isometry3d T = truth(pair.target, pair.source);
-            std::fprintf(stderr, "  result %d->%d: %s ransac_inliers %zu cand %d alt %zu chosen %d err %.3f m %.3f deg\n",
-                         pair.source, pair.target, core::to_string(pair.status), pair.ransac_inliers,
-                         pair.candidates, pair.alternatives.size(), pair.chosen_candidate,
-                         core::translation_error_m(pair.T_target_source, T),
+            std::fprintf(stderr,
+                         "  result %d->%d: %s ransac_inliers %zu cand %d alt %zu chosen %d err "
+                         "%.3f m %.3f deg\n",
+                         pair.source, pair.target, core::to_string(pair.status),
+                         pair.ransac_inliers, pair.candidates, pair.alternatives.size(),
+                         pair.chosen_candidate, core::translation_error_m(pair.T_target_source, T),
                          core::rotation_error_deg(pair.T_target_source, T));
             // Every candidate that reached G-ICP: which check dropped it, against the truth.
             for (const core::CandidateRecord& r : pair.tried) {
                 if (!show_tried || r.gicp_inlier_ratio < 0.0) continue;
                 std::fprintf(stderr,
-                             "    tried %2d %s: %-20s err %7.3f m %7.2f deg | gicp_inl %.3f info/inl %6.2f p2p %.3f m "
+                             "    tried %2d %s: %-20s err %7.3f m %7.2f deg | gicp_inl %.3f "
+                             "info/inl %6.2f p2p %.3f m "
                              "overlap %.3f fs %.3f\n",
                              r.candidate, r.ground_search ? "G" : "R", core::to_string(r.outcome),
-                             core::translation_error_m(r.T_refined, T), core::rotation_error_deg(r.T_refined, T),
-                             r.gicp_inlier_ratio, r.information_per_inlier, r.p2p_error_m, r.overlap_share,
+                             core::translation_error_m(r.T_refined, T),
+                             core::rotation_error_deg(r.T_refined, T), r.gicp_inlier_ratio,
+                             r.information_per_inlier, r.p2p_error_m, r.overlap_share,
                              r.free_space_share);
             }
         }
-        std::fprintf(stderr, "%s: registered %d/%zu wrong %d time %.2f s (features %.2f pairs %.2f)%s\n",
-                     dir.c_str(), registered, n, wrong, result.timings.total_s, result.timings.features_s,
-                     result.timings.pairs_s, line.c_str());
+        std::fprintf(stderr,
+                     "%s: registered %d/%zu wrong %d time %.2f s (features %.2f pairs %.2f)%s\n",
+                     dir.c_str(), registered, n, wrong, result.timings.total_s,
+                     result.timings.features_s, result.timings.pairs_s, line.c_str());
         {
             const core::StageTimeSums sums = core::sum_stage_timings(result);
             const core::SensorFeatureTimings& ft = sums.features;
             const core::PairTimings& pt = sums.pairs;
             std::fprintf(stderr,
-                         "  stage sums ms: preprocess %.0f normals %.0f octree %.0f sift %.0f fpfh %.0f ground %.0f "
-                         "gicp_cloud %.0f | matching %.0f ground_search %.0f ransac %.0f gicp %.0f p2p %.0f\n",
-                         1e3 * ft.preprocess_s, 1e3 * ft.normals_s, 1e3 * ft.octree_s, 1e3 * ft.keypoints_s, 1e3 * ft.fpfh_s,
-                         1e3 * ft.ground_s, 1e3 * ft.gicp_cloud_s, 1e3 * pt.matching_s, 1e3 * pt.ground_search_s,
+                         "  stage sums ms: preprocess %.0f normals %.0f octree %.0f sift %.0f fpfh "
+                         "%.0f ground %.0f "
+                         "gicp_cloud %.0f | matching %.0f ground_search %.0f ransac %.0f gicp %.0f "
+                         "p2p %.0f\n",
+                         1e3 * ft.preprocess_s, 1e3 * ft.normals_s, 1e3 * ft.octree_s,
+                         1e3 * ft.keypoints_s, 1e3 * ft.fpfh_s, 1e3 * ft.ground_s,
+                         1e3 * ft.gicp_cloud_s, 1e3 * pt.matching_s, 1e3 * pt.ground_search_s,
                          1e3 * pt.ransac_s, 1e3 * pt.gicp_s, 1e3 * pt.p2p_s);
         }
         total_sensors += static_cast<int>(n);
@@ -460,6 +510,7 @@ int main(int argc, char** argv) {
     std::printf("diagnose_wrong %d sensors\n", total_wrong);
     std::printf("diagnose_max_translation_error_cm %.2f cm\n", 100.0 * worst_t);
     std::printf("diagnose_max_rotation_error_deg %.4f deg\n", worst_r);
-    std::printf("diagnose_mean_register_initial_s %.3f s\n", dirs.empty() ? 0.0 : total_s / dirs.size());
+    std::printf("diagnose_mean_register_initial_s %.3f s\n",
+                dirs.empty() ? 0.0 : total_s / dirs.size());
     return 0;
 }

@@ -15,9 +15,9 @@
 // SWEEP_MAX_FREE_SPACE=x sets max_free_space_violation_share; SWEEP_NO_GROUND_SEARCH=1
 // runs the paper's FPFH + RANSAC candidates only; SWEEP_NO_AMBIGUITY=1 turns the
 // consensus's ambiguity test off (edge_consensus.hpp: the old guess by p2p support);
-// SWEEP_MIN_BRIDGE_INFO=x sets consensus.min_bridge_information_per_inlier (0: the weak-bridge test off).
-// Per-run errors go to stderr; SWEEP_VERBOSE=1 adds every candidate register_pair tried,
-// with its error against the truth and the check that dropped it.
+// SWEEP_MIN_BRIDGE_INFO=x sets consensus.min_bridge_information_per_inlier (0: the weak-bridge test
+// off). Per-run errors go to stderr; SWEEP_VERBOSE=1 adds every candidate register_pair tried, with
+// its error against the truth and the check that dropped it.
 
 #include <cmath>
 #include <cstdio>
@@ -64,14 +64,16 @@ core::PointCloud azimuth_sector(const core::PointCloud& cloud, double centre_deg
     return out;
 }
 
-Outcome run(const core::PointCloud& target, const core::PointCloud& source, const Eigen::Isometry3d& truth,
-            int threads) {
+Outcome run(const core::PointCloud& target, const core::PointCloud& source,
+            const Eigen::Isometry3d& truth, int threads) {
     core::InitialRegistrationParams params = core::default_initial_registration_params();
     params.num_threads = threads;
-    if (const char* fs = std::getenv("SWEEP_MAX_FREE_SPACE")) params.pair.max_free_space_violation_share = std::atof(fs);
+    if (const char* fs = std::getenv("SWEEP_MAX_FREE_SPACE"))
+        params.pair.max_free_space_violation_share = std::atof(fs);
     if (std::getenv("SWEEP_NO_GROUND_SEARCH")) params.pair.use_ground_aligned_search = false;
     if (std::getenv("SWEEP_NO_AMBIGUITY")) params.consensus.ambiguity.enabled = false;
-    if (const char* b = std::getenv("SWEEP_MIN_BRIDGE_INFO")) params.consensus.min_bridge_information_per_inlier = std::atof(b);
+    if (const char* b = std::getenv("SWEEP_MIN_BRIDGE_INFO"))
+        params.consensus.min_bridge_information_per_inlier = std::atof(b);
     const auto result = core::register_initial({target, source}, params);
     Outcome o;
     o.overlap_share = overlap_share(source, target, truth);
@@ -81,24 +83,31 @@ Outcome run(const core::PointCloud& target, const core::PointCloud& source, cons
                            core::rotation_error_deg(s.T_root_sensor, truth) <= 0.1;
         o.success = close;
         o.wrong = !close;
-        std::fprintf(stderr, "  registered: error %.3f m %.3f deg (free-space violations %.3f, overlap %.2f, alternatives %zu)\n",
-                     core::translation_error_m(s.T_root_sensor, truth), core::rotation_error_deg(s.T_root_sensor, truth),
-                     result.pairs[0].free_space_violation_share, result.pairs[0].overlap_share, result.pairs[0].alternatives.size());
+        std::fprintf(stderr,
+                     "  registered: error %.3f m %.3f deg (free-space violations %.3f, overlap "
+                     "%.2f, alternatives %zu)\n",
+                     core::translation_error_m(s.T_root_sensor, truth),
+                     core::rotation_error_deg(s.T_root_sensor, truth),
+                     result.pairs[0].free_space_violation_share, result.pairs[0].overlap_share,
+                     result.pairs[0].alternatives.size());
     } else {
         std::fprintf(stderr, "  not registered: %s\n", core::to_string(s.status));
     }
     if (std::getenv("SWEEP_VERBOSE")) {
         const core::PairResult& p = result.pairs[0];
-        std::fprintf(stderr, "    pair: %s, chosen candidate %d, %zu alternatives\n", core::to_string(p.status),
-                     p.chosen_candidate, p.alternatives.size());
+        std::fprintf(stderr, "    pair: %s, chosen candidate %d, %zu alternatives\n",
+                     core::to_string(p.status), p.chosen_candidate, p.alternatives.size());
         for (const core::CandidateRecord& r : p.tried) {
             std::fprintf(stderr,
-                         "    cand %2d %s support %3zu: %-20s init %6.2f m %6.1f deg -> %6.2f m %7.2f deg | coarse_fs "
+                         "    cand %2d %s support %3zu: %-20s init %6.2f m %6.1f deg -> %6.2f m "
+                         "%7.2f deg | coarse_fs "
                          "%.3f gicp_inl %.3f info/inl %.2f p2p %.3f m overlap %.3f fs %.3f\n",
-                         r.candidate, r.ground_search ? "G" : "R", r.support, core::to_string(r.outcome),
-                         core::translation_error_m(r.T_initial, truth), core::rotation_error_deg(r.T_initial, truth),
-                         core::translation_error_m(r.T_refined, truth), core::rotation_error_deg(r.T_refined, truth),
-                         r.coarse_free_space_share, r.gicp_inlier_ratio, r.information_per_inlier, r.p2p_error_m,
+                         r.candidate, r.ground_search ? "G" : "R", r.support,
+                         core::to_string(r.outcome), core::translation_error_m(r.T_initial, truth),
+                         core::rotation_error_deg(r.T_initial, truth),
+                         core::translation_error_m(r.T_refined, truth),
+                         core::rotation_error_deg(r.T_refined, truth), r.coarse_free_space_share,
+                         r.gicp_inlier_ratio, r.information_per_inlier, r.p2p_error_m,
                          r.overlap_share, r.free_space_share);
         }
     }
@@ -125,10 +134,14 @@ int main(int argc, char** argv) {
     for (int yaw = 0; yaw < (only_fov ? 0 : 360); yaw += yaw_step) {
         int ok = 0;
         for (int seed = 1; seed <= seeds; ++seed) {
-            const Eigen::Isometry3d T_world_source = testing::sensor_pose(-11.0, -2.0, 5.5, yaw, 10.0);
-            const core::PointCloud target = testing::scan_scene(scene, T_world_target, pattern, 100 + seed);
-            const core::PointCloud source = testing::scan_scene(scene, T_world_source, pattern, 200 + seed);
-            const Outcome o = run(target, source, T_world_target.inverse() * T_world_source, threads);
+            const Eigen::Isometry3d T_world_source =
+                testing::sensor_pose(-11.0, -2.0, 5.5, yaw, 10.0);
+            const core::PointCloud target =
+                testing::scan_scene(scene, T_world_target, pattern, 100 + seed);
+            const core::PointCloud source =
+                testing::scan_scene(scene, T_world_source, pattern, 200 + seed);
+            const Outcome o =
+                run(target, source, T_world_target.inverse() * T_world_source, threads);
             ++yaw_runs;
             ok += o.success ? 1 : 0;
             yaw_wrong += o.wrong ? 1 : 0;
@@ -148,9 +161,10 @@ int main(int argc, char** argv) {
         int ok = 0;
         double overlap = 0.0;
         for (int seed = 1; seed <= seeds; ++seed) {
-            const core::PointCloud target = testing::scan_scene(scene, T_world_target, pattern, 100 + seed);
-            const core::PointCloud source =
-                azimuth_sector(testing::scan_scene(scene, T_world_source, pattern, 200 + seed), centre, fov_deg);
+            const core::PointCloud target =
+                testing::scan_scene(scene, T_world_target, pattern, 100 + seed);
+            const core::PointCloud source = azimuth_sector(
+                testing::scan_scene(scene, T_world_source, pattern, 200 + seed), centre, fov_deg);
             const Outcome o = run(target, source, truth, threads);
             ++fov_runs;
             ok += o.success ? 1 : 0;

@@ -17,7 +17,8 @@ void read_network(YamlReader& r, const YAML::Node& n, NetworkConfig* c) {
     if (!n || !r.optional_map(n, "network")) return;
     r.only_keys(n, "network", {"bind_address", "receive_buffer_bytes"});
     set_if(r.string(n["bind_address"], "network.bind_address", false), &c->bind_address);
-    set_if(r.integer(n["receive_buffer_bytes"], "network.receive_buffer_bytes", 65536, 1LL << 30, false),
+    set_if(r.integer(n["receive_buffer_bytes"], "network.receive_buffer_bytes", 65536, 1LL << 30,
+                     false),
            &c->receive_buffer_bytes);
 }
 
@@ -26,7 +27,8 @@ void read_sync(YamlReader& r, const YAML::Node& n, SyncConfig* c) {
     r.only_keys(n, "sync", {"max_offset_ms", "deadline_ms", "reset_jump_ms", "queue_depth"});
     set_if(r.number(n["max_offset_ms"], "sync.max_offset_ms", 0, 1000, false), &c->max_offset_ms);
     set_if(r.number(n["deadline_ms"], "sync.deadline_ms", 1, 10000, false), &c->deadline_ms);
-    set_if(r.number(n["reset_jump_ms"], "sync.reset_jump_ms", 100, 3.6e6, false), &c->reset_jump_ms);
+    set_if(r.number(n["reset_jump_ms"], "sync.reset_jump_ms", 100, 3.6e6, false),
+           &c->reset_jump_ms);
     set_if(r.integer(n["queue_depth"], "sync.queue_depth", 1, 64, false), &c->queue_depth);
 }
 
@@ -54,8 +56,8 @@ bool valid_ros_namespace(const std::string& ns) {
 bool valid_frame_id(const std::string& frame) {
     if (frame.empty() || frame.size() > 128 || frame.front() == '/') return false;
     for (const char c : frame) {
-        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                        c == '_' || c == '.' || c == '/' || c == '-';
+        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                        (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '/' || c == '-';
         if (!ok) return false;
     }
     return true;
@@ -65,8 +67,8 @@ void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
     if (!n || !r.optional_map(n, "output.dds")) return;
     const std::string p = "output.dds.";
     r.only_keys(n, "output.dds",
-                {"enabled", "domain_id", "namespace", "frame_id", "depth", "max_blocking_ms", "publish_points",
-                 "diagnostics_period_ms"});
+                {"enabled", "domain_id", "namespace", "frame_id", "depth", "max_blocking_ms",
+                 "publish_points", "diagnostics_period_ms"});
     set_if(r.boolean(n["enabled"], p + "enabled"), &c->enabled);
     // Cyclone maps domain d to UDP ports 7400 + 250 d + ..., so 232 is the largest id.
     set_if(r.integer(n["domain_id"], p + "domain_id", -1, 232, false), &c->domain_id);
@@ -77,20 +79,27 @@ void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
         if (valid_ros_namespace(*ns)) {
             c->topic_namespace = *ns;
         } else {
-            r.problems.push_back(p + "namespace: expected ROS name segments ([A-Za-z_][A-Za-z0-9_]*) joined by "
-                                 "'/', without leading or trailing '/', got \"" + *ns + "\"");
+            r.problems.push_back(
+                p +
+                "namespace: expected ROS name segments ([A-Za-z_][A-Za-z0-9_]*) joined by "
+                "'/', without leading or trailing '/', got \"" +
+                *ns + "\"");
         }
     }
     if (auto frame = r.string(n["frame_id"], p + "frame_id", false)) {
         if (valid_frame_id(*frame)) {
             c->frame_id = *frame;
         } else {
-            r.problems.push_back(p + "frame_id: expected 1..128 characters of [A-Za-z0-9_./-], not starting "
-                                 "with '/' (tf2 refuses a leading slash), got \"" + *frame + "\"");
+            r.problems.push_back(
+                p +
+                "frame_id: expected 1..128 characters of [A-Za-z0-9_./-], not starting "
+                "with '/' (tf2 refuses a leading slash), got \"" +
+                *frame + "\"");
         }
     }
     set_if(r.integer(n["depth"], p + "depth", 1, 100, false), &c->depth);
-    set_if(r.number(n["max_blocking_ms"], p + "max_blocking_ms", 0, 1000, false), &c->max_blocking_ms);
+    set_if(r.number(n["max_blocking_ms"], p + "max_blocking_ms", 0, 1000, false),
+           &c->max_blocking_ms);
     set_if(r.boolean(n["publish_points"], p + "publish_points"), &c->publish_points);
     set_if(r.number(n["diagnostics_period_ms"], p + "diagnostics_period_ms", 10, 60000, false),
            &c->diagnostics_period_ms);
@@ -141,7 +150,8 @@ void read_record(YamlReader& r, const YAML::Node& n, const std::filesystem::path
     }
 }
 
-void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path& base, OutputConfig* c) {
+void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path& base,
+                 OutputConfig* c) {
     if (!n || !r.optional_map(n, "output")) return;
     r.only_keys(
         n, "output",
@@ -153,7 +163,8 @@ void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path
     }
     set_if(r.boolean(n["poses_csv"], "output.poses_csv"), &c->poses_csv);
     set_if(r.boolean(n["extrinsics_yaml"], "output.extrinsics_yaml"), &c->extrinsics_yaml);
-    set_if(r.integer(n["extrinsics_interval_frames"], "output.extrinsics_interval_frames", 1, 1000000, false),
+    set_if(r.integer(n["extrinsics_interval_frames"], "output.extrinsics_interval_frames", 1,
+                     1000000, false),
            &c->extrinsics_interval_frames);
     set_if(r.integer(n["record_clouds_every"], "output.record_clouds_every", 0, 1000000, false),
            &c->record_clouds_every);
@@ -206,9 +217,12 @@ void check_frame_names(const station::StationConfig& station, const DdsConfig& d
 void read_health(YamlReader& r, const YAML::Node& n, HealthConfig* c) {
     if (!n || !r.optional_map(n, "health")) return;
     r.only_keys(n, "health", {"stale_after_ms", "lost_after_ms", "min_completeness"});
-    set_if(r.number(n["stale_after_ms"], "health.stale_after_ms", 10, 600000, false), &c->stale_after_ms);
-    set_if(r.number(n["lost_after_ms"], "health.lost_after_ms", 10, 3600000, false), &c->lost_after_ms);
-    set_if(r.number(n["min_completeness"], "health.min_completeness", 0, 1, false), &c->min_completeness);
+    set_if(r.number(n["stale_after_ms"], "health.stale_after_ms", 10, 600000, false),
+           &c->stale_after_ms);
+    set_if(r.number(n["lost_after_ms"], "health.lost_after_ms", 10, 3600000, false),
+           &c->lost_after_ms);
+    set_if(r.number(n["min_completeness"], "health.min_completeness", 0, 1, false),
+           &c->min_completeness);
     if (c->lost_after_ms < c->stale_after_ms) {
         r.problems.push_back("health.lost_after_ms: must not be below health.stale_after_ms");
     }
@@ -242,12 +256,14 @@ DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string
     if (doc["logging"] && r.optional_map(doc["logging"], "logging")) {
         r.only_keys(doc["logging"], "logging", {"level"});
         if (auto level = r.string(doc["logging"]["level"], "logging.level", false)) {
-            static const std::set<std::string> kLevels = {"trace", "debug", "info", "warn", "error", "off"};
+            static const std::set<std::string> kLevels = {"trace", "debug", "info",
+                                                          "warn",  "error", "off"};
             if (kLevels.count(*level)) {
                 config.log_level = *level;
             } else {
-                r.problems.push_back("logging.level: expected one of trace, debug, info, warn, error, off, got \"" +
-                                     *level + "\"");
+                r.problems.push_back(
+                    "logging.level: expected one of trace, debug, info, warn, error, off, got \"" +
+                    *level + "\"");
             }
         }
     }
@@ -259,7 +275,8 @@ DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string
 }
 
 DaemonConfig load_daemon_config(const std::filesystem::path& file) {
-    auto config = parse_daemon_config(station::read_config_file(file), file.string(), file.parent_path());
+    auto config =
+        parse_daemon_config(station::read_config_file(file), file.string(), file.parent_path());
     config.station.source_file = file;
     return config;
 }

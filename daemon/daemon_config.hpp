@@ -35,16 +35,16 @@ struct SyncConfig {
 // DDS output (daemon/dds_publisher.hpp): topics and types follow ROS 2's DDS mapping.
 struct DdsConfig {
     bool enabled = true;
-    int domain_id = -1;                  // 0..232; -1: $ROS_DOMAIN_ID, or 0 when unset
+    int domain_id = -1;                         // 0..232; -1: $ROS_DOMAIN_ID, or 0 when unset
     std::string topic_namespace = "lidarfuse";  // rt/<ns>/points, rt/<ns>/poses ("" = rt/points)
     // The fused frame's tf name (header.frame_id of clouds, rt/tf and poses; the sensors are
     // its children, named after them). The default has a '/', which sensor names cannot
     // have, so it never names a sensor's own frame; a config naming it after a sensor is
     // refused.
     std::string frame_id = "lidarfuse/fused";
-    int depth = 2;                       // keep-last history of every writer
-    double max_blocking_ms = 5.0;        // longest a write may wait for a slow reader
-    bool publish_points = true;          // rt/<ns>/points (the poses, tf and diagnostics always)
+    int depth = 2;                 // keep-last history of every writer
+    double max_blocking_ms = 5.0;  // longest a write may wait for a slow reader
+    bool publish_points = true;    // rt/<ns>/points (the poses, tf and diagnostics always)
     double diagnostics_period_ms = 1000.0;
 };
 
@@ -87,10 +87,10 @@ struct RecordConfig {
 
 struct OutputConfig {
     std::filesystem::path directory = "/var/lib/lidarfuse";
-    bool poses_csv = true;          // DIRECTORY/poses.csv, appended per frame
-    bool extrinsics_yaml = true;    // DIRECTORY/extrinsics.yaml, rewritten atomically
+    bool poses_csv = true;        // DIRECTORY/poses.csv, appended per frame
+    bool extrinsics_yaml = true;  // DIRECTORY/extrinsics.yaml, rewritten atomically
     int extrinsics_interval_frames = 20;
-    int record_clouds_every = 0;    // every Nth fused cloud as a file; 0 = none
+    int record_clouds_every = 0;  // every Nth fused cloud as a file; 0 = none
     enum class CloudFormat { kPly, kPcd } record_clouds_format = CloudFormat::kPly;
     StampSource stamp = StampSource::kSensor;  // clouds, tf, poses and diagnostics on DDS
     DdsConfig dds;

@@ -28,7 +28,8 @@ public:
     // Capacity is rounded up to a power of two (at least 2).
     explicit DropOldestQueue(std::size_t capacity) : mask_(round_up(capacity) - 1) {
         slots_ = std::make_unique<Slot[]>(mask_ + 1);
-        for (std::size_t i = 0; i <= mask_; ++i) slots_[i].sequence.store(i, std::memory_order_relaxed);
+        for (std::size_t i = 0; i <= mask_; ++i)
+            slots_[i].sequence.store(i, std::memory_order_relaxed);
     }
 
     std::size_t capacity() const { return mask_ + 1; }
@@ -114,7 +115,8 @@ private:
         for (;;) {
             Slot& slot = slots_[pos & mask_];
             const std::size_t seq = slot.sequence.load(std::memory_order_acquire);
-            const auto diff = static_cast<std::ptrdiff_t>(seq) - static_cast<std::ptrdiff_t>(pos + 1);
+            const auto diff =
+                static_cast<std::ptrdiff_t>(seq) - static_cast<std::ptrdiff_t>(pos + 1);
             if (diff < 0) return std::nullopt;  // empty
             if (diff > 0) {                     // another taker moved on; reload
                 pos = head_.load(std::memory_order_relaxed);

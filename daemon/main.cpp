@@ -120,10 +120,13 @@ int main(int argc, char** argv) {
     if (config.output.record.enabled)
         log->info("recording every datagram to {}", pipeline->stats().record.folder);
     if (pipeline->dds_domain_id() >= 0) {
-        log->info("publishing on DDS domain {}: rt/tf, rt/diagnostics, rt/{}/{{points,poses}} in frame {}, "
-                  "stamped on the {} clock",
-                  pipeline->dds_domain_id(), config.output.dds.topic_namespace, config.output.dds.frame_id,
-                  config.output.stamp == lidarfuse::daemon::StampSource::kHost ? "host's" : "sensors'");
+        log->info(
+            "publishing on DDS domain {}: rt/tf, rt/diagnostics, rt/{}/{{points,poses}} in frame "
+            "{}, "
+            "stamped on the {} clock",
+            pipeline->dds_domain_id(), config.output.dds.topic_namespace,
+            config.output.dds.frame_id,
+            config.output.stamp == lidarfuse::daemon::StampSource::kHost ? "host's" : "sensors'");
     }
     if (pipeline->foxglove_port() > 0) {
         std::string topics;
@@ -153,9 +156,9 @@ int main(int argc, char** argv) {
             const auto st = pipeline->stats();
             notifier.status(lidarfuse::daemon::status_line(st));
             for (const auto& s : st.sensors) {
-                log->debug("{}: {} packets {} scans {} bad {} late {} completeness {:.3f} track {}", s.name,
-                           lidarfuse::daemon::to_string(s.state), s.packets, s.scans, s.bad_packets,
-                           s.late_packets, s.last_completeness, s.track_state);
+                log->debug("{}: {} packets {} scans {} bad {} late {} completeness {:.3f} track {}",
+                           s.name, lidarfuse::daemon::to_string(s.state), s.packets, s.scans,
+                           s.bad_packets, s.late_packets, s.last_completeness, s.track_state);
             }
         }
     }
@@ -168,8 +171,8 @@ int main(int argc, char** argv) {
                   st.record.problem().empty() ? "" : "; " + st.record.problem());
     }
     if (pipeline->dds_domain_id() >= 0) {
-        log->info("DDS: {} samples written, {} writes failed ({} timed out)", st.dds_samples_written,
-                  st.dds_write_failures, st.dds_write_timeouts);
+        log->info("DDS: {} samples written, {} writes failed ({} timed out)",
+                  st.dds_samples_written, st.dds_write_failures, st.dds_write_timeouts);
     }
     if (st.foxglove.enabled) {
         log->info(

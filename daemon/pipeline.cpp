@@ -17,11 +17,16 @@ namespace lidarfuse::daemon {
 
 const char* to_string(SensorState state) {
     switch (state) {
-        case SensorState::kOk: return "OK";
-        case SensorState::kStale: return "STALE";
-        case SensorState::kLost: return "LOST";
-        case SensorState::kDisabled: return "DISABLED";
-        case SensorState::kModeMismatch: return "MODE_MISMATCH";
+        case SensorState::kOk:
+            return "OK";
+        case SensorState::kStale:
+            return "STALE";
+        case SensorState::kLost:
+            return "LOST";
+        case SensorState::kDisabled:
+            return "DISABLED";
+        case SensorState::kModeMismatch:
+            return "MODE_MISMATCH";
         case SensorState::kNoMetadata:
             return "NO_METADATA";
     }
@@ -148,7 +153,6 @@ std::shared_ptr<spdlog::logger> Pipeline::Impl::logger(const std::string& name) 
     return l;
 }
 
-
 Pipeline::Pipeline(const DaemonConfig& config) : impl_(std::make_unique<Impl>(config)) {}
 
 Pipeline::~Pipeline() { stop(); }
@@ -204,7 +208,8 @@ void Pipeline::stop() {
 }
 
 std::chrono::steady_clock::time_point Pipeline::heartbeat() const {
-    return Clock::time_point(std::chrono::nanoseconds(impl_->heartbeat_ns.load(std::memory_order_acquire)));
+    return Clock::time_point(
+        std::chrono::nanoseconds(impl_->heartbeat_ns.load(std::memory_order_acquire)));
 }
 
 void Pipeline::request_reopen() { impl_->reopen.store(true); }

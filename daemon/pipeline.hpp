@@ -42,9 +42,10 @@ const char* to_string(SensorState state);
 struct SensorStats {
     std::string name;
     SensorState state = SensorState::kLost;
-    std::uint64_t packets = 0, lidar_packets = 0, imu_packets = 0, bad_packets = 0, late_packets = 0,
-                  duplicate_packets = 0, crc_errors = 0, resets = 0;
-    std::uint64_t scans = 0, scans_incomplete = 0, scans_rejected = 0;  // rejected: below min completeness
+    std::uint64_t packets = 0, lidar_packets = 0, imu_packets = 0, bad_packets = 0,
+                  late_packets = 0, duplicate_packets = 0, crc_errors = 0, resets = 0;
+    std::uint64_t scans = 0, scans_incomplete = 0,
+                  scans_rejected = 0;  // rejected: below min completeness
     // Mode check: frames that disagreed with the metadata, times the sensor was flagged,
     // scans not fused for it, and the last disagreement seen vs what the metadata says.
     std::uint64_t mode_mismatch_frames = 0, mode_mismatches = 0, scans_mode_rejected = 0;
@@ -83,7 +84,7 @@ struct PipelineStats {
     double world_residual_rms_m = 0.0, world_residual_max_m = 0.0;
     std::vector<int> granted_receive_buffers;
     std::vector<SensorStats> sensors;
-    RecorderStats record;  // output.record (enabled false when off)
+    RecorderStats record;    // output.record (enabled false when off)
     FoxgloveStats foxglove;  // output.foxglove (enabled false when off)
 };
 

@@ -62,7 +62,8 @@ void Pipeline::Impl::record_frame_time(const core::SyncedFrame<ScanMessage>& fra
         if (!frame.members[s]) continue;
         ft.t_ns[s] = frame.members[s]->t_ns;
         ft.realtime_ns[s] = frame.members[s]->complete_realtime_ns;
-        ft.last_scan_steady_ns = std::max(ft.last_scan_steady_ns, frame.members[s]->complete_steady_ns);
+        ft.last_scan_steady_ns =
+            std::max(ft.last_scan_steady_ns, frame.members[s]->complete_steady_ns);
     }
 }
 

@@ -40,8 +40,8 @@ struct Pipeline::Impl {
 
     // Declared before `dds`, which mirrors into it: destroyed after it.
     std::unique_ptr<FoxgloveServer> foxglove;  // null when output.foxglove.enabled is false
-    std::unique_ptr<DdsPublisher> dds;  // null when output.dds.enabled is false
-    std::unique_ptr<Recorder> recorder;  // null when output.record.enabled is false
+    std::unique_ptr<DdsPublisher> dds;         // null when output.dds.enabled is false
+    std::unique_ptr<Recorder> recorder;        // null when output.record.enabled is false
     std::vector<std::unique_ptr<MetadataFetcher>> fetchers;  // sensors named by hostname
 
     // When each synchronised frame's scans completed, for the output thread's latency

@@ -5,8 +5,8 @@
 #include <fstream>
 
 #include "daemon/pipeline_impl.hpp"
-#include "drivers/io/fused_cloud_file.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
+#include "drivers/io/fused_cloud_file.hpp"
 #include "drivers/io/pose_csv.hpp"
 
 namespace lidarfuse::daemon {
@@ -92,18 +92,21 @@ void Pipeline::Impl::output_loop() {
             e.T_root_sensor = T_root_fused * result->T_root_sensor[s];
             e.quality["fitness_reference"] = h.fitness_reference;
             if (poses && h.included) {
-                io::write_pose_csv_row(poses, {result->frame_index, sensors[s]->name, result->t_ns[s],
-                                               result->T_root_sensor[s]});
+                io::write_pose_csv_row(poses, {result->frame_index, sensors[s]->name,
+                                               result->t_ns[s], result->T_root_sensor[s]});
             }
         }
         if (poses) poses.flush();
         ++frames_seen;
-        if (frames_seen == 1 || frames_seen % out_cfg.extrinsics_interval_frames == 0) write_extrinsics();
-        if (out_cfg.record_clouds_every > 0 && result->frame_index % out_cfg.record_clouds_every == 0) {
+        if (frames_seen == 1 || frames_seen % out_cfg.extrinsics_interval_frames == 0)
+            write_extrinsics();
+        if (out_cfg.record_clouds_every > 0 &&
+            result->frame_index % out_cfg.record_clouds_every == 0) {
             try {
                 const bool pcd = out_cfg.record_clouds_format == OutputConfig::CloudFormat::kPcd;
-                const auto file = out_cfg.directory / ("fused_" + std::to_string(result->frame_index) +
-                                                       (pcd ? ".pcd" : ".ply"));
+                const auto file =
+                    out_cfg.directory /
+                    ("fused_" + std::to_string(result->frame_index) + (pcd ? ".pcd" : ".ply"));
                 if (pcd) {
                     io::write_fused_cloud_pcd(file, result->cloud);
                 } else {
@@ -119,12 +122,14 @@ void Pipeline::Impl::output_loop() {
     if (dds) dds->publish_diagnostics(collect_stats(), diagnostics_stamp_ns());
 }
 
-FrameStamps Pipeline::Impl::frame_stamps_of(const core::FrameOutput& out, const FrameTime& times) const {
+FrameStamps Pipeline::Impl::frame_stamps_of(const core::FrameOutput& out,
+                                            const FrameTime& times) const {
     std::vector<std::int64_t> host_ns(sensors.size(), 0);
     if (config.output.stamp == StampSource::kHost) {
         for (std::size_t s = 0; s < sensors.size() && s < out.t_ns.size(); ++s) {
             const bool known = s < times.realtime_ns.size() && times.realtime_ns[s] > 0;
-            host_ns[s] = known ? times.realtime_ns[s] : out.t_ns[s] - sensors[s]->clock_offset_ns.load();
+            host_ns[s] =
+                known ? times.realtime_ns[s] : out.t_ns[s] - sensors[s]->clock_offset_ns.load();
         }
     }
     return frame_stamps(out, config.output.stamp, host_ns);
@@ -144,13 +149,15 @@ std::int64_t Pipeline::Impl::diagnostics_stamp_ns() const {
 // Output thread, after a frame went to DDS: its latency and the members' offsets to the root.
 void Pipeline::Impl::note_published(const core::FrameOutput& out, const FrameTime& times) {
     const std::int64_t last_scan = times.last_scan_steady_ns;
-    const double latency_ms = last_scan > 0 ? static_cast<double>(steady_ns() - last_scan) * 1e-6 : 0.0;
+    const double latency_ms =
+        last_scan > 0 ? static_cast<double>(steady_ns() - last_scan) * 1e-6 : 0.0;
     const std::size_t root = config.fusion.root_sensor;
     std::lock_guard<std::mutex> lock(stats_mutex);
     if (last_scan > 0) last_latency_ms = latency_ms;
     if (root >= out.health.size() || !out.health[root].included) return;
     for (std::size_t s = 0; s < out.health.size() && s < offset_to_root_ms.size(); ++s) {
-        if (out.health[s].included) offset_to_root_ms[s] = static_cast<double>(out.t_ns[s] - out.t_ns[root]) * 1e-6;
+        if (out.health[s].included)
+            offset_to_root_ms[s] = static_cast<double>(out.t_ns[s] - out.t_ns[root]) * 1e-6;
     }
 }
 
@@ -175,7 +182,8 @@ PipelineStats Pipeline::Impl::collect_stats() const {
     out.scans_late = m.sync_counters.late_dropped;
     out.frames_fused = m.frames_fused;
     out.last_fusion_ms = m.last_fusion_ms;
-    out.mean_fusion_ms = m.frames_fused ? m.sum_fusion_ms / static_cast<double>(m.frames_fused) : 0.0;
+    out.mean_fusion_ms =
+        m.frames_fused ? m.sum_fusion_ms / static_cast<double>(m.frames_fused) : 0.0;
     out.last_latency_ms = m.last_latency_ms;
     out.world_frame = core::to_string(m.world_frame.kind);
     out.world_fixed = m.world_frame.fixed;

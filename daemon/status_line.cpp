@@ -10,15 +10,19 @@ std::string sensor_reason(const SensorStats& s) {
     char buffer[96];
     switch (s.state) {
         case SensorState::kOk:
-        case SensorState::kDisabled: return "";
-        case SensorState::kModeMismatch: return "sends " + s.mode_seen;
+        case SensorState::kDisabled:
+            return "";
+        case SensorState::kModeMismatch:
+            return "sends " + s.mode_seen;
         case SensorState::kNoMetadata:
             return s.metadata.last_error.empty() ? "fetching from " + s.metadata.source
                                                  : s.metadata.last_error;
         case SensorState::kStale:
         case SensorState::kLost:
-            if (s.ms_since_last_scan < 0) return s.packets > 0 ? "packets but no scan yet" : "nothing received";
-            std::snprintf(buffer, sizeof(buffer), "last scan %.1f s ago", s.ms_since_last_scan / 1e3);
+            if (s.ms_since_last_scan < 0)
+                return s.packets > 0 ? "packets but no scan yet" : "nothing received";
+            std::snprintf(buffer, sizeof(buffer), "last scan %.1f s ago",
+                          s.ms_since_last_scan / 1e3);
             return buffer;
     }
     return "";
@@ -37,8 +41,7 @@ std::string sensors_summary(const std::vector<SensorStats>& sensors) {
         const std::string first_reason = sensor_reason(*group.front());
         bool shared = true;
         for (const auto* s : group) shared = shared && sensor_reason(*s) == first_reason;
-        text += (text.empty() ? "" : "; ") + std::to_string(group.size()) + " " +
-                to_string(state);
+        text += (text.empty() ? "" : "; ") + std::to_string(group.size()) + " " + to_string(state);
         if (shared && !first_reason.empty()) text += ": " + first_reason;
         if (group.size() == sensors.size() && state == SensorState::kOk) continue;
         std::string members;

@@ -41,7 +41,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         pcap::ReassembledDatagram out;
         if (reassembler.add(f, &out)) {
             if (out.size > pcap::Ipv4Reassembler::kMaxPayloadBytes) fuzz::invariant_failed("size");
-            if (out.size < f.offset_bytes + f.size) fuzz::invariant_failed("misses its last fragment");
+            if (out.size < f.offset_bytes + f.size)
+                fuzz::invariant_failed("misses its last fragment");
             if (out.src_ip != f.src_ip || out.protocol != f.protocol) fuzz::invariant_failed("key");
             std::uint64_t sum = 0;
             for (std::size_t i = 0; i < out.size; ++i) sum += out.payload[i];

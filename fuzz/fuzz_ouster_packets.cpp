@@ -42,7 +42,8 @@ ouster::SensorInfo make_info(fuzz::FuzzInput& in, std::size_t* frames_in_flight,
     *check_crc = (b0 & 0x20) == 0;
     info.columns_per_frame = kColumns[in.byte() % 3];
     info.frames_per_second = info.columns_per_frame == 2048 ? 10 : 20;
-    info.lidar_mode = std::to_string(info.columns_per_frame) + "x" + std::to_string(info.frames_per_second);
+    info.lidar_mode =
+        std::to_string(info.columns_per_frame) + "x" + std::to_string(info.frames_per_second);
     info.pixels_per_column = kRows[in.byte() % 4];
     info.columns_per_packet = kColumnsPerPacket[in.byte() % 4];
     info.column_window[0] = in.u16() % info.columns_per_frame;
@@ -56,8 +57,8 @@ ouster::SensorInfo make_info(fuzz::FuzzInput& in, std::size_t* frames_in_flight,
         info.beam_altitude_angles_deg[static_cast<std::size_t>(r)] = 22.5 - 45.0 * r / (h - 1);
         info.beam_azimuth_angles_deg[static_cast<std::size_t>(r)] = (r % 4) * 1.5 - 2.25;
     }
-    info.pixel_shift_by_row = ouster::default_pixel_shift_by_row(info.beam_azimuth_angles_deg, h,
-                                                                 info.columns_per_frame);
+    info.pixel_shift_by_row =
+        ouster::default_pixel_shift_by_row(info.beam_azimuth_angles_deg, h, info.columns_per_frame);
     info.lidar_to_sensor_transform = ouster::default_lidar_to_sensor_transform();
     return info;
 }
@@ -75,15 +76,18 @@ const ouster::XyzLut& lut_for(const ouster::SensorInfo& info) {
 std::uint64_t read_headers(const ouster::PacketFormat& format, const std::uint8_t* pkt) {
     std::uint64_t sum = format.packet_type(pkt) + format.frame_id(pkt) + format.init_id(pkt) +
                         format.prod_sn(pkt) + format.alert_flags(pkt) +
-                        format.countdown_thermal_shutdown(pkt) + format.countdown_shot_limiting(pkt) +
-                        format.thermal_shutdown(pkt) + format.shot_limiting(pkt) + format.stored_crc(pkt);
+                        format.countdown_thermal_shutdown(pkt) +
+                        format.countdown_shot_limiting(pkt) + format.thermal_shutdown(pkt) +
+                        format.shot_limiting(pkt) + format.stored_crc(pkt);
     for (int c = 0; c < format.columns_per_packet(); ++c) {
         const std::uint8_t* col = format.column(pkt, c);
         sum += format.column_timestamp_ns(col) + format.column_measurement_id(col) +
-               format.column_status(col) + format.column_frame_id(col) + format.column_encoder_count(col);
+               format.column_status(col) + format.column_frame_id(col) +
+               format.column_encoder_count(col);
         const std::uint8_t* last = format.pixel(col, format.pixels_per_column() - 1);
-        sum += format.range_mm(last) + format.range2_mm(last) + format.signal(last) + format.signal2(last) +
-               format.reflectivity(last) + format.reflectivity2(last) + format.near_ir(last);
+        sum += format.range_mm(last) + format.range2_mm(last) + format.signal(last) +
+               format.signal2(last) + format.reflectivity(last) + format.reflectivity2(last) +
+               format.near_ir(last);
     }
     return sum;
 }
@@ -112,7 +116,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         if (!ouster::project_scan(scan, lut, ouster::ProjectionParams{}, &cloud)) {
             fuzz::invariant_failed("a scan does not project through its sensor's LUT");
         }
-        if (cloud.cloud.points.size() > scan.rows() * scan.columns()) fuzz::invariant_failed("points");
+        if (cloud.cloud.points.size() > scan.rows() * scan.columns())
+            fuzz::invariant_failed("points");
         ouster::point_times_s(cloud, ouster::scan_reference_time_ns(scan), &times);
     });
 
@@ -135,7 +140,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (c.packets != c.lidar_packets + c.imu_packets + c.bad_size + c.bad_profile + c.crc_errors) {
         fuzz::invariant_failed("packet counters do not add up");
     }
-    if (c.late_packets + c.duplicate_packets > c.lidar_packets) fuzz::invariant_failed("late + duplicate");
-    if (c.frames_complete + c.frames_incomplete != emitted) fuzz::invariant_failed("frame counters");
+    if (c.late_packets + c.duplicate_packets > c.lidar_packets)
+        fuzz::invariant_failed("late + duplicate");
+    if (c.frames_complete + c.frames_incomplete != emitted)
+        fuzz::invariant_failed("frame counters");
     return 0;
 }

@@ -23,7 +23,8 @@ namespace {
 
 std::filesystem::path input_file() {
     static const std::filesystem::path file =
-        std::filesystem::temp_directory_path() / ("lidarfuse_fuzz_pcap_" + std::to_string(getpid()) + ".pcap");
+        std::filesystem::temp_directory_path() /
+        ("lidarfuse_fuzz_pcap_" + std::to_string(getpid()) + ".pcap");
     return file;
 }
 
@@ -34,7 +35,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     {
         std::FILE* f = std::fopen(file.c_str(), "wb");
         if (!f) fuzz::invariant_failed("cannot write the input file");
-        if (size > 0 && std::fwrite(data, 1, size, f) != size) fuzz::invariant_failed("short write");
+        if (size > 0 && std::fwrite(data, 1, size, f) != size)
+            fuzz::invariant_failed("short write");
         std::fclose(f);
     }
     pcap::PcapReaderParams params;
@@ -46,7 +48,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         std::uint64_t delivered = 0;
         while (reader.next(&d)) {
             ++delivered;
-            if (d.size > pcap::Ipv4Reassembler::kMaxPayloadBytes) fuzz::invariant_failed("datagram size");
+            if (d.size > pcap::Ipv4Reassembler::kMaxPayloadBytes)
+                fuzz::invariant_failed("datagram size");
             std::uint64_t sum = 0;
             for (std::size_t i = 0; i < d.size; ++i) sum += d.data[i];
             sink = sink + sum;

@@ -40,7 +40,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     const auto& sensors = config.sensors;
     if (sensors.empty()) fuzz::invariant_failed("accepted a station without sensors");
-    if (sensors[config.root_index()].name != config.root) fuzz::invariant_failed("root not a sensor");
+    if (sensors[config.root_index()].name != config.root)
+        fuzz::invariant_failed("root not a sensor");
     std::set<std::string> names;
     for (const auto& s : sensors) {
         if (!names.insert(s.name).second) fuzz::invariant_failed("duplicate sensor name accepted");
@@ -48,12 +49,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     station::StationConfig again;
     try {
-        again = station::parse_station_config(station::to_yaml(config, base_dir), "fuzz-rewritten.yaml", base_dir);
+        again = station::parse_station_config(station::to_yaml(config, base_dir),
+                                              "fuzz-rewritten.yaml", base_dir);
     } catch (const station::ConfigError& error) {
         std::fprintf(stderr, "%s\n", error.what());
         fuzz::invariant_failed("to_yaml() output does not parse");
     }
-    if (again.sensors.size() != sensors.size() || again.root != config.root || again.station != config.station) {
+    if (again.sensors.size() != sensors.size() || again.root != config.root ||
+        again.station != config.station) {
         fuzz::invariant_failed("to_yaml() round trip differs");
     }
     for (std::size_t i = 0; i < sensors.size(); ++i) {

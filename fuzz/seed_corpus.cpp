@@ -67,7 +67,8 @@ std::string read_file(const fs::path& file) {
 std::vector<fs::path> files_with(const fs::path& dir, const std::string& extension) {
     std::vector<fs::path> out;
     for (const auto& entry : fs::directory_iterator(dir)) {
-        if (entry.is_regular_file() && entry.path().extension() == extension) out.push_back(entry.path());
+        if (entry.is_regular_file() && entry.path().extension() == extension)
+            out.push_back(entry.path());
     }
     std::sort(out.begin(), out.end());
     return out;
@@ -109,7 +110,8 @@ int packet_seeds(const fs::path& data_dir, const fs::path& out) {
         const std::string stem = capture.stem().string();
         for (const auto& json : files_with(data_dir, ".json")) {
             const std::string name = json.filename().string();
-            if (name.find(stem) == std::string::npos || name.find("_digest") != std::string::npos) continue;
+            if (name.find(stem) == std::string::npos || name.find("_digest") != std::string::npos)
+                continue;
             ouster::SensorInfo info;
             try {
                 info = ouster::load_metadata(json);
@@ -185,10 +187,12 @@ int reassembler_seeds(const fs::path& data_dir, const fs::path& out) {
         const u_char* bytes = nullptr;
         for (int i = 0; i < 24 && pcap_next_ex(in, &header, &bytes) == 1; ++i) {
             lf::pcap::Ipv4Packet ip;
-            if (lf::pcap::decode_frame(link, bytes, header->caplen, &ip) != lf::pcap::FrameKind::kIpv4) continue;
+            if (lf::pcap::decode_frame(link, bytes, header->caplen, &ip) !=
+                lf::pcap::FrameKind::kIpv4)
+                continue;
             if (!ip.is_fragment()) continue;
-            const std::uint8_t flags = static_cast<std::uint8_t>((ip.more_fragments ? 1 : 0) | (ip.id & 3) << 3 |
-                                                                 (ip.protocol == 17 ? 0x20 : 0));
+            const std::uint8_t flags = static_cast<std::uint8_t>(
+                (ip.more_fragments ? 1 : 0) | (ip.id & 3) << 3 | (ip.protocol == 17 ? 0x20 : 0));
             seed.push_back(static_cast<char>(flags));
             const std::uint32_t units = ip.offset_bytes / 8;
             seed.push_back(static_cast<char>(units & 0xFF));
@@ -217,8 +221,11 @@ int config_seeds(const fs::path& data_dir, const fs::path& repo_dir, const fs::p
     for (const auto& json : files_with(data_dir, ".json")) {
         const std::string name = json.filename().string();
         if (name.find("_digest") != std::string::npos || name.find("crc_test") == 0) continue;
-        yaml << "  - name: s" << n << "\n    udp_port: " << port << "\n    metadata: " << name << "\n";
-        if (n % 2 == 1) yaml << "    source_address: 169.254.10." << (11 + n) << "\n    time_offset_ns: -1500\n";
+        yaml << "  - name: s" << n << "\n    udp_port: " << port << "\n    metadata: " << name
+             << "\n";
+        if (n % 2 == 1)
+            yaml << "    source_address: 169.254.10." << (11 + n)
+                 << "\n    time_offset_ns: -1500\n";
         ++n;
         port += 2;
     }
@@ -413,8 +420,10 @@ int main(int argc, char** argv) {
         std::printf("seeds ouster_metadata %d\n", metadata_seeds(data_dir, dir("ouster_metadata")));
         std::printf("seeds ouster_packets %d\n", packet_seeds(data_dir, dir("ouster_packets")));
         std::printf("seeds pcap_reader %d\n", pcap_seeds(data_dir, dir("pcap_reader")));
-        std::printf("seeds ipv4_reassembler %d\n", reassembler_seeds(data_dir, dir("ipv4_reassembler")));
-        std::printf("seeds station_config %d\n", config_seeds(data_dir, repo_dir, dir("station_config")));
+        std::printf("seeds ipv4_reassembler %d\n",
+                    reassembler_seeds(data_dir, dir("ipv4_reassembler")));
+        std::printf("seeds station_config %d\n",
+                    config_seeds(data_dir, repo_dir, dir("station_config")));
         // The real point clouds sit beside the Ouster samples: DATA_DIR/../real.
         const fs::path real_dir = data_dir / ".." / "real";
         std::string small_pcd;

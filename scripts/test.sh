@@ -14,6 +14,10 @@ jobs="$(nproc)"
 start=$(date +%s)
 stage() { echo "== $1 (at $(( $(date +%s) - start )) s)"; }
 
+# The house format first: a few seconds, and a deviation is named before any build starts.
+stage "format (clang-format, .clang-format)"
+"$top/scripts/check_format.sh"
+
 # Unity builds (eight files to a unit; the tests one executable per folder): the same code
 # and the same tests, compiled in about half the time from nothing. A name that two files
 # of one unit both define fails here first (see tests/CMakeLists.txt).

@@ -59,14 +59,15 @@ struct CalibrationInput {
     std::string station;             // for extrinsics.yaml; empty for cloud files
     std::vector<std::string> names;  // names[k] is the sensor of clouds[k]
     std::vector<core::PointCloud> clouds;
-    std::vector<std::string> disabled;  // sensors of the config left out
+    std::vector<std::string> disabled;          // sensors of the config left out
     std::vector<std::size_t> config_index;      // capture: the config's index of clouds[k]
     std::optional<station::WorldConfig> world;  // capture: the config's `world:` section
 };
 
 // The enabled sensors' scans of one synchronised frame of a capture (the N-th complete one).
 CalibrationInput input_from_capture(const Args& args) {
-    if (args.positionals().size() != 1) throw UsageError("expected one CAPTURE.pcap\n" + std::string(kUsage));
+    if (args.positionals().size() != 1)
+        throw UsageError("expected one CAPTURE.pcap\n" + std::string(kUsage));
     const std::string config_path = args.required("--config");
     const auto station_config = station::load_station_config(config_path);
     const long long wanted = args.integer("--frame", 0);
@@ -111,7 +112,8 @@ CalibrationInput input_from_capture(const Args& args) {
     };
     capture.run([&](const capture::CaptureScan& scan) {
         if (sensors[scan.sensor].enabled && scan.scan->complete()) {
-            synchroniser.push(position[scan.sensor], scan.t_ns, scan.capture_time_ns, scan.cloud->cloud);
+            synchroniser.push(position[scan.sensor], scan.t_ns, scan.capture_time_ns,
+                              scan.cloud->cloud);
             take_ready(scan.capture_time_ns);
         }
         return input.clouds.empty();
@@ -174,8 +176,8 @@ Eigen::Vector3d yaw_pitch_roll_deg(const Eigen::Matrix3d& R) {
 // Every sensor's pose (or reason) into the document and the table.
 void report_sensors(const CalibrationInput& input, const core::InitialRegistrationResult& result,
                     io::ExtrinsicsDocument* doc) {
-    std::printf("%-16s %-10s %10s %10s %10s %8s %8s %8s  %s\n", "sensor", "status", "x_m", "y_m", "z_m",
-                "roll_deg", "pitch_deg", "yaw_deg", "reason");
+    std::printf("%-16s %-10s %10s %10s %10s %8s %8s %8s  %s\n", "sensor", "status", "x_m", "y_m",
+                "z_m", "roll_deg", "pitch_deg", "yaw_deg", "reason");
     for (std::size_t k = 0; k < input.names.size(); ++k) {
         const auto& r = result.sensors[k];
         io::ExtrinsicsEntry entry;
@@ -191,8 +193,8 @@ void report_sensors(const CalibrationInput& input, const core::InitialRegistrati
                         "ok", t.x(), t.y(), t.z(), ypr.z(), ypr.y(), ypr.x());
         } else {
             entry.reason = core::to_string(r.status);
-            std::printf("%-16s %-10s %10s %10s %10s %8s %8s %8s  %s\n", entry.name.c_str(), "FAILED", "-", "-",
-                        "-", "-", "-", "-", entry.reason.c_str());
+            std::printf("%-16s %-10s %10s %10s %10s %8s %8s %8s  %s\n", entry.name.c_str(),
+                        "FAILED", "-", "-", "-", "-", "-", "-", entry.reason.c_str());
         }
         doc->sensors.push_back(std::move(entry));
     }
@@ -207,8 +209,8 @@ void report_sensors(const CalibrationInput& input, const core::InitialRegistrati
 // Every pair's figures into the document and the table.
 void report_pairs(const CalibrationInput& input, const core::InitialRegistrationResult& result,
                   io::ExtrinsicsDocument* doc) {
-    std::printf("\n%-16s %-16s %-28s %10s %8s %8s %12s %10s\n", "source", "target", "status", "p2p_m",
-                "inliers", "overlap", "min_eig_H", "free_viol");
+    std::printf("\n%-16s %-16s %-28s %10s %8s %8s %12s %10s\n", "source", "target", "status",
+                "p2p_m", "inliers", "overlap", "min_eig_H", "free_viol");
     for (const auto& p : result.pairs) {
         io::ExtrinsicsPair pair;
         pair.source = input.names[static_cast<std::size_t>(p.source)];
@@ -221,8 +223,9 @@ void report_pairs(const CalibrationInput& input, const core::InitialRegistration
         pair.figures["min_hessian_eigenvalue"] = p.min_hessian_eigenvalue;
         pair.figures["free_space_violation_share"] = p.free_space_violation_share;
         std::printf("%-16s %-16s %-28s %10.3f %8zu %8.2f %12.4g %10.3f\n", pair.source.c_str(),
-                    pair.target.c_str(), pair.status.c_str(), p.p2p_error_m, p.gicp_inliers, p.overlap_share,
-                    p.min_hessian_eigenvalue, std::max(p.free_space_violation_share, p.worst_rejected_violation_share));
+                    pair.target.c_str(), pair.status.c_str(), p.p2p_error_m, p.gicp_inliers,
+                    p.overlap_share, p.min_hessian_eigenvalue,
+                    std::max(p.free_space_violation_share, p.worst_rejected_violation_share));
         doc->pairs.push_back(std::move(pair));
     }
 }
@@ -241,12 +244,20 @@ void print_figures(const core::InitialRegistrationResult& result, double input_s
     const core::StageTimeSums sums = core::sum_stage_timings(result);
     const core::SensorFeatureTimings& f = sums.features;
     const core::PairTimings& pt = sums.pairs;
-    const std::pair<const char*, double> stages[] = {
-        {"preprocess", f.preprocess_s}, {"normals", f.normals_s},       {"octree", f.octree_s},
-        {"sift", f.keypoints_s},        {"fpfh", f.fpfh_s},             {"ground_plane", f.ground_s},
-        {"gicp_cloud", f.gicp_cloud_s}, {"matching", pt.matching_s},    {"ground_search", pt.ground_search_s},
-        {"ransac", pt.ransac_s},        {"gicp", pt.gicp_s},            {"p2p", pt.p2p_s}};
-    for (const auto& [name, seconds] : stages) std::printf("calibrate_stage_%s_sum %.1f ms\n", name, 1e3 * seconds);
+    const std::pair<const char*, double> stages[] = {{"preprocess", f.preprocess_s},
+                                                     {"normals", f.normals_s},
+                                                     {"octree", f.octree_s},
+                                                     {"sift", f.keypoints_s},
+                                                     {"fpfh", f.fpfh_s},
+                                                     {"ground_plane", f.ground_s},
+                                                     {"gicp_cloud", f.gicp_cloud_s},
+                                                     {"matching", pt.matching_s},
+                                                     {"ground_search", pt.ground_search_s},
+                                                     {"ransac", pt.ransac_s},
+                                                     {"gicp", pt.gicp_s},
+                                                     {"p2p", pt.p2p_s}};
+    for (const auto& [name, seconds] : stages)
+        std::printf("calibrate_stage_%s_sum %.1f ms\n", name, 1e3 * seconds);
     std::printf("calibrate_total_time %.1f ms\n", 1e3 * total_s);
     std::printf("calibrate_registered %zu of %zu sensors\n", result.num_registered(), num_sensors);
 }
@@ -334,7 +345,8 @@ int run_calibrate(int argc, char** argv) {
         const bool sensors = std::string(stage) == "features";
         progress.update({stage, static_cast<double>(done), static_cast<double>(total),
                          sensors ? "sensors" : (std::string(stage) == "pairs" ? "pairs" : ""),
-                         total > 0 ? static_cast<double>(done) / static_cast<double>(total) : -1.0, 0});
+                         total > 0 ? static_cast<double>(done) / static_cast<double>(total) : -1.0,
+                         0});
     };
     const core::InitialRegistrationResult result = core::register_initial(input.clouds, params);
     progress.finish();
@@ -359,7 +371,8 @@ int run_calibrate(int argc, char** argv) {
 
 }  // namespace
 
-LIDARFUSE_REGISTER_COMMAND("calibrate", "initial registration: extrinsics of every sensor from one frame",
+LIDARFUSE_REGISTER_COMMAND("calibrate",
+                           "initial registration: extrinsics of every sensor from one frame",
                            run_calibrate);
 
 }  // namespace lidarfuse::tools

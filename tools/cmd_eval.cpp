@@ -23,7 +23,8 @@ void write_plot(const std::filesystem::path& file, const core::EvaluationResult&
     std::int64_t t0 = 0;
     bool have_t0 = false;
     for (const auto& s : result.sensors) {
-        if (!s.t_ns.empty() && (!have_t0 || s.t_ns.front() < t0)) t0 = s.t_ns.front(), have_t0 = true;
+        if (!s.t_ns.empty() && (!have_t0 || s.t_ns.front() < t0))
+            t0 = s.t_ns.front(), have_t0 = true;
     }
     for (const auto& s : result.sensors) {
         PlotSeries series{s.sensor, {}, s.*errors};
@@ -56,7 +57,8 @@ int run_eval(int argc, char** argv) {
             "world.T_world_fused translation) against the truth directly, no alignment.\n");
         return 0;
     }
-    if (args.value("--cloud") && !args.value("--plot")) throw UsageError("--cloud needs --plot DIR");
+    if (args.value("--cloud") && !args.value("--plot"))
+        throw UsageError("--cloud needs --plot DIR");
     const auto truth = io::to_trajectories(io::read_pose_csv(args.required("--gt")));
     const auto estimate = io::to_trajectories(io::read_pose_csv(args.required("--poses")));
     core::EvaluationParams params;
@@ -96,7 +98,8 @@ int run_eval(int argc, char** argv) {
         std::printf("eval_%s_strict_rmse_trans %.6f m\n", n, s.strict_rmse_trans_m);
         std::printf("eval_%s_strict_rmse_rot %.6f deg\n", n, s.strict_rmse_rot_deg);
         std::printf("eval_%s_max_trans %.6f m\n", n, s.max_trans_m);
-        std::printf("eval_%s_first_tenth_strict_rmse_trans %.6f m\n", n, s.first_tenth_rmse_trans_m);
+        std::printf("eval_%s_first_tenth_strict_rmse_trans %.6f m\n", n,
+                    s.first_tenth_rmse_trans_m);
         std::printf("eval_%s_last_tenth_strict_rmse_trans %.6f m\n", n, s.last_tenth_rmse_trans_m);
         if (params.world == core::EvaluationParams::World::kRoad) {
             std::printf("eval_%s_world_height_rmse %.6f m\n", n, s.world_rmse_trans_m);
@@ -134,7 +137,8 @@ int run_eval(int argc, char** argv) {
         if (const auto cloud_file = args.value("--cloud")) {
             const auto cloud = read_fused_cloud_ply(*cloud_file);
             TopViewSpec view;
-            view.title = "Fused frame, top view (" + std::filesystem::path(*cloud_file).filename().string() + ")";
+            view.title = "Fused frame, top view (" +
+                         std::filesystem::path(*cloud_file).filename().string() + ")";
             std::uint8_t max_sensor = 0;
             for (std::size_t i = 0; i < cloud.points.size(); ++i) {
                 view.x.push_back(cloud.points[i].x());
@@ -143,7 +147,8 @@ int run_eval(int argc, char** argv) {
             }
             view.sensor = cloud.sensor;
             view.dynamic = cloud.dynamic;
-            for (int s = 0; s <= max_sensor; ++s) view.sensor_labels.push_back("sensor " + std::to_string(s));
+            for (int s = 0; s <= max_sensor; ++s)
+                view.sensor_labels.push_back("sensor " + std::to_string(s));
             std::ofstream(d / "top_view.svg") << render_svg_top_view(view);
             std::printf("eval_top_view_points %zu points\n", cloud.points.size());
         }

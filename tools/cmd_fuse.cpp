@@ -98,7 +98,8 @@ int run_fuse(int argc, char** argv) {
     params.initial_registration_inline = true;  // offline: deterministic, timing-independent
     if (!(params.voxel_size_m > 0)) throw UsageError("--voxel-size must be positive");
     if (params.window_frames < 2) throw UsageError("--window must be at least 2");
-    const long long max_frames = args.integer("--max-frames", std::numeric_limits<long long>::max());
+    const long long max_frames =
+        args.integer("--max-frames", std::numeric_limits<long long>::max());
     std::set<long long> save;
     for (const auto& f : args.values("--save-cloud")) save.insert(std::stoll(f));
     core::FusionEngine engine(n, params);
@@ -163,15 +164,15 @@ int run_fuse(int argc, char** argv) {
             const auto& h = out.health[s];
             if (!h.event.empty() && h.event != last_event[s]) {
                 progress.finish();  // the message on a line of its own; redrawn below it
-                std::fprintf(stderr, "frame %lld: %s: %s\n", frames, station.sensors[s].name.c_str(),
-                             h.event.c_str());
+                std::fprintf(stderr, "frame %lld: %s: %s\n", frames,
+                             station.sensors[s].name.c_str(), h.event.c_str());
             }
             last_event[s] = h.event;
             tracking += h.pose_valid && h.included;
         }
         const auto& t = out.timings;
-        timing << out.frame_index << ',' << frame.t_ns << ',' << frame.included() << ',' << tracking << ','
-               << t.initial_ms << ',' << t.preprocess_ms << ',' << t.registration_ms << ','
+        timing << out.frame_index << ',' << frame.t_ns << ',' << frame.included() << ',' << tracking
+               << ',' << t.initial_ms << ',' << t.preprocess_ms << ',' << t.registration_ms << ','
                << t.graph_ms << ',' << t.fuse_ms << ',' << t.total_ms << '\n';
         // The world frame: poses and cloud into the fused frame, written once it is known.
         world.update(out);
@@ -203,7 +204,8 @@ int run_fuse(int argc, char** argv) {
         PendingScan pending;
         pending.t_ns = scan.t_ns;
         pending.points = scan.cloud->cloud.points;
-        ouster::point_times_s(*scan.cloud, static_cast<std::uint64_t>(scan.sensor_t_ns), &pending.point_dt_s);
+        ouster::point_times_s(*scan.cloud, static_cast<std::uint64_t>(scan.sensor_t_ns),
+                              &pending.point_dt_s);
         ouster::point_intensity(*scan.scan, *scan.cloud, &pending.intensity);
         synchroniser.push(scan.sensor, scan.t_ns, scan.capture_time_ns, std::move(pending));
         while (frames < max_frames) {
@@ -267,21 +269,26 @@ int run_fuse(int argc, char** argv) {
     }
     if (!wf.note.empty()) std::fprintf(stderr, "world frame: %s\n", wf.note.c_str());
     std::printf("fuse_frames %lld frames\n", frames);
-    std::printf("fuse_frames_partial %llu frames\n", static_cast<unsigned long long>(sc.frames_partial));
-    std::printf("fuse_scans_late_dropped %llu scans\n", static_cast<unsigned long long>(sc.late_dropped));
+    std::printf("fuse_frames_partial %llu frames\n",
+                static_cast<unsigned long long>(sc.frames_partial));
+    std::printf("fuse_scans_late_dropped %llu scans\n",
+                static_cast<unsigned long long>(sc.late_dropped));
     std::printf("fuse_initial_registration_time %.1f ms\n", initial_ms);
     std::printf("fuse_continuous_mean_time %.2f ms\n",
                 continuous_frames ? continuous_ms / static_cast<double>(continuous_frames) : 0.0);
-    std::printf("fuse_continuous_mean_cpu_time %.2f ms\n",
-                continuous_frames ? continuous_cpu_ms / static_cast<double>(continuous_frames) : 0.0);
+    std::printf(
+        "fuse_continuous_mean_cpu_time %.2f ms\n",
+        continuous_frames ? continuous_cpu_ms / static_cast<double>(continuous_frames) : 0.0);
     std::printf("fuse_total_time %.1f ms\n", total_ms);
-    if (!capture.pcap_warning().empty()) std::fprintf(stderr, "warning: %s\n", capture.pcap_warning().c_str());
+    if (!capture.pcap_warning().empty())
+        std::fprintf(stderr, "warning: %s\n", capture.pcap_warning().c_str());
     return frames > 0 ? 0 : 1;
 }
 
 }  // namespace
 
-LIDARFUSE_REGISTER_COMMAND("fuse", "run the FusionEngine over a capture: poses.csv, timing.csv, clouds",
+LIDARFUSE_REGISTER_COMMAND("fuse",
+                           "run the FusionEngine over a capture: poses.csv, timing.csv, clouds",
                            run_fuse);
 
 }  // namespace lidarfuse::tools

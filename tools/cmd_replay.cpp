@@ -101,7 +101,8 @@ int run_replay(int argc, char** argv) {
         double fraction = file_bytes > 0 ? static_cast<double>(bytes_read) / file_bytes : -1.0;
         if (params.loop) {
             fraction = params.max_passes > 0 && fraction >= 0
-                           ? (static_cast<double>(pass) + fraction) / static_cast<double>(params.max_passes)
+                           ? (static_cast<double>(pass) + fraction) /
+                                 static_cast<double>(params.max_passes)
                            : -1.0;
         }
         progress.update({params.loop ? "pass " + std::to_string(pass + 1) : "sending",

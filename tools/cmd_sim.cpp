@@ -162,8 +162,8 @@ int run_sim(int argc, char** argv) {
     sim::Simulator simulator(params);
     ProgressLine progress("sim", progress_wanted(args));
     simulator.set_on_frame([&](int done, int total) {
-        progress.update({live_host.empty() ? "rendering" : "sending live", static_cast<double>(done),
-                         static_cast<double>(total), "frames",
+        progress.update({live_host.empty() ? "rendering" : "sending live",
+                         static_cast<double>(done), static_cast<double>(total), "frames",
                          static_cast<double>(done) / static_cast<double>(std::max(1, total)), 0});
     });
     sim::OutputOptions options;

@@ -15,20 +15,23 @@ constexpr std::size_t kVertexBytes = 4 * 4 + 2;  // x y z intensity (float), sen
 core::FusedCloud read_fused_cloud_ply(const std::filesystem::path& file) {
     std::ifstream in(file, std::ios::binary);
     if (!in) throw std::runtime_error(file.string() + ": cannot open");
-    const auto fail = [&](const std::string& why) { return std::runtime_error(file.string() + ": " + why); };
+    const auto fail = [&](const std::string& why) {
+        return std::runtime_error(file.string() + ": " + why);
+    };
     std::string line;
     std::getline(in, line);
     if (line != "ply") throw fail("not a PLY file");
-    const std::vector<std::string> properties = {"property float x", "property float y",
-                                                 "property float z", "property float intensity",
-                                                 "property uchar sensor", "property uchar dynamic"};
+    const std::vector<std::string> properties = {
+        "property float x",         "property float y",      "property float z",
+        "property float intensity", "property uchar sensor", "property uchar dynamic"};
     std::size_t vertices = 0, property = 0;
     bool have_format = false, have_vertices = false;
     while (std::getline(in, line)) {
         if (line == "end_header") break;
         if (line.rfind("comment", 0) == 0) continue;
         if (line.rfind("format ", 0) == 0) {
-            if (line != "format binary_little_endian 1.0") throw fail("unsupported \"" + line + "\"");
+            if (line != "format binary_little_endian 1.0")
+                throw fail("unsupported \"" + line + "\"");
             have_format = true;
         } else if (line.rfind("element vertex ", 0) == 0) {
             vertices = std::stoull(line.substr(15));

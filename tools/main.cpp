@@ -32,7 +32,8 @@ void print_usage(std::FILE* out) {
     auto sorted = lidarfuse::tools::commands();
     std::sort(sorted.begin(), sorted.end(),
               [](const auto& a, const auto& b) { return a.name < b.name; });
-    std::fprintf(out, "usage: lidarfuse COMMAND [ARGS...]   (lidarfuse COMMAND --help for details)\n\n");
+    std::fprintf(out,
+                 "usage: lidarfuse COMMAND [ARGS...]   (lidarfuse COMMAND --help for details)\n\n");
     for (const auto& command : sorted) {
         std::fprintf(out, "  %-10s %s\n", command.name.c_str(), command.summary.c_str());
     }

@@ -34,7 +34,9 @@ std::string number_text(double value) {
 
 }  // namespace
 
-bool progress_wanted(const Args& args) { return !args.flag("--quiet") && ::isatty(STDERR_FILENO) == 1; }
+bool progress_wanted(const Args& args) {
+    return !args.flag("--quiet") && ::isatty(STDERR_FILENO) == 1;
+}
 
 double progress_file_bytes(const std::string& path) {
     std::vector<std::filesystem::path> files;
@@ -65,11 +67,13 @@ std::string format_progress(const std::string& command, const ProgressState& sta
     if (fraction >= 0) line += " (" + number_text(100.0 * fraction) + " %)";
     if (state.elapsed_s > 0 && state.done > 0 && !state.unit.empty()) {
         char rate[48];
-        std::snprintf(rate, sizeof rate, ", %.1f %s/s", state.done / state.elapsed_s, state.unit.c_str());
+        std::snprintf(rate, sizeof rate, ", %.1f %s/s", state.done / state.elapsed_s,
+                      state.unit.c_str());
         line += rate;
     }
     line += ", " + clock_text(state.elapsed_s) + " elapsed";
-    if (fraction > 0) line += ", " + clock_text(state.elapsed_s * (1.0 - fraction) / fraction) + " left";
+    if (fraction > 0)
+        line += ", " + clock_text(state.elapsed_s * (1.0 - fraction) / fraction) + " left";
     return line;
 }
 

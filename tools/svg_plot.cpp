@@ -18,10 +18,14 @@ const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
 std::string escape(const std::string& text) {
     std::string out;
     for (char c : text) {
-        if (c == '<') out += "&lt;";
-        else if (c == '>') out += "&gt;";
-        else if (c == '&') out += "&amp;";
-        else out += c;
+        if (c == '<')
+            out += "&lt;";
+        else if (c == '>')
+            out += "&gt;";
+        else if (c == '&')
+            out += "&amp;";
+        else
+            out += c;
     }
     return out;
 }
@@ -108,14 +112,16 @@ std::string render_svg_top_view(const TopViewSpec& spec) {
     const int h = std::max(1, static_cast<int>(std::ceil((y1 - y0) / cell)));
     // Per cell: point count per sensor (up to 8 shown apart; more share colours) + dynamic.
     constexpr int kSlots = 9;  // 8 sensor colours + dynamic
-    std::vector<std::uint32_t> counts(static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * kSlots, 0);
+    std::vector<std::uint32_t> counts(
+        static_cast<std::size_t>(w) * static_cast<std::size_t>(h) * kSlots, 0);
     const std::size_t num_colours = sizeof(kColours) / sizeof(kColours[0]);
     for (std::size_t i = 0; i < n; ++i) {
         const int cx = static_cast<int>(std::floor((spec.x[i] - x0) / cell));
         const int cy = static_cast<int>(std::floor((spec.y[i] - y0) / cell));
         if (cx < 0 || cy < 0 || cx >= w || cy >= h) continue;
         const std::size_t base = (static_cast<std::size_t>(cy) * static_cast<std::size_t>(w) +
-                                  static_cast<std::size_t>(cx)) * kSlots;
+                                  static_cast<std::size_t>(cx)) *
+                                 kSlots;
         ++counts[base + (have_dynamic && spec.dynamic[i] ? 8 : spec.sensor[i] % num_colours)];
     }
     const double scale = 800.0 / std::max(w, h);  // pixels per cell: the longer side 800 px
@@ -123,10 +129,12 @@ std::string render_svg_top_view(const TopViewSpec& spec) {
     const double pw = w * scale, ph = h * scale;
     std::ostringstream svg;
     svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << number(left + pw + legend)
-        << "\" height=\"" << number(top + ph + 40) << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
+        << "\" height=\"" << number(top + ph + 40)
+        << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
         << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-        << "<text x=\"" << number((left + pw) / 2) << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">"
-        << escape(spec.title) << "</text>\n"
+        << "<text x=\"" << number((left + pw) / 2)
+        << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" << escape(spec.title)
+        << "</text>\n"
         << "<g shape-rendering=\"crispEdges\">\n";
     const auto colour_of = [&](std::size_t base) -> int {
         int best = -1;
@@ -142,15 +150,18 @@ std::string render_svg_top_view(const TopViewSpec& spec) {
     for (int cy = 0; cy < h; ++cy) {
         int run_colour = -1, run_start = 0;
         for (int cx = 0; cx <= w; ++cx) {
-            const int c = cx < w ? colour_of((static_cast<std::size_t>(cy) * static_cast<std::size_t>(w) +
-                                              static_cast<std::size_t>(cx)) * kSlots)
-                                 : -2;
+            const int c =
+                cx < w ? colour_of((static_cast<std::size_t>(cy) * static_cast<std::size_t>(w) +
+                                    static_cast<std::size_t>(cx)) *
+                                   kSlots)
+                       : -2;
             if (c == run_colour) continue;
             if (run_colour >= 0) {
                 svg << "<rect x=\"" << number(left + run_start * scale) << "\" y=\""
-                    << number(top + ph - (cy + 1) * scale) << "\" width=\"" << number((cx - run_start) * scale)
-                    << "\" height=\"" << number(scale) << "\" fill=\""
-                    << (run_colour == 8 ? "#444444" : kColours[run_colour]) << "\"/>\n";
+                    << number(top + ph - (cy + 1) * scale) << "\" width=\""
+                    << number((cx - run_start) * scale) << "\" height=\"" << number(scale)
+                    << "\" fill=\"" << (run_colour == 8 ? "#444444" : kColours[run_colour])
+                    << "\"/>\n";
             }
             run_colour = c;
             run_start = cx;
@@ -158,9 +169,9 @@ std::string render_svg_top_view(const TopViewSpec& spec) {
     }
     svg << "</g>\n<rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << number(pw)
         << "\" height=\"" << number(ph) << "\" fill=\"none\" stroke=\"black\"/>\n"
-        << "<text x=\"" << left << "\" y=\"" << number(top + ph + 18) << "\">x " << number(x0) << " .. "
-        << number(x0 + w * cell) << " m, y " << number(y0) << " .. " << number(y0 + h * cell)
-        << " m, cell " << number(cell) << " m</text>\n";
+        << "<text x=\"" << left << "\" y=\"" << number(top + ph + 18) << "\">x " << number(x0)
+        << " .. " << number(x0 + w * cell) << " m, y " << number(y0) << " .. "
+        << number(y0 + h * cell) << " m, cell " << number(cell) << " m</text>\n";
     std::vector<std::pair<std::string, std::string>> entries;
     for (std::size_t s = 0; s < spec.sensor_labels.size() && s < num_colours; ++s) {
         entries.emplace_back(kColours[s], spec.sensor_labels[s]);

@@ -32,9 +32,9 @@ std::string render_svg_line_plot(const PlotSpec& spec);
 // most max_cells cells per side by coarsening the cells.
 struct TopViewSpec {
     std::string title;
-    std::vector<float> x, y;               // metres
-    std::vector<std::uint8_t> sensor;      // per point, index into sensor_labels
-    std::vector<std::uint8_t> dynamic;     // per point, 1 = dynamic (may be empty)
+    std::vector<float> x, y;            // metres
+    std::vector<std::uint8_t> sensor;   // per point, index into sensor_labels
+    std::vector<std::uint8_t> dynamic;  // per point, 1 = dynamic (may be empty)
     std::vector<std::string> sensor_labels;
     double cell_size_m = 0.2;
     int max_cells = 800;

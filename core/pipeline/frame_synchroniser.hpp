@@ -3,8 +3,8 @@
 // differ by at most max_offset_ns, 1/SR by default) with a deadline: when a sensor is late
 // or missing, the frame leaves without it and says so (`included`). Frames leave in
 // timestamp order and never go backwards; a scan older than the last frame that left is
-// dropped and counted (so is one that belonged to that frame), unless it is older by more than `reset_jump_ns` (a looped replay, a
-// sensor clock reset), which resets the synchroniser instead.
+// dropped and counted (so is one that belonged to that frame), unless it is older by more than
+// `reset_jump_ns` (a looped replay, a sensor clock reset), which resets the synchroniser instead.
 //
 // Times: sensor timestamps (ns, after each sensor's configured offset) decide membership;
 // the deadline runs on the caller's monotonic clock (ns), so a wall-clock jump has no
@@ -39,14 +39,14 @@ inline SyncParams offline_sync_params(int frames_per_second) {
 struct SyncCounters {
     std::uint64_t frames_complete = 0;
     std::uint64_t frames_partial = 0;
-    std::uint64_t late_dropped = 0;      // older than the last frame that left
-    std::uint64_t replaced = 0;          // a second scan of a sensor for one open frame
-    std::uint64_t resets = 0;            // backward jumps larger than reset_jump_ns
+    std::uint64_t late_dropped = 0;  // older than the last frame that left
+    std::uint64_t replaced = 0;      // a second scan of a sensor for one open frame
+    std::uint64_t resets = 0;        // backward jumps larger than reset_jump_ns
 };
 
 template <typename T>
 struct SyncedFrame {
-    std::int64_t t_ns = 0;               // reference time: the earliest member's timestamp
+    std::int64_t t_ns = 0;                  // reference time: the earliest member's timestamp
     std::vector<std::optional<T>> members;  // one slot per sensor, empty when not included
     std::size_t included() const {
         std::size_t n = 0;
@@ -86,14 +86,16 @@ public:
         Open* best = nullptr;
         std::int64_t best_gap = 0;
         for (auto& open : open_) {
-            const std::int64_t gap = t > open.frame.t_ns ? t - open.frame.t_ns : open.frame.t_ns - t;
+            const std::int64_t gap =
+                t > open.frame.t_ns ? t - open.frame.t_ns : open.frame.t_ns - t;
             if (gap < params_.max_offset_ns && (!best || gap < best_gap)) {
                 best = &open;
                 best_gap = gap;
             }
         }
         if (!best) {
-            open_.push_back(Open{SyncedFrame<T>{t, std::vector<std::optional<T>>(sensors_)}, now_ns});
+            open_.push_back(
+                Open{SyncedFrame<T>{t, std::vector<std::optional<T>>(sensors_)}, now_ns});
             best = &open_.back();
         } else if (best->frame.members[sensor].has_value()) {
             ++counters_.replaced;  // keep the newer scan of this sensor

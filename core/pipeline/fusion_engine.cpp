@@ -10,10 +10,14 @@ namespace lidarfuse::core {
 
 const char* to_string(TrackState state) {
     switch (state) {
-        case TrackState::kUninitialised: return "uninitialised";
-        case TrackState::kTracking: return "tracking";
-        case TrackState::kMissing: return "missing";
-        case TrackState::kReinitialised: return "reinitialised";
+        case TrackState::kUninitialised:
+            return "uninitialised";
+        case TrackState::kTracking:
+            return "tracking";
+        case TrackState::kMissing:
+            return "missing";
+        case TrackState::kReinitialised:
+            return "reinitialised";
     }
     return "unknown";
 }

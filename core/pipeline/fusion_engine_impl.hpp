@@ -28,10 +28,10 @@ namespace lidarfuse::core {
 // An initial registration handed out (or run inline) and what applying it needs.
 struct PendingInitialisation {
     std::shared_ptr<InitialRegistrationJob> job;
-    std::int64_t frame = 0;               // the frame of its scans
-    bool first = false;                   // the station's first registration
-    std::vector<std::size_t> order;       // the root, then the sensors to register
-    std::vector<SensorScanInput> scans;   // their scans of `frame`, in `order`
+    std::int64_t frame = 0;              // the frame of its scans
+    bool first = false;                  // the station's first registration
+    std::vector<std::size_t> order;      // the root, then the sensors to register
+    std::vector<SensorScanInput> scans;  // their scans of `frame`, in `order`
     Eigen::Isometry3d T_root0_root = Eigen::Isometry3d::Identity();  // root pose at `frame`
 };
 
@@ -76,7 +76,7 @@ struct FusionEngine::Impl {
     std::vector<GicpRegistration> registrations;  // one per thread
     std::int64_t frame_counter = 0;
     std::int64_t last_retry_frame = -1'000'000;
-    std::vector<int> suspicious;         // consecutive suspicious frames per sensor
+    std::vector<int> suspicious;  // consecutive suspicious frames per sensor
     std::vector<bool> needs_reinit;
     SlidingWindow window;
     std::optional<PendingInitialisation> pending;
@@ -131,7 +131,8 @@ struct FusionEngine::Impl {
     // Starts the tracks of the sensors the finished job registered. Their reference frame is
     // the job's frame (its scans); when that is an earlier frame, they are tracked from this
     // frame on like any sensor (reference edge from the registered pose, inter-sensor edges).
-    void apply_initialisation(std::int64_t frame, std::vector<std::size_t>* started, FrameOutput* out);
+    void apply_initialisation(std::int64_t frame, std::vector<std::size_t>* started,
+                              FrameOutput* out);
     // Removes every graph node of sensor `s` (window and reference) and forgets its
     // reference edges (a sensor that diverged and is registered again).
     void remove_track_nodes(std::size_t s);

@@ -7,9 +7,10 @@
 namespace lidarfuse::core {
 
 void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameInput& in,
-                            const std::vector<std::size_t>& sensors, bool first,
-                            const Eigen::Isometry3d& T_root0_root_now,
-                            std::vector<std::size_t>* started, FrameOutput* out) {
+                                                const std::vector<std::size_t>& sensors, bool first,
+                                                const Eigen::Isometry3d& T_root0_root_now,
+                                                std::vector<std::size_t>* started,
+                                                FrameOutput* out) {
     const std::size_t root = params.root_sensor;
     PendingInitialisation p;
     p.frame = frame;
@@ -58,7 +59,8 @@ bool FusionEngine::Impl::tracking_beyond_root() const {
     return false;
 }
 
-void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<std::size_t>* started, FrameOutput* out) {
+void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<std::size_t>* started,
+                                              FrameOutput* out) {
     const PendingInitialisation p = std::move(*pending);
     pending.reset();
     const auto& result = p.job->result();
@@ -71,9 +73,9 @@ void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<st
         if (is_root && tracks[s]->initialised()) continue;  // only a reference here
         if (k >= result.sensors.size() || !result.sensors[k].registered) {
             out->health[s].event_is_problem = true;
-            out->health[s].event =
-                std::string("initial registration failed: ") +
-                (k < result.sensors.size() ? to_string(result.sensors[k].status) : p.job->error().c_str());
+            out->health[s].event = std::string("initial registration failed: ") +
+                                   (k < result.sensors.size() ? to_string(result.sensors[k].status)
+                                                              : p.job->error().c_str());
             any_failed = true;
             continue;
         }

@@ -11,13 +11,14 @@ namespace lidarfuse::core {
 void FusionEngine::Impl::remove_track_nodes(std::size_t s) {
     window.remove_sensor(s);
     if (tracks[s]->initialised()) graph.remove_node(node_id(s, tracks[s]->reference_frame()));
-    reference_edges.erase(std::remove_if(reference_edges.begin(), reference_edges.end(),
-                                         [s](const ReferenceEdge& e) { return e.a == s || e.b == s; }),
-                          reference_edges.end());
+    reference_edges.erase(
+        std::remove_if(reference_edges.begin(), reference_edges.end(),
+                       [s](const ReferenceEdge& e) { return e.a == s || e.b == s; }),
+        reference_edges.end());
 }
 
 bool FusionEngine::Impl::reanchor_references(std::int64_t frame, const std::vector<char>& usable,
-                         const std::vector<std::size_t>& started) {
+                                             const std::vector<std::size_t>& started) {
     const std::size_t root = params.root_sensor;
     std::vector<std::size_t> order{root};
     for (std::size_t s = 0; s < n; ++s) {
@@ -62,7 +63,8 @@ bool FusionEngine::Impl::reanchor_references(std::int64_t frame, const std::vect
     return any;
 }
 
-void FusionEngine::Impl::add_fine_reference_edges(const std::vector<std::size_t>& fresh, bool deskewed_only) {
+void FusionEngine::Impl::add_fine_reference_edges(const std::vector<std::size_t>& fresh,
+                                                  bool deskewed_only) {
     if (!(params.reference_voxel_size_m > 0) || fresh.empty()) return;
     const auto in_fresh = [&](std::size_t s) {
         return std::find(fresh.begin(), fresh.end(), s) != fresh.end();
@@ -72,7 +74,8 @@ void FusionEngine::Impl::add_fine_reference_edges(const std::vector<std::size_t>
         const SensorTrack& t = *tracks[s];
         if (!t.initialised() || (deskewed_only && !t.reference_deskewed())) continue;
         bool shares = false;
-        for (std::size_t f : fresh) shares = shares || tracks[f]->reference_frame() == t.reference_frame();
+        for (std::size_t f : fresh)
+            shares = shares || tracks[f]->reference_frame() == t.reference_frame();
         if (in_fresh(s) || shares) sensors.push_back(s);
     }
     std::vector<GicpTarget> targets(sensors.size());
@@ -113,8 +116,8 @@ void FusionEngine::Impl::add_fine_reference_edges(const std::vector<std::size_t>
         if (r.inlier_ratio < 0.5 * params.min_fitness) continue;
         const std::size_t sa = sensors[pair.a], sb = sensors[pair.b];
         const auto e = graph.add_edge(node_id(sa, tracks[sa]->reference_frame()),
-                                      node_id(sb, tracks[sb]->reference_frame()),
-                                      r.T_target_source, calibrated_information(r));
+                                      node_id(sb, tracks[sb]->reference_frame()), r.T_target_source,
+                                      calibrated_information(r));
         if (e >= 0) reference_edges.push_back({e, sa, sb});
     }
 }

@@ -25,7 +25,7 @@ class InitialRegistrationJob;  // core/pipeline/initial_registration_job.hpp
 // One sensor's scan in one synchronised frame.
 struct SensorScanInput {
     bool present = false;
-    std::int64_t t_ns = 0;  // the scan's timestamp: the instant its pose refers to
+    std::int64_t t_ns = 0;                // the scan's timestamp: the instant its pose refers to
     std::vector<Eigen::Vector3d> points;  // sensor frame (m); no-return pixels removed
     // Per point: acquisition time - t_ns (s), for deskew. Empty: no deskew for this scan.
     std::vector<float> point_dt_s;
@@ -67,8 +67,8 @@ struct FusionParams {
     // the reference poses re-anchored to the scan timestamps (engine). It lowers the
     // rotation error (bench/BENCHMARK.md, "Deskew").
     bool deskew = true;
-    double deskew_max_span_s = 0.3;        // poses further apart: no velocity, no deskew
-    double deskew_max_rate_deg_s = 30.0;   // faster (a knock, a glitch): no deskew
+    double deskew_max_span_s = 0.3;       // poses further apart: no velocity, no deskew
+    double deskew_max_rate_deg_s = 30.0;  // faster (a knock, a glitch): no deskew
     double deskew_max_speed_m_s = 3.0;
     int deskew_reference_after_frames = 3;
     // Fine edges between the reference frames: G-ICP between every pair of the first
@@ -123,10 +123,10 @@ struct FusionParams {
 };
 
 enum class TrackState {
-    kUninitialised,   // no pose yet (waiting for the initial registration)
-    kTracking,        // continuous registration
-    kMissing,         // no scan in this frame: pose predicted, not measured
-    kReinitialised,   // registered again from scratch in this frame
+    kUninitialised,  // no pose yet (waiting for the initial registration)
+    kTracking,       // continuous registration
+    kMissing,        // no scan in this frame: pose predicted, not measured
+    kReinitialised,  // registered again from scratch in this frame
 };
 
 const char* to_string(TrackState state);
@@ -136,11 +136,11 @@ struct SensorHealth {
     bool included = false;    // the frame held a scan of this sensor
     bool pose_valid = false;  // T_root_sensor is an estimate (else identity, never invented)
     std::size_t points_in = 0, static_points = 0, dynamic_points = 0, registration_points = 0;
-    double fitness_previous = 0.0;  // G-ICP inlier share against the previous frame
-    double fitness_reference = 0.0; // ... against the reference (first) frame
+    double fitness_previous = 0.0;   // G-ICP inlier share against the previous frame
+    double fitness_reference = 0.0;  // ... against the reference (first) frame
     std::size_t inliers_reference = 0;
-    double min_hessian_eigenvalue = 0.0;  // of the reference edge (conditioning)
-    double max_edge_residual_sigma = 0.0; // worst whitened edge residual after optimisation
+    double min_hessian_eigenvalue = 0.0;   // of the reference edge (conditioning)
+    double max_edge_residual_sigma = 0.0;  // worst whitened edge residual after optimisation
     std::string event;  // non-empty when something happened (reinitialised, failed, ...)
     // The event is a problem (a scan skipped, a divergence, a refused registration), not
     // normal life (initialised, registration started): logs put it at warning, not info.
@@ -164,7 +164,7 @@ struct FusedCloud {
 // Wall-clock milliseconds per stage of one frame.
 struct FrameTimings {
     double initial_ms = 0.0;
-    double preprocess_ms = 0.0;  // deskew, range crop, background model, voxel grid, covariances
+    double preprocess_ms = 0.0;    // deskew, range crop, background model, voxel grid, covariances
     double registration_ms = 0.0;  // G-ICP edges
     double graph_ms = 0.0;
     double fuse_ms = 0.0;

@@ -42,7 +42,7 @@ public:
     const InitialRegistrationResult& result() const { return result_; }
     const std::string& error() const { return error_; }
     std::size_t num_clouds() const { return num_clouds_; }
-    double run_ms() const { return run_ms_; }  // wall-clock time of the registration
+    double run_ms() const { return run_ms_; }                // wall-clock time of the registration
     int num_threads() const { return params_.num_threads; }  // its OpenMP threads
 
 private:

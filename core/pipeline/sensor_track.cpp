@@ -60,7 +60,8 @@ Eigen::Isometry3d SensorTrack::predict(std::int64_t t_ns) const {
     const double ahead = static_cast<double>(t_ns - last.t_ns) * kNsToS;
     // A long gap (sensor silent) makes the velocity meaningless: hold the last pose.
     if (!(dt > 0) || ahead < 0 || ahead > 1.0) return last.T_root_sensor;
-    return last.T_root_sensor * se3_exp(body_twist_per_s(before.T_root_sensor, last.T_root_sensor, dt) * ahead);
+    return last.T_root_sensor *
+           se3_exp(body_twist_per_s(before.T_root_sensor, last.T_root_sensor, dt) * ahead);
 }
 
 Vector6d SensorTrack::deskew_twist() const {
@@ -83,8 +84,8 @@ std::optional<Eigen::Isometry3d> SensorTrack::deskew_reference(std::int64_t fram
     const double dt_s = static_cast<double>(b.t_ns - a.t_ns) * kNsToS;
     if (!(dt_s > 0) || dt_s > params_.deskew_max_span_s) return std::nullopt;
     const Vector6d twist = body_twist_per_s(a.T_root_sensor, b.T_root_sensor, dt_s);
-    if (!within_sway_limits(twist, params_) || reference_point_dt_s_.size() != reference_points_.size() ||
-        reference_points_.empty()) {
+    if (!within_sway_limits(twist, params_) ||
+        reference_point_dt_s_.size() != reference_points_.size() || reference_points_.empty()) {
         return std::nullopt;
     }
     // No point times: nothing to undo.
@@ -120,12 +121,14 @@ GicpTarget SensorTrack::reference_target_at(double voxel_size_m) const {
     return GicpTarget(std::move(cloud), normals);
 }
 
-void SensorTrack::reanchor(const Eigen::Isometry3d& left, const Eigen::Isometry3d& right_reference) {
+void SensorTrack::reanchor(const Eigen::Isometry3d& left,
+                           const Eigen::Isometry3d& right_reference) {
     const Eigen::Isometry3d right = se3_exp(-deskew_twist() * mean_of(reference_point_dt_s_));
     T_root_reference_ = orthonormalized(left * T_root_reference_ * right_reference);
     for (auto& sample : history_) {
-        sample.T_root_sensor = orthonormalized(
-            left * sample.T_root_sensor * (sample.frame == reference_frame_ ? right_reference : right));
+        sample.T_root_sensor =
+            orthonormalized(left * sample.T_root_sensor *
+                            (sample.frame == reference_frame_ ? right_reference : right));
     }
 }
 
@@ -234,9 +237,11 @@ void SensorTrack::prepare(const SensorScanInput& scan, const Eigen::Isometry3d& 
     dynamic_.assign(points_.size(), 0);
     dynamic_count_ = 0;
     if (params_.remove_dynamic && background_.has_reference()) {
-        const Eigen::Isometry3d T_reference_current = T_root_reference_.inverse() * T_root_predicted;
+        const Eigen::Isometry3d T_reference_current =
+            T_root_reference_.inverse() * T_root_predicted;
         in_reference_frame_.resize(points_.size());
-        for (std::size_t i = 0; i < points_.size(); ++i) in_reference_frame_[i] = T_reference_current * points_[i];
+        for (std::size_t i = 0; i < points_.size(); ++i)
+            in_reference_frame_[i] = T_reference_current * points_[i];
         background_.update(in_reference_frame_, &background_update_);
         dynamic_ = background_update_.dynamic;
         dynamic_count_ = background_update_.num_dynamic;

@@ -74,7 +74,8 @@ public:
     void prepare(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted);
 
     // Records the estimated pose of the current frame and makes it the previous frame.
-    void finish_frame(std::int64_t frame, std::int64_t t_ns, const Eigen::Isometry3d& T_root_sensor);
+    void finish_frame(std::int64_t frame, std::int64_t t_ns,
+                      const Eigen::Isometry3d& T_root_sensor);
     // The reference pose is refined while its frame is in the window.
     void set_reference_pose(const Eigen::Isometry3d& T_root_reference) {
         T_root_reference_ = T_root_reference;

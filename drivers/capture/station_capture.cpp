@@ -116,7 +116,9 @@ const ouster::AssemblyCounters& StationCapture::counters(std::size_t sensor) con
     return kNone;
 }
 
-const ouster::RouterCounters& StationCapture::router_counters() const { return router_->counters(); }
+const ouster::RouterCounters& StationCapture::router_counters() const {
+    return router_->counters();
+}
 pcap::PcapReaderStats StationCapture::pcap_stats() const {
     pcap::PcapReaderStats all = stats_;
     if (reader_) all += reader_->stats();

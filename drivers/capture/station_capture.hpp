@@ -24,7 +24,7 @@
 namespace lidarfuse::capture {
 
 struct CaptureScan {
-    std::size_t sensor = 0;                 // index in the station config
+    std::size_t sensor = 0;                    // index in the station config
     const ouster::LidarScan* scan = nullptr;   // valid during the callback only
     const ouster::ScanCloud* cloud = nullptr;  // projected, sensor frame; same lifetime
     // The scan's timestamp: column 0's (or the first received column's) sensor time, ns,

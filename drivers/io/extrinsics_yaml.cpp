@@ -10,7 +10,8 @@ namespace lidarfuse::io {
 
 namespace {
 
-void emit_figures(YAML::Emitter& out, const char* key, const std::map<std::string, double>& figures) {
+void emit_figures(YAML::Emitter& out, const char* key,
+                  const std::map<std::string, double>& figures) {
     if (figures.empty()) return;
     out << YAML::Key << key << YAML::Value << YAML::BeginMap;
     for (const auto& [name, value] : figures) out << YAML::Key << name << YAML::Value << value;
@@ -130,7 +131,8 @@ ExtrinsicsPair read_pair(const YAML::Node& node, const std::string& path) {
             p.figures[key] = read_number(kv.second, path + "." + key);
         }
     }
-    if (p.source.empty() || p.target.empty()) throw std::runtime_error(path + ": expected source and target");
+    if (p.source.empty() || p.target.empty())
+        throw std::runtime_error(path + ": expected source and target");
     return p;
 }
 
@@ -165,7 +167,8 @@ std::string extrinsics_to_yaml(const ExtrinsicsDocument& document) {
             out << YAML::BeginMap << YAML::Key << "source" << YAML::Value << p.source;
             out << YAML::Key << "target" << YAML::Value << p.target;
             out << YAML::Key << "status" << YAML::Value << p.status;
-            for (const auto& [name, value] : p.figures) out << YAML::Key << name << YAML::Value << value;
+            for (const auto& [name, value] : p.figures)
+                out << YAML::Key << name << YAML::Value << value;
             out << YAML::EndMap;
         }
         out << YAML::EndSeq;
@@ -209,7 +212,8 @@ ExtrinsicsDocument read_extrinsics_document(const std::filesystem::path& file) {
         if (doc["station"]) out.station = doc["station"].as<std::string>();
         if (doc["root"]) out.root = doc["root"].as<std::string>();
         for (std::size_t i = 0; i < doc["sensors"].size(); ++i) {
-            out.sensors.push_back(read_sensor(doc["sensors"][i], "sensors[" + std::to_string(i) + "]"));
+            out.sensors.push_back(
+                read_sensor(doc["sensors"][i], "sensors[" + std::to_string(i) + "]"));
         }
         if (doc["world"]) out.world = read_world(doc["world"]);
         if (doc["pairs"]) {
@@ -226,7 +230,8 @@ ExtrinsicsDocument read_extrinsics_document(const std::filesystem::path& file) {
     return out;
 }
 
-std::string extrinsics_to_yaml(const std::string& root, const std::vector<ExtrinsicsEntry>& sensors) {
+std::string extrinsics_to_yaml(const std::string& root,
+                               const std::vector<ExtrinsicsEntry>& sensors) {
     return extrinsics_to_yaml(ExtrinsicsDocument{"", root, sensors, {}, std::nullopt});
 }
 
@@ -235,7 +240,8 @@ void write_extrinsics_yaml(const std::filesystem::path& file, const std::string&
     write_extrinsics_yaml(file, ExtrinsicsDocument{"", root, sensors, {}, std::nullopt});
 }
 
-std::vector<ExtrinsicsEntry> read_extrinsics_yaml(const std::filesystem::path& file, std::string* root) {
+std::vector<ExtrinsicsEntry> read_extrinsics_yaml(const std::filesystem::path& file,
+                                                  std::string* root) {
     ExtrinsicsDocument document = read_extrinsics_document(file);
     if (root) *root = document.root;
     return std::move(document.sensors);

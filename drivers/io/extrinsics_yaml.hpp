@@ -76,7 +76,7 @@ struct ExtrinsicsDocument {
     std::string station;  // omitted when empty
     std::string root;
     std::vector<ExtrinsicsEntry> sensors;
-    std::vector<ExtrinsicsPair> pairs;  // omitted when empty
+    std::vector<ExtrinsicsPair> pairs;     // omitted when empty
     std::optional<ExtrinsicsWorld> world;  // omitted when absent
 };
 
@@ -86,9 +86,11 @@ void write_extrinsics_yaml(const std::filesystem::path& file, const ExtrinsicsDo
 ExtrinsicsDocument read_extrinsics_document(const std::filesystem::path& file);
 
 // The sensors only (what lidarfused keeps): same file format.
-std::string extrinsics_to_yaml(const std::string& root, const std::vector<ExtrinsicsEntry>& sensors);
+std::string extrinsics_to_yaml(const std::string& root,
+                               const std::vector<ExtrinsicsEntry>& sensors);
 void write_extrinsics_yaml(const std::filesystem::path& file, const std::string& root,
                            const std::vector<ExtrinsicsEntry>& sensors);
-std::vector<ExtrinsicsEntry> read_extrinsics_yaml(const std::filesystem::path& file, std::string* root);
+std::vector<ExtrinsicsEntry> read_extrinsics_yaml(const std::filesystem::path& file,
+                                                  std::string* root);
 
 }  // namespace lidarfuse::io

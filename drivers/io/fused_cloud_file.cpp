@@ -14,7 +14,8 @@ void write_fused_cloud(const std::filesystem::path& file, const std::string& hea
                        const core::FusedCloud& cloud) {
     const std::size_t n = cloud.points.size();
     if (cloud.intensity.size() != n || cloud.sensor.size() != n || cloud.dynamic.size() != n) {
-        throw std::runtime_error(file.string() + ": fused cloud attributes do not match its points");
+        throw std::runtime_error(file.string() +
+                                 ": fused cloud attributes do not match its points");
     }
     const auto temporary = file.string() + ".tmp";
     {
@@ -41,7 +42,8 @@ void write_fused_cloud_ply(const std::filesystem::path& file, const core::FusedC
     const std::string n = std::to_string(cloud.points.size());
     write_fused_cloud(file,
                       "ply\nformat binary_little_endian 1.0\ncomment lidarfuse fused cloud, fused "
-                      "frame, metres\nelement vertex " + n +
+                      "frame, metres\nelement vertex " +
+                          n +
                           "\nproperty float x\nproperty float y\nproperty float z\n"
                           "property float intensity\nproperty uchar sensor\nproperty uchar "
                           "dynamic\nend_header\n",
@@ -53,8 +55,9 @@ void write_fused_cloud_pcd(const std::filesystem::path& file, const core::FusedC
     write_fused_cloud(file,
                       "# .PCD v0.7 - lidarfuse fused cloud, fused frame, metres\nVERSION 0.7\n"
                       "FIELDS x y z intensity sensor_id dynamic\nSIZE 4 4 4 4 1 1\n"
-                      "TYPE F F F F U U\nCOUNT 1 1 1 1 1 1\nWIDTH " + n +
-                          "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + n + "\nDATA binary\n",
+                      "TYPE F F F F U U\nCOUNT 1 1 1 1 1 1\nWIDTH " +
+                          n + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + n +
+                          "\nDATA binary\n",
                       cloud);
 }
 

@@ -42,7 +42,8 @@ double to_double(const std::string& text, const std::string& source, std::size_t
     char* end = nullptr;
     const double v = std::strtod(text.c_str(), &end);
     if (text.empty() || *end != '\0' || !std::isfinite(v)) {
-        fail(source, line, std::string(column) + ": expected a finite number, got \"" + text + "\"");
+        fail(source, line,
+             std::string(column) + ": expected a finite number, got \"" + text + "\"");
     }
     return v;
 }
@@ -76,11 +77,12 @@ std::vector<PoseRecord> parse_pose_csv(std::istream& in, const std::string& sour
         r.sensor = f[1];
         r.t_ns = to_int(f[2], source_name, number, kColumns[2]);
         double v[7];
-        for (int i = 0; i < 7; ++i) v[i] = to_double(f[3 + i], source_name, number, kColumns[3 + i]);
+        for (int i = 0; i < 7; ++i)
+            v[i] = to_double(f[3 + i], source_name, number, kColumns[3 + i]);
         Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
         if (std::abs(q.norm() - 1.0) > 1e-3) {
-            fail(source_name, number, "quaternion is not unit length (norm " +
-                                          std::to_string(q.norm()) + ")");
+            fail(source_name, number,
+                 "quaternion is not unit length (norm " + std::to_string(q.norm()) + ")");
         }
         q.normalize();
         r.pose = Eigen::Isometry3d::Identity();

@@ -27,7 +27,8 @@ namespace detail {
 // out(row, (m + sign * shift[row]) mod W) = in(row, m): destagger with sign +1, restagger
 // (its inverse) with sign -1.
 template <typename T>
-void shift_rows(const T* in, int height, int width, const std::vector<int>& shift, int sign, T* out) {
+void shift_rows(const T* in, int height, int width, const std::vector<int>& shift, int sign,
+                T* out) {
     for (int row = 0; row < height; ++row) {
         const T* src = in + static_cast<std::size_t>(row) * width;
         T* dst = out + static_cast<std::size_t>(row) * width;
@@ -52,15 +53,15 @@ void restagger(const T* in, int height, int width, const std::vector<int>& shift
 }
 
 // Instantiated once in destagger.cpp for the LidarScan pixel types.
-extern template void destagger<std::uint8_t>(const std::uint8_t*, int, int,
-                                             const std::vector<int>&, std::uint8_t*);
+extern template void destagger<std::uint8_t>(const std::uint8_t*, int, int, const std::vector<int>&,
+                                             std::uint8_t*);
 extern template void destagger<std::uint16_t>(const std::uint16_t*, int, int,
                                               const std::vector<int>&, std::uint16_t*);
 extern template void destagger<std::uint32_t>(const std::uint32_t*, int, int,
                                               const std::vector<int>&, std::uint32_t*);
 extern template void destagger<float>(const float*, int, int, const std::vector<int>&, float*);
-extern template void restagger<std::uint8_t>(const std::uint8_t*, int, int,
-                                             const std::vector<int>&, std::uint8_t*);
+extern template void restagger<std::uint8_t>(const std::uint8_t*, int, int, const std::vector<int>&,
+                                             std::uint8_t*);
 extern template void restagger<std::uint16_t>(const std::uint16_t*, int, int,
                                               const std::vector<int>&, std::uint16_t*);
 extern template void restagger<std::uint32_t>(const std::uint32_t*, int, int,

@@ -17,10 +17,10 @@
 namespace lidarfuse::ouster {
 namespace {
 
-using nlohmann::json;
 using detail::Reader;
 using detail::show;
 using detail::type_name;
+using nlohmann::json;
 
 std::string join_problems(const std::string& source, const std::vector<std::string>& problems) {
     std::ostringstream out;
@@ -48,8 +48,8 @@ detail::MetadataPaths paths_for(MetadataForm form) {
     return p;
 }
 
-constexpr const char* kNestedSections[] = {"sensor_info",      "beam_intrinsics",
-                                           "lidar_intrinsics", "imu_intrinsics",
+constexpr const char* kNestedSections[] = {"sensor_info",       "beam_intrinsics",
+                                           "lidar_intrinsics",  "imu_intrinsics",
                                            "lidar_data_format", "config_params"};
 
 // Nested when any of its sections is present, else legacy flat. Reports sections that are
@@ -113,9 +113,9 @@ void read_mode(Reader& r, const detail::MetadataPaths& p, SensorInfo& info) {
     int cpf = 0;
     if (r.integer_as(p.format + "columns_per_frame", 1, 65535, &cpf)) {
         if (mode && cpf != (*mode)[0]) {
-            r.problem(p.format + "columns_per_frame",
-                      std::to_string(cpf) + " contradicts " + p.config + "lidar_mode \"" +
-                          info.lidar_mode + "\"");
+            r.problem(p.format + "columns_per_frame", std::to_string(cpf) + " contradicts " +
+                                                          p.config + "lidar_mode \"" +
+                                                          info.lidar_mode + "\"");
         }
         info.columns_per_frame = cpf;
         if (!have_mode) info.lidar_mode.clear();
@@ -201,7 +201,7 @@ void read_udp_profiles(Reader& r, const detail::MetadataPaths& p, SensorInfo& in
                   std::string(to_string(prof_format)) + " contradicts " + p.config +
                       "udp_profile_lidar " + to_string(prof_config));
     }
-    info.udp_profile_lidar = have_prof_format ? prof_format
+    info.udp_profile_lidar = have_prof_format   ? prof_format
                              : have_prof_config ? prof_config
                                                 : UdpProfileLidar::kLegacy;
     if (!r.has(p.format + "udp_profile_lidar") && !r.has(p.config + "udp_profile_lidar")) {
@@ -247,8 +247,8 @@ void read_column_layout(Reader& r, const detail::MetadataPaths& p, SensorInfo& i
 // translation encodes the same n; they must agree. Runs after the identity, as n's
 // default depends on prod_line.
 void read_beam_origin(Reader& r, const detail::MetadataPaths& p, SensorInfo& info) {
-    const bool have_n = r.number(p.beam + "lidar_origin_to_beam_origin_mm",
-                                 &info.lidar_origin_to_beam_origin_mm);
+    const bool have_n =
+        r.number(p.beam + "lidar_origin_to_beam_origin_mm", &info.lidar_origin_to_beam_origin_mm);
     if (absent(r, p.beam + "lidar_origin_to_beam_origin_mm", info)) {
         info.lidar_origin_to_beam_origin_mm =
             default_lidar_origin_to_beam_origin_mm(info.prod_line);

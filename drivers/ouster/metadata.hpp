@@ -40,11 +40,11 @@ namespace lidarfuse::ouster {
 
 // UDP lidar packet profiles (config key `udp_profile_lidar`).
 enum class UdpProfileLidar : std::uint8_t {
-    kLegacy,                    // "LEGACY": per-column headers/footers, 12 B pixels
-    kRng19Rfl8Sig16Nir16,       // "RNG19_RFL8_SIG16_NIR16": single return, 12 B pixels
-    kRng15Rfl8Nir8,             // "RNG15_RFL8_NIR8": low data rate, 4 B pixels
-    kRng19Rfl8Sig16Nir16Dual,   // "RNG19_RFL8_SIG16_NIR16_DUAL": two returns, 16 B pixels
-    kFusaRng15Rfl8Nir8Dual,     // "FUSA_RNG15_RFL8_NIR8_DUAL": FuSa header, 8 B pixels
+    kLegacy,                   // "LEGACY": per-column headers/footers, 12 B pixels
+    kRng19Rfl8Sig16Nir16,      // "RNG19_RFL8_SIG16_NIR16": single return, 12 B pixels
+    kRng15Rfl8Nir8,            // "RNG15_RFL8_NIR8": low data rate, 4 B pixels
+    kRng19Rfl8Sig16Nir16Dual,  // "RNG19_RFL8_SIG16_NIR16_DUAL": two returns, 16 B pixels
+    kFusaRng15Rfl8Nir8Dual,    // "FUSA_RNG15_RFL8_NIR8_DUAL": FuSa header, 8 B pixels
 };
 
 // UDP IMU packet profiles (config key `udp_profile_imu`); only LEGACY (48 B) exists.
@@ -61,12 +61,12 @@ enum class MetadataForm : std::uint8_t { kNested, kLegacyFlat, kBuiltInCode };
 
 struct SensorInfo {
     // Identity.
-    std::string prod_sn;      // serial number as printed, e.g. "122239000672" (may be empty)
-    std::string prod_line;    // e.g. "OS-1-64-AH" (empty in the reduced legacy form)
+    std::string prod_sn;    // serial number as printed, e.g. "122239000672" (may be empty)
+    std::string prod_line;  // e.g. "OS-1-64-AH" (empty in the reduced legacy form)
     std::string prod_pn;
-    std::string build_rev;    // firmware, e.g. "v2.5.2"
+    std::string build_rev;  // firmware, e.g. "v2.5.2"
     std::string image_rev;
-    std::string status;       // "RUNNING", ...
+    std::string status;         // "RUNNING", ...
     std::uint32_t init_id = 0;  // initialization_id (24 bits on the wire)
 
     // Mode and data format.
@@ -94,8 +94,8 @@ struct SensorInfo {
     // Network and timing configuration.
     std::uint16_t udp_port_lidar = 7502;
     std::uint16_t udp_port_imu = 7503;
-    std::string udp_dest;              // destination address configured on the sensor
-    std::string timestamp_mode;        // "TIME_FROM_INTERNAL_OSC", "TIME_FROM_PTP_1588", ...
+    std::string udp_dest;        // destination address configured on the sensor
+    std::string timestamp_mode;  // "TIME_FROM_INTERNAL_OSC", "TIME_FROM_PTP_1588", ...
     std::array<int, 2> azimuth_window_mdeg{0, 360000};  // [start, end] millidegrees
 
     // Provenance.

@@ -50,7 +50,8 @@ public:
             problem(path, "last row must be [0, 0, 0, 1]");
         }
         const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
-        const double orth_error = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+        const double orth_error =
+            (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
         if (orth_error > 1e-3 || r.determinant() < 0.0) {
             std::ostringstream msg;
             msg << "rotation part is not a proper rotation (|R^T R - I| = " << orth_error
@@ -87,10 +88,9 @@ void check_semantics(const SensorInfo& info, const MetadataPaths& paths,
             if (!mode) {
                 c.problem("lidar_mode", "unknown mode \"" + info.lidar_mode + "\"");
             } else if ((*mode)[0] != w || (*mode)[1] != info.frames_per_second) {
-                c.problem("columns_per_frame", std::to_string(w) + " x " +
-                                                   std::to_string(info.frames_per_second) +
-                                                   " Hz contradicts lidar_mode \"" +
-                                                   info.lidar_mode + "\"");
+                c.problem("columns_per_frame",
+                          std::to_string(w) + " x " + std::to_string(info.frames_per_second) +
+                              " Hz contradicts lidar_mode \"" + info.lidar_mode + "\"");
             }
         }
         if (info.init_id > 0xFFFFFFu) c.problem("init_id", "exceeds 24 bits");
@@ -101,7 +101,8 @@ void check_semantics(const SensorInfo& info, const MetadataPaths& paths,
         }
     }
 
-    const bool h_ok = c.usable(paths.pixels_per_column()) && (h == 16 || h == 32 || h == 64 || h == 128);
+    const bool h_ok =
+        c.usable(paths.pixels_per_column()) && (h == 16 || h == 32 || h == 64 || h == 128);
     if (c.usable(paths.pixels_per_column()) && !h_ok) {
         c.problem(paths.pixels_per_column(),
                   "expected 16, 32, 64 or 128 (one row per beam), got " + std::to_string(h));
@@ -133,9 +134,9 @@ void check_semantics(const SensorInfo& info, const MetadataPaths& paths,
         if (cpp < 1 || cpp > 256) {
             c.problem(paths.columns_per_packet(), "must be in 1..256, got " + std::to_string(cpp));
         } else if (w_ok && w % cpp != 0) {
-            c.problem(paths.columns_per_packet(),
-                      std::to_string(cpp) + " does not divide columns_per_frame " +
-                          std::to_string(w));
+            c.problem(
+                paths.columns_per_packet(),
+                std::to_string(cpp) + " does not divide columns_per_frame " + std::to_string(w));
         } else if (h_ok) {
             try {
                 const PacketFormat format(info.udp_profile_lidar, h, cpp);
@@ -156,8 +157,8 @@ void check_semantics(const SensorInfo& info, const MetadataPaths& paths,
         }
     }
 
-    if (c.usable(paths.beam_origin()) &&
-        !(info.lidar_origin_to_beam_origin_mm >= 0.0 && info.lidar_origin_to_beam_origin_mm < 1000.0)) {
+    if (c.usable(paths.beam_origin()) && !(info.lidar_origin_to_beam_origin_mm >= 0.0 &&
+                                           info.lidar_origin_to_beam_origin_mm < 1000.0)) {
         std::ostringstream msg;
         msg << "expected 0..1000 mm, got " << info.lidar_origin_to_beam_origin_mm;
         c.problem(paths.beam_origin(), msg.str());

@@ -102,7 +102,8 @@ std::vector<int> default_pixel_shift_by_row(const std::vector<double>& beam_azim
     if (pixels_per_column == 64 && gen1_mode) {
         const int step = 3 * columns_per_frame / 512;
         std::vector<int> shift(64);
-        for (int row = 0; row < 64; ++row) shift[static_cast<std::size_t>(row)] = (3 - row % 4) * step;
+        for (int row = 0; row < 64; ++row)
+            shift[static_cast<std::size_t>(row)] = (3 - row % 4) * step;
         return shift;
     }
     if (pixels_per_column > 0 &&

@@ -4,10 +4,9 @@
 // path instead of stopping at the first. Not part of the drivers' interface (it exposes
 // nlohmann::json, a private dependency).
 
-#include <nlohmann/json.hpp>
-
 #include <cmath>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <vector>
@@ -174,8 +173,8 @@ public:
         std::vector<double> values;
         if (!numbers(path, &values)) return false;
         if (values.size() != 16) {
-            problem(path, "expected 16 numbers (row-major 4x4), got " +
-                              std::to_string(values.size()));
+            problem(path,
+                    "expected 16 numbers (row-major 4x4), got " + std::to_string(values.size()));
             return false;
         }
         for (int r = 0; r < 4; ++r)
@@ -189,8 +188,8 @@ private:
         long long value = 0;
         if (v.is_number_integer()) {
             if (v.is_number_unsigned() &&
-                v.get<std::uint64_t>() > static_cast<std::uint64_t>(
-                                             std::numeric_limits<long long>::max())) {
+                v.get<std::uint64_t>() >
+                    static_cast<std::uint64_t>(std::numeric_limits<long long>::max())) {
                 problem(path, "integer " + show(v) + " out of range");
                 return false;
             }

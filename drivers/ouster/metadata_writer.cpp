@@ -20,9 +20,9 @@ std::string to_nested_json(const SensorInfo& info) {
     using nlohmann::json;
     json doc;
     doc["sensor_info"] = {
-        {"prod_sn", info.prod_sn},         {"prod_line", info.prod_line},
-        {"prod_pn", info.prod_pn},         {"build_rev", info.build_rev},
-        {"image_rev", info.image_rev},     {"status", info.status},
+        {"prod_sn", info.prod_sn},           {"prod_line", info.prod_line},
+        {"prod_pn", info.prod_pn},           {"build_rev", info.build_rev},
+        {"image_rev", info.image_rev},       {"status", info.status},
         {"initialization_id", info.init_id},
     };
     doc["beam_intrinsics"] = {

@@ -13,21 +13,55 @@ namespace {
 // reflectivity2, near_ir. {offset, bytes, mask, upshift}; bytes 0 = absent.
 constexpr FieldSpec kAbsent{0, 0, 0, 0};
 constexpr ProfileLayout kLayouts[] = {
-    {UdpProfileLidar::kLegacy, HeaderType::kLegacy, 12, 1,
-     {{0, 4, 0xFFFFF, 0}, kAbsent, {6, 2, 0xFFFF, 0}, kAbsent, {4, 1, 0xFF, 0}, kAbsent,
+    {UdpProfileLidar::kLegacy,
+     HeaderType::kLegacy,
+     12,
+     1,
+     {{0, 4, 0xFFFFF, 0},
+      kAbsent,
+      {6, 2, 0xFFFF, 0},
+      kAbsent,
+      {4, 1, 0xFF, 0},
+      kAbsent,
       {8, 2, 0xFFFF, 0}}},
-    {UdpProfileLidar::kRng19Rfl8Sig16Nir16, HeaderType::kStandard, 12, 1,
-     {{0, 4, 0x7FFFF, 0}, kAbsent, {6, 2, 0xFFFF, 0}, kAbsent, {4, 1, 0xFF, 0}, kAbsent,
+    {UdpProfileLidar::kRng19Rfl8Sig16Nir16,
+     HeaderType::kStandard,
+     12,
+     1,
+     {{0, 4, 0x7FFFF, 0},
+      kAbsent,
+      {6, 2, 0xFFFF, 0},
+      kAbsent,
+      {4, 1, 0xFF, 0},
+      kAbsent,
       {8, 2, 0xFFFF, 0}}},
-    {UdpProfileLidar::kRng15Rfl8Nir8, HeaderType::kStandard, 4, 1,
-     {{0, 2, 0x7FFF, 3}, kAbsent, kAbsent, kAbsent, {2, 1, 0xFF, 0}, kAbsent,
+    {UdpProfileLidar::kRng15Rfl8Nir8,
+     HeaderType::kStandard,
+     4,
+     1,
+     {{0, 2, 0x7FFF, 3}, kAbsent, kAbsent, kAbsent, {2, 1, 0xFF, 0}, kAbsent, {3, 1, 0xFF, 4}}},
+    {UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual,
+     HeaderType::kStandard,
+     16,
+     2,
+     {{0, 4, 0x7FFFF, 0},
+      {4, 4, 0x7FFFF, 0},
+      {8, 2, 0xFFFF, 0},
+      {10, 2, 0xFFFF, 0},
+      {3, 1, 0xFF, 0},
+      {7, 1, 0xFF, 0},
+      {12, 2, 0xFFFF, 0}}},
+    {UdpProfileLidar::kFusaRng15Rfl8Nir8Dual,
+     HeaderType::kFusa,
+     8,
+     2,
+     {{0, 2, 0x7FFF, 3},
+      {4, 2, 0x7FFF, 3},
+      kAbsent,
+      kAbsent,
+      {2, 1, 0xFF, 0},
+      {6, 1, 0xFF, 0},
       {3, 1, 0xFF, 4}}},
-    {UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, HeaderType::kStandard, 16, 2,
-     {{0, 4, 0x7FFFF, 0}, {4, 4, 0x7FFFF, 0}, {8, 2, 0xFFFF, 0}, {10, 2, 0xFFFF, 0},
-      {3, 1, 0xFF, 0}, {7, 1, 0xFF, 0}, {12, 2, 0xFFFF, 0}}},
-    {UdpProfileLidar::kFusaRng15Rfl8Nir8Dual, HeaderType::kFusa, 8, 2,
-     {{0, 2, 0x7FFF, 3}, {4, 2, 0x7FFF, 3}, kAbsent, kAbsent, {2, 1, 0xFF, 0},
-      {6, 1, 0xFF, 0}, {3, 1, 0xFF, 4}}},
 };
 
 constexpr std::size_t kMaxUdpPayload = 65507;
@@ -91,37 +125,52 @@ void read_column_impl(const PacketFormat& f, const std::uint8_t* col, Field fiel
     const std::size_t step = f.pixel_size();
     const int rows = f.pixels_per_column();
     switch (s.bytes) {
-        case 1: read_column_n<1>(px, step, rows, s, dst, stride); break;
-        case 2: read_column_n<2>(px, step, rows, s, dst, stride); break;
-        case 4: read_column_n<4>(px, step, rows, s, dst, stride); break;
-        default: break;  // absent field
+        case 1:
+            read_column_n<1>(px, step, rows, s, dst, stride);
+            break;
+        case 2:
+            read_column_n<2>(px, step, rows, s, dst, stride);
+            break;
+        case 4:
+            read_column_n<4>(px, step, rows, s, dst, stride);
+            break;
+        default:
+            break;  // absent field
     }
 }
 
 }  // namespace
 
 const char* to_string(Field field) {
-    constexpr const char* kNames[] = {"RANGE",         "RANGE2",        "SIGNAL", "SIGNAL2",
+    constexpr const char* kNames[] = {"RANGE",        "RANGE2",        "SIGNAL", "SIGNAL2",
                                       "REFLECTIVITY", "REFLECTIVITY2", "NEAR_IR"};
     return kNames[static_cast<int>(field)];
 }
 
 const char* to_string(PacketKind kind) {
     switch (kind) {
-        case PacketKind::kLidar: return "lidar";
-        case PacketKind::kImu: return "imu";
-        case PacketKind::kWrongSize: return "wrong size";
-        case PacketKind::kWrongProfile: return "wrong profile";
+        case PacketKind::kLidar:
+            return "lidar";
+        case PacketKind::kImu:
+            return "imu";
+        case PacketKind::kWrongSize:
+            return "wrong size";
+        case PacketKind::kWrongProfile:
+            return "wrong profile";
     }
     return "unknown";
 }
 
 const char* to_string(CrcStatus status) {
     switch (status) {
-        case CrcStatus::kNotApplicable: return "not applicable";
-        case CrcStatus::kAbsent: return "absent";
-        case CrcStatus::kValid: return "valid";
-        case CrcStatus::kInvalid: return "invalid";
+        case CrcStatus::kNotApplicable:
+            return "not applicable";
+        case CrcStatus::kAbsent:
+            return "absent";
+        case CrcStatus::kValid:
+            return "valid";
+        case CrcStatus::kInvalid:
+            return "invalid";
     }
     return "unknown";
 }
@@ -149,8 +198,7 @@ std::uint64_t crc64(const std::uint8_t* data, std::size_t size) {
     return ~c;
 }
 
-PacketFormat::PacketFormat(UdpProfileLidar profile, int pixels_per_column,
-                           int columns_per_packet)
+PacketFormat::PacketFormat(UdpProfileLidar profile, int pixels_per_column, int columns_per_packet)
     : layout_(&profile_layout(profile)),
       pixels_per_column_(pixels_per_column),
       columns_per_packet_(columns_per_packet) {
@@ -169,14 +217,14 @@ PacketFormat::PacketFormat(UdpProfileLidar profile, int pixels_per_column,
     column_size_ = column_header_size_ +
                    static_cast<std::size_t>(pixels_per_column) * layout_->pixel_size_bytes +
                    (legacy ? kLegacyColumnFooterSize : 0);
-    packet_size_ = packet_header_size_ + static_cast<std::size_t>(columns_per_packet) * column_size_ +
+    packet_size_ = packet_header_size_ +
+                   static_cast<std::size_t>(columns_per_packet) * column_size_ +
                    packet_footer_size_;
     if (packet_size_ > kMaxUdpPayload) {
-        throw std::invalid_argument(std::string(to_string(profile)) + " with " +
-                                    std::to_string(pixels_per_column) + " pixels x " +
-                                    std::to_string(columns_per_packet) + " columns needs " +
-                                    std::to_string(packet_size_) +
-                                    " B, more than a UDP datagram holds (65507 B)");
+        throw std::invalid_argument(
+            std::string(to_string(profile)) + " with " + std::to_string(pixels_per_column) +
+            " pixels x " + std::to_string(columns_per_packet) + " columns needs " +
+            std::to_string(packet_size_) + " B, more than a UDP datagram holds (65507 B)");
     }
 }
 
@@ -209,18 +257,24 @@ PacketKind PacketFormat::classify(const std::uint8_t* data, std::size_t size) co
 
 std::uint16_t PacketFormat::packet_type(const std::uint8_t* pkt) const {
     switch (header_type()) {
-        case HeaderType::kLegacy: return 0;
-        case HeaderType::kStandard: return static_cast<std::uint16_t>(fetch(pkt, 2));
-        case HeaderType::kFusa: return pkt[0];
+        case HeaderType::kLegacy:
+            return 0;
+        case HeaderType::kStandard:
+            return static_cast<std::uint16_t>(fetch(pkt, 2));
+        case HeaderType::kFusa:
+            return pkt[0];
     }
     return 0;
 }
 
 std::uint32_t PacketFormat::frame_id(const std::uint8_t* pkt) const {
     switch (header_type()) {
-        case HeaderType::kLegacy: return column_frame_id(column(pkt, 0));
-        case HeaderType::kStandard: return static_cast<std::uint32_t>(fetch(pkt + 2, 2));
-        case HeaderType::kFusa: return static_cast<std::uint32_t>(fetch(pkt + 4, 4));
+        case HeaderType::kLegacy:
+            return column_frame_id(column(pkt, 0));
+        case HeaderType::kStandard:
+            return static_cast<std::uint32_t>(fetch(pkt + 2, 2));
+        case HeaderType::kFusa:
+            return static_cast<std::uint32_t>(fetch(pkt + 4, 4));
     }
     return 0;
 }
@@ -316,8 +370,12 @@ void PacketFormat::set_frame_id(std::uint8_t* pkt, std::uint32_t value) const {
                 set_column_frame_id(column(pkt, c), static_cast<std::uint16_t>(value));
             }
             break;
-        case HeaderType::kStandard: store(pkt + 2, value & 0xFFFFU, 2); break;
-        case HeaderType::kFusa: store(pkt + 4, value, 4); break;
+        case HeaderType::kStandard:
+            store(pkt + 2, value & 0xFFFFU, 2);
+            break;
+        case HeaderType::kFusa:
+            store(pkt + 4, value, 4);
+            break;
     }
 }
 

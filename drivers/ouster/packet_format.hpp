@@ -42,13 +42,13 @@ enum class HeaderType : std::uint8_t { kLegacy, kStandard, kFusa };
 
 // Per-pixel channels. Not every profile has every field (see PacketFormat::has_field).
 enum class Field : std::uint8_t {
-    kRange,          // mm, first return
-    kRange2,         // mm, second return (dual profiles)
-    kSignal,         // photons
+    kRange,   // mm, first return
+    kRange2,  // mm, second return (dual profiles)
+    kSignal,  // photons
     kSignal2,
-    kReflectivity,   // calibrated reflectivity 0..255
+    kReflectivity,  // calibrated reflectivity 0..255
     kReflectivity2,
-    kNearIr,         // photons (low-data profiles: after x16 upshift)
+    kNearIr,  // photons (low-data profiles: after x16 upshift)
 };
 constexpr int kFieldCount = 7;
 const char* to_string(Field field);
@@ -227,7 +227,7 @@ public:
     void set_column_timestamp_ns(std::uint8_t* col, std::uint64_t value) const;
     void set_column_measurement_id(std::uint8_t* col, std::uint16_t value) const;
     void set_column_status(std::uint8_t* col, std::uint32_t value) const;
-    void set_column_frame_id(std::uint8_t* col, std::uint16_t value) const;     // LEGACY
+    void set_column_frame_id(std::uint8_t* col, std::uint16_t value) const;       // LEGACY
     void set_column_encoder_count(std::uint8_t* col, std::uint32_t value) const;  // LEGACY
     // Stores `value` (in the reader's units) with the profile's downshift and mask; bits of
     // neighbouring fields sharing the bytes are preserved. Values that do not fit are
@@ -249,10 +249,20 @@ private:
     static std::uint32_t read_bytes(const std::uint8_t* p, std::uint8_t bytes) {
         std::uint32_t v = 0;
         switch (bytes) {
-            case 1: v = *p; break;
-            case 2: { std::uint16_t t; std::memcpy(&t, p, 2); v = t; break; }
-            case 4: std::memcpy(&v, p, 4); break;
-            default: break;
+            case 1:
+                v = *p;
+                break;
+            case 2: {
+                std::uint16_t t;
+                std::memcpy(&t, p, 2);
+                v = t;
+                break;
+            }
+            case 4:
+                std::memcpy(&v, p, 4);
+                break;
+            default:
+                break;
         }
         return v;
     }

@@ -16,11 +16,12 @@ XyzLut make_xyz_lut(int width, int height, const std::vector<double>& beam_altit
     if (width <= 0 || height <= 0 ||
         beam_altitude_angles_deg.size() != static_cast<std::size_t>(height) ||
         beam_azimuth_angles_deg.size() != static_cast<std::size_t>(height)) {
-        throw std::invalid_argument("make_xyz_lut: need width, height > 0 and one altitude and "
-                                    "azimuth angle per row (got " +
-                                    std::to_string(beam_altitude_angles_deg.size()) + " and " +
-                                    std::to_string(beam_azimuth_angles_deg.size()) + " for " +
-                                    std::to_string(height) + " rows)");
+        throw std::invalid_argument(
+            "make_xyz_lut: need width, height > 0 and one altitude and "
+            "azimuth angle per row (got " +
+            std::to_string(beam_altitude_angles_deg.size()) + " and " +
+            std::to_string(beam_azimuth_angles_deg.size()) + " for " + std::to_string(height) +
+            " rows)");
     }
     constexpr double kPi = 3.14159265358979323846;
     constexpr double kMmToM = 1e-3;
@@ -39,8 +40,10 @@ XyzLut make_xyz_lut(int width, int height, const std::vector<double>& beam_altit
     lut.direction.resize(n, 3);
     lut.offset.resize(n, 3);
     for (int row = 0; row < height; ++row) {
-        const double azimuth_rad = -2.0 * kPi * beam_azimuth_angles_deg[static_cast<std::size_t>(row)] / 360.0;
-        const double altitude_rad = 2.0 * kPi * beam_altitude_angles_deg[static_cast<std::size_t>(row)] / 360.0;
+        const double azimuth_rad =
+            -2.0 * kPi * beam_azimuth_angles_deg[static_cast<std::size_t>(row)] / 360.0;
+        const double altitude_rad =
+            2.0 * kPi * beam_altitude_angles_deg[static_cast<std::size_t>(row)] / 360.0;
         const double cos_alt = std::cos(altitude_rad);
         const double sin_alt = std::sin(altitude_rad);
         for (int m = 0; m < width; ++m) {

@@ -53,8 +53,8 @@ public:
     void write(const SimDatagram& d) override;
 
     std::uint64_t sent() const { return sent_; }
-    std::uint64_t late() const { return late_; }      // sent more than 5 ms behind schedule
-    std::uint64_t errors() const { return errors_; }  // send_to failures
+    std::uint64_t late() const { return late_; }            // sent more than 5 ms behind schedule
+    std::uint64_t errors() const { return errors_; }        // send_to failures
     std::uint64_t held_back() const { return held_back_; }  // not sent: standby or re-initialising
 
 private:

@@ -92,7 +92,9 @@ public:
     SimStats run(DatagramSink& sink);
     // Optional: called by run() on its thread after each frame slot went to the sink, with
     // the slots done and their total (progress).
-    void set_on_frame(std::function<void(int done, int total)> on_frame) { on_frame_ = std::move(on_frame); }
+    void set_on_frame(std::function<void(int done, int total)> on_frame) {
+        on_frame_ = std::move(on_frame);
+    }
 
 private:
     struct Impl;

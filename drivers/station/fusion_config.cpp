@@ -11,18 +11,20 @@ namespace {
 void read_registration(YamlReader& r, const YAML::Node& n, core::FusionParams* f) {
     if (!n || !r.optional_map(n, "registration")) return;
     const std::string p = "registration.";
-    r.only_keys(n, "registration",
-                {"voxel_size_m", "window_frames", "covariance_neighbors", "correspondence_factor",
-                 "huber_delta", "deskew", "min_fitness", "max_jump_m", "max_jump_deg",
-                 "divergence_frames", "retry_interval_frames", "threads", "initial_max_voxel_size_m",
-                 "initial_min_voxel_size_m", "ransac_iterations", "ransac_inlier_threshold_m",
-                 "p2p_cutoff_m", "seed"});
+    r.only_keys(
+        n, "registration",
+        {"voxel_size_m", "window_frames", "covariance_neighbors", "correspondence_factor",
+         "huber_delta", "deskew", "min_fitness", "max_jump_m", "max_jump_deg", "divergence_frames",
+         "retry_interval_frames", "threads", "initial_max_voxel_size_m", "initial_min_voxel_size_m",
+         "ransac_iterations", "ransac_inlier_threshold_m", "p2p_cutoff_m", "seed"});
     set_if(r.number(n["voxel_size_m"], p + "voxel_size_m", 0.05, 20, false), &f->voxel_size_m);
     set_if(r.integer(n["window_frames"], p + "window_frames", 2, 100, false), &f->window_frames);
-    if (const auto k = r.integer(n["covariance_neighbors"], p + "covariance_neighbors", 0, 100, false)) {
+    if (const auto k =
+            r.integer(n["covariance_neighbors"], p + "covariance_neighbors", 0, 100, false)) {
         if (*k >= 1 && *k <= 3) {
-            r.problems.push_back(p + "covariance_neighbors: expected 0 (by voxel size) or 4..100, got " +
-                                 std::to_string(*k));
+            r.problems.push_back(
+                p + "covariance_neighbors: expected 0 (by voxel size) or 4..100, got " +
+                std::to_string(*k));
         } else {
             f->covariance_neighbors = static_cast<int>(*k);
         }
@@ -34,7 +36,8 @@ void read_registration(YamlReader& r, const YAML::Node& n, core::FusionParams* f
     set_if(r.number(n["min_fitness"], p + "min_fitness", 0, 1, false), &f->min_fitness);
     set_if(r.number(n["max_jump_m"], p + "max_jump_m", 0.01, 100, false), &f->max_jump_m);
     set_if(r.number(n["max_jump_deg"], p + "max_jump_deg", 0.1, 180, false), &f->max_jump_deg);
-    set_if(r.integer(n["divergence_frames"], p + "divergence_frames", 1, 1000, false), &f->divergence_frames);
+    set_if(r.integer(n["divergence_frames"], p + "divergence_frames", 1, 1000, false),
+           &f->divergence_frames);
     set_if(r.integer(n["retry_interval_frames"], p + "retry_interval_frames", 1, 100000, false),
            &f->retry_interval_frames);
     set_if(r.integer(n["threads"], p + "threads", 1, 64, false), &f->num_threads);
@@ -45,12 +48,15 @@ void read_registration(YamlReader& r, const YAML::Node& n, core::FusionParams* f
            &init.features.octree.min_voxel_size_m);
     set_if(r.integer(n["ransac_iterations"], p + "ransac_iterations", 10, 10000000, false),
            &init.pair.ransac.max_iterations);
-    set_if(r.number(n["ransac_inlier_threshold_m"], p + "ransac_inlier_threshold_m", 0.01, 20, false),
-           &init.pair.ransac.inlier_threshold_m);
-    set_if(r.number(n["p2p_cutoff_m"], p + "p2p_cutoff_m", 0.01, 50, false), &init.pair.p2p_cutoff_m);
+    set_if(
+        r.number(n["ransac_inlier_threshold_m"], p + "ransac_inlier_threshold_m", 0.01, 20, false),
+        &init.pair.ransac.inlier_threshold_m);
+    set_if(r.number(n["p2p_cutoff_m"], p + "p2p_cutoff_m", 0.01, 50, false),
+           &init.pair.p2p_cutoff_m);
     set_if(r.integer(n["seed"], p + "seed", 0, 0xFFFFFFFFLL, false), &init.pair.ransac.seed);
     if (init.features.octree.min_voxel_size_m > init.features.octree.max_voxel_size_m) {
-        r.problems.push_back(p + "initial_min_voxel_size_m: must not exceed initial_max_voxel_size_m");
+        r.problems.push_back(p +
+                             "initial_min_voxel_size_m: must not exceed initial_max_voxel_size_m");
     }
 }
 
@@ -65,7 +71,8 @@ void read_dynamics(YamlReader& r, const YAML::Node& n, core::FusionParams* f) {
     set_if(r.number(n["attenuation"], p + "attenuation", 0, 1, false), &b.attenuation);
     set_if(r.number(n["range_threshold_m"], p + "range_threshold_m", 0.01, 20, false),
            &b.change.range_threshold_m);
-    set_if(r.number(n["dynamic_threshold"], p + "dynamic_threshold", 0, 100, false), &b.dynamic_threshold);
+    set_if(r.number(n["dynamic_threshold"], p + "dynamic_threshold", 0, 100, false),
+           &b.dynamic_threshold);
     set_if(r.number(n["voxel_size_m"], p + "voxel_size_m", 0.05, 10, false), &b.voxel_size_m);
     set_if(r.integer(n["cone_bins"], p + "cone_bins", 0, 10, false), &b.change.cone_bins);
 }

@@ -3,12 +3,12 @@
 #include <arpa/inet.h>
 #include <yaml-cpp/yaml.h>
 
-#include "drivers/station/yaml_reader.hpp"
-
 #include <cstdint>
 #include <fstream>
 #include <set>
 #include <sstream>
+
+#include "drivers/station/yaml_reader.hpp"
 
 namespace lidarfuse::station {
 
@@ -36,8 +36,8 @@ const std::set<std::string> kConfigureKeys = {"udp_dest", "lidar_mode", "timesta
 bool valid_sensor_name(const std::string& name) {
     if (name.empty() || name.size() > 64) return false;
     for (const char c : name) {
-        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                        c == '_' || c == '.' || c == '-';
+        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                        (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '-';
         if (!ok) return false;
     }
     return true;
@@ -78,7 +78,8 @@ bool valid_station_name(const std::string& name) {
             code = (code << 6) | (next & 0x3Fu);
         }
         const bool overlong = (length == 3 && code < 0x800) || (length == 4 && code < 0x10000);
-        if (overlong || (code >= 0xD800 && code <= 0xDFFF) || code > 0x10FFFF || (code >= 0x80 && code < 0xA0)) {
+        if (overlong || (code >= 0xD800 && code <= 0xDFFF) || code > 0x10FFFF ||
+            (code >= 0x80 && code < 0xA0)) {
             return false;  // the last: C1 control characters
         }
         i += length;
@@ -208,8 +209,8 @@ StationConfig parse_station_config(const std::string& yaml_text, const std::stri
         if (valid_station_name(*s)) {
             config.station = *s;
         } else {
-            r.problems.push_back("station: expected 1..128 bytes of printable UTF-8 text, got \"" + printable(*s) +
-                                 "\"");
+            r.problems.push_back("station: expected 1..128 bytes of printable UTF-8 text, got \"" +
+                                 printable(*s) + "\"");
         }
     }
 
@@ -231,9 +232,11 @@ StationConfig parse_station_config(const std::string& yaml_text, const std::stri
             if (auto s = r.string(node["name"], path + ".name", true)) {
                 sensor.name = *s;
                 if (!valid_sensor_name(*s)) {
-                    r.problems.push_back(path + ".name: expected 1..64 characters of [A-Za-z0-9_.-] (it names "
-                                         "poses.csv rows, extrinsics.yaml keys and tf frames), got \"" +
-                                         printable(*s) + "\"");
+                    r.problems.push_back(
+                        path +
+                        ".name: expected 1..64 characters of [A-Za-z0-9_.-] (it names "
+                        "poses.csv rows, extrinsics.yaml keys and tf frames), got \"" +
+                        printable(*s) + "\"");
                 }
                 if (!names.insert(*s).second) {
                     r.problems.push_back(path + ".name: \"" + *s + "\" is used by another sensor");
@@ -251,7 +254,8 @@ StationConfig parse_station_config(const std::string& yaml_text, const std::stri
             if (auto e = r.boolean(node["enabled"], path + ".enabled")) sensor.enabled = *e;
             // Two sensors on one port are fine only when their source addresses tell them
             // apart (or, for non-legacy profiles, their serials; checked against metadata).
-            const auto endpoint = std::make_pair(sensor.udp_port, sensor.source_address.value_or("*"));
+            const auto endpoint =
+                std::make_pair(sensor.udp_port, sensor.source_address.value_or("*"));
             if (sensor.udp_port != 0 && !endpoints.insert(endpoint).second &&
                 endpoint.second != "*") {
                 r.problems.push_back(path + ".source_address: port " +
@@ -328,8 +332,10 @@ std::string to_yaml(const StationConfig& config, const std::filesystem::path& ba
         } else {
             out << YAML::Key << "metadata" << YAML::Value << meta.string();
         }
-        if (s.source_address) out << YAML::Key << "source_address" << YAML::Value << *s.source_address;
-        if (s.time_offset_ns != 0) out << YAML::Key << "time_offset_ns" << YAML::Value << s.time_offset_ns;
+        if (s.source_address)
+            out << YAML::Key << "source_address" << YAML::Value << *s.source_address;
+        if (s.time_offset_ns != 0)
+            out << YAML::Key << "time_offset_ns" << YAML::Value << s.time_offset_ns;
         if (!s.enabled) out << YAML::Key << "enabled" << YAML::Value << false;
         out << YAML::EndMap;
     }

@@ -27,14 +27,14 @@ struct SensorConfigure {
 };
 
 struct SensorConfig {
-    std::string name;                     // unique; used in poses.csv, tf frames, logs
-    std::uint16_t udp_port = 0;           // lidar data port
+    std::string name;            // unique; used in poses.csv, tf frames, logs
+    std::uint16_t udp_port = 0;  // lidar data port
     // Where the metadata comes from: exactly one of a file (absolute after loading) and the
     // sensor's HTTP API at hostname:http_port (below; lidarfused only, offline tools need
     // a file).
     std::filesystem::path metadata;             // Ouster metadata JSON
     std::optional<std::string> source_address;  // IPv4 dotted quad; tells apart shared ports
-    std::int64_t time_offset_ns = 0;      // added to this sensor's timestamps
+    std::int64_t time_offset_ns = 0;            // added to this sensor's timestamps
     bool enabled = true;
     std::optional<std::string> hostname;  // host name or IPv4 dotted quad
     int http_port = 80;
@@ -43,9 +43,9 @@ struct SensorConfig {
 
 struct StationConfig {
     std::string station = "station";
-    std::string root;                     // name of the root sensor (defaults to the first)
+    std::string root;  // name of the root sensor (defaults to the first)
     std::vector<SensorConfig> sensors;
-    std::filesystem::path source_file;    // where it was loaded from (empty if built in code)
+    std::filesystem::path source_file;  // where it was loaded from (empty if built in code)
 
     // Index of the root sensor in `sensors`.
     std::size_t root_index() const;

@@ -38,7 +38,8 @@ std::optional<long long> YamlReader::integer(const YAML::Node& node, const std::
         return std::nullopt;
     }
     long long value = 0;
-    if (!node.IsScalar() || !YAML::convert<long long>::decode(node, value) || value < min || value > max) {
+    if (!node.IsScalar() || !YAML::convert<long long>::decode(node, value) || value < min ||
+        value > max) {
         problems.push_back(path + ": expected an integer in " + std::to_string(min) + ".." +
                            std::to_string(max) + ", got " + describe(node));
         return std::nullopt;
@@ -46,8 +47,8 @@ std::optional<long long> YamlReader::integer(const YAML::Node& node, const std::
     return value;
 }
 
-std::optional<double> YamlReader::number(const YAML::Node& node, const std::string& path, double min,
-                                         double max, bool required) {
+std::optional<double> YamlReader::number(const YAML::Node& node, const std::string& path,
+                                         double min, double max, bool required) {
     if (!node) {
         if (required) problems.push_back(path + ": missing (expected a number)");
         return std::nullopt;
@@ -57,7 +58,8 @@ std::optional<double> YamlReader::number(const YAML::Node& node, const std::stri
         value < min || value > max) {
         std::ostringstream range;
         range << min << ".." << max;
-        problems.push_back(path + ": expected a number in " + range.str() + ", got " + describe(node));
+        problems.push_back(path + ": expected a number in " + range.str() + ", got " +
+                           describe(node));
         return std::nullopt;
     }
     return value;

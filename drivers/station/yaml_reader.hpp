@@ -16,7 +16,8 @@ class YamlReader {
 public:
     std::vector<std::string> problems;
 
-    std::optional<std::string> string(const YAML::Node& node, const std::string& path, bool required);
+    std::optional<std::string> string(const YAML::Node& node, const std::string& path,
+                                      bool required);
     std::optional<long long> integer(const YAML::Node& node, const std::string& path, long long min,
                                      long long max, bool required);
     std::optional<double> number(const YAML::Node& node, const std::string& path, double min,
@@ -27,7 +28,8 @@ public:
     std::optional<std::size_t> choice(const YAML::Node& node, const std::string& path,
                                       const std::vector<std::string>& options);
     // Reports keys of `map` that are not in `allowed` (typos), as `path.key`.
-    void only_keys(const YAML::Node& map, const std::string& path, const std::set<std::string>& allowed);
+    void only_keys(const YAML::Node& map, const std::string& path,
+                   const std::set<std::string>& allowed);
     // True when `node` is absent or a mapping; reports it otherwise.
     bool optional_map(const YAML::Node& node, const std::string& path);
 

@@ -18,7 +18,8 @@ std::vector<Eigen::Vector3d> scan(double vehicle_x, bool with_vehicle, unsigned 
         const double el = (16.6 - row * 33.2 / 63) * M_PI / 180;
         for (int col = 0; col < 512; ++col) {
             const double az = col * 2 * M_PI / 512;
-            const Eigen::Vector3d d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+            const Eigen::Vector3d d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
+                                    std::sin(el));
             double t = 25.0 / std::cos(el);
             if (d.z() < 0) t = std::min(t, 2.0 / -d.z());
             if (with_vehicle && d.x() > 0) {
@@ -100,7 +101,8 @@ TEST(BackgroundModel, DynamicFlagsFollowTheScoresAndFadedVoxelsAreForgotten) {
         detector.detect(current, &changes);
         for (std::size_t i = 0; i < current.size(); ++i) {
             const bool hot = model.score_at(current[i]) > params.dynamic_threshold;
-            ASSERT_EQ(update.dynamic[i] != 0, changes.added[i] || hot) << "frame " << f << " point " << i;
+            ASSERT_EQ(update.dynamic[i] != 0, changes.added[i] || hot)
+                << "frame " << f << " point " << i;
             hot_points += hot && !changes.added[i];
         }
         for (std::size_t j = 0; j < reference.size(); ++j) {

@@ -33,7 +33,8 @@ std::optional<double> hit_box(const Eigen::Vector3d& d, const Box& b) {
 
 // An OS1-like scan (1024 x 64, +-16.6 deg) from 2 m above a ground plane, inside a round
 // courtyard of radius 25 m, with optional boxes; Gaussian range noise.
-std::vector<Eigen::Vector3d> scan(const std::vector<Box>& boxes, unsigned seed, double sigma = 0.03) {
+std::vector<Eigen::Vector3d> scan(const std::vector<Box>& boxes, unsigned seed,
+                                  double sigma = 0.03) {
     std::mt19937 rng(seed);
     std::normal_distribution<double> noise(0.0, sigma);
     std::vector<Eigen::Vector3d> points;
@@ -41,8 +42,9 @@ std::vector<Eigen::Vector3d> scan(const std::vector<Box>& boxes, unsigned seed, 
         const double el = (16.6 - row * 33.2 / 63) * M_PI / 180;
         for (int col = 0; col < 1024; ++col) {
             const double az = col * 2 * M_PI / 1024;
-            const Eigen::Vector3d d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
-            double t = 25.0 / std::cos(el);              // the wall
+            const Eigen::Vector3d d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
+                                    std::sin(el));
+            double t = 25.0 / std::cos(el);                // the wall
             if (d.z() < 0) t = std::min(t, 2.0 / -d.z());  // the ground at z = -2
             for (const auto& b : boxes) {
                 if (auto h = hit_box(d, b)) t = std::min(t, *h);
@@ -184,11 +186,13 @@ TEST(SphericalRangeImage, WindowMinimumMatchesBruteForceAcrossRebuilds) {
                         const int ee = e + de;
                         if (ee < 0 || ee >= g.elevation_bins) continue;
                         for (int da = -cone; da <= cone; ++da) {
-                            want = std::min(want, image.nearest((a + da + g.azimuth_bins) % g.azimuth_bins, ee));
+                            want = std::min(
+                                want,
+                                image.nearest((a + da + g.azimuth_bins) % g.azimuth_bins, ee));
                         }
                     }
-                    ASSERT_EQ(image.window_min(a, e), want) << "band " << band.first << " cone " << cone
-                                                            << " cell " << a << "," << e;
+                    ASSERT_EQ(image.window_min(a, e), want)
+                        << "band " << band.first << " cone " << cone << " cell " << a << "," << e;
                 }
             }
         }
@@ -205,17 +209,19 @@ TEST(SphericalRangeImage, WindowMinimumMatchesBruteForceAcrossRebuilds) {
 }
 
 // The cell by the definition: elevation and azimuth from asin and atan2, floored.
-std::optional<std::pair<int, int>> reference_cell(const SphericalGridParams& g, const Eigen::Vector3d& p) {
+std::optional<std::pair<int, int>> reference_cell(const SphericalGridParams& g,
+                                                  const Eigen::Vector3d& p) {
     const double r = p.norm();
     if (!(r > 1e-6) || !std::isfinite(r)) return std::nullopt;
     const double deg = M_PI / 180.0;
     const double el_scale = g.elevation_bins / ((g.max_elevation_deg - g.min_elevation_deg) * deg);
-    const int e = static_cast<int>(std::floor((std::asin(std::clamp(p.z() / r, -1.0, 1.0)) -
-                                               g.min_elevation_deg * deg) * el_scale));
+    const int e = static_cast<int>(std::floor(
+        (std::asin(std::clamp(p.z() / r, -1.0, 1.0)) - g.min_elevation_deg * deg) * el_scale));
     if (e < 0 || e >= g.elevation_bins) return std::nullopt;
     double azimuth = std::atan2(p.y(), p.x());
     if (azimuth < 0) azimuth += 2.0 * M_PI;
-    const int a = std::min(static_cast<int>(azimuth * g.azimuth_bins / (2.0 * M_PI)), g.azimuth_bins - 1);
+    const int a =
+        std::min(static_cast<int>(azimuth * g.azimuth_bins / (2.0 * M_PI)), g.azimuth_bins - 1);
     return std::make_pair(a, e);
 }
 

@@ -178,7 +178,8 @@ TEST(EdgeConsensus, SensorsBeyondAWeakBridgeAreUnconfirmed) {
     EXPECT_FALSE(chain_ok[1]);
     EXPECT_EQ(chain[1].status, PairStatus::kUnconfirmed);
 
-    std::vector<PairResult> triangle{pair(1, 0, strong_1_0), pair(2, 1, weak_2_1), pair(2, 0, strong_2_0)};
+    std::vector<PairResult> triangle{pair(1, 0, strong_1_0), pair(2, 1, weak_2_1),
+                                     pair(2, 0, strong_2_0)};
     std::vector<bool> triangle_ok{true, true, true};
     const EdgeConsensusResult t = select_consistent_edges(3, &triangle, &triangle_ok, params);
     EXPECT_EQ(t.unconfirmed, (std::vector<bool>(3, false)));

@@ -156,8 +156,8 @@ TEST(Evaluation, MatchesByTimestampAndReportsMissingFrames) {
     for (auto& [name, samples] : est) {
         samples.erase(samples.begin() + 10, samples.begin() + 20);  // 10 frames not fused
         for (auto& s : samples) {
-            s.frame += 1000;        // another numbering
-            s.t_ns += 3'000'000;    // 3 ms off: still the same frame
+            s.frame += 1000;      // another numbering
+            s.t_ns += 3'000'000;  // 3 ms off: still the same frame
         }
     }
     const auto result = evaluate_trajectories(gt, est);
@@ -193,7 +193,8 @@ TEST(Evaluation, CollinearPositionsFallBackToTheRootPose) {
         EXPECT_NEAR(s.rmse_trans_m, s.strict_rmse_trans_m, 1e-9);
         EXPECT_NEAR(s.rmse_rot_deg, s.strict_rmse_rot_deg, 1e-9);
     }
-    EXPECT_EQ(evaluate_trajectories(world_truth(), perfect_estimate(world_truth())).alignment, "svd");
+    EXPECT_EQ(evaluate_trajectories(world_truth(), perfect_estimate(world_truth())).alignment,
+              "svd");
     // One swaying sensor alone: its sway spans a small plane, which must not count.
     gt.erase("lidar1");
     EXPECT_EQ(evaluate_trajectories(gt, perfect_estimate(gt)).alignment, "root");

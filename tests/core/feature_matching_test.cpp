@@ -66,10 +66,9 @@ TEST(FeatureMatching, MutualAndRatioFilterAmbiguousMatches) {
     EXPECT_EQ(correct, 25);
     EXPECT_LT(matches.size(), 35u);  // most of the 25 unmatched sources are filtered out
     // Ordered by source index.
-    EXPECT_TRUE(std::is_sorted(matches.begin(), matches.end(),
-                               [](const Correspondence& a, const Correspondence& b) {
-                                   return a.source < b.source;
-                               }));
+    EXPECT_TRUE(std::is_sorted(
+        matches.begin(), matches.end(),
+        [](const Correspondence& a, const Correspondence& b) { return a.source < b.source; }));
 }
 
 TEST(FeatureMatching, SeveralCandidatesAndDistanceBound) {

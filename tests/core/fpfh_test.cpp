@@ -16,7 +16,8 @@ PointCloud corner_scene() {
     PointCloud cloud;
     testing::sample_rectangle(Eigen::Vector3d(-6, -6, 0), Eigen::Vector3d(12, 0, 0),
                               Eigen::Vector3d(0, 12, 0), 0.25, Eigen::Vector3d::UnitZ(), &cloud);
-    testing::sample_box(Eigen::Vector3d(0.5, 0.5, 0.0), Eigen::Vector3d(3.0, 2.0, 2.0), 0.25, &cloud);
+    testing::sample_box(Eigen::Vector3d(0.5, 0.5, 0.0), Eigen::Vector3d(3.0, 2.0, 2.0), 0.25,
+                        &cloud);
     std::mt19937 rng(9);
     std::uniform_real_distribution<double> jitter(-0.003, 0.003);
     for (auto& p : cloud.points) p += Eigen::Vector3d(jitter(rng), jitter(rng), jitter(rng));
@@ -60,7 +61,8 @@ TEST(Fpfh, InvariantUnderRigidTransform) {
     const auto before = compute_fpfh(cloud, keypoints, params);
 
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::AngleAxisd(2.3, Eigen::Vector3d(0.1, -0.2, 1).normalized()).toRotationMatrix();
+    T.linear() =
+        Eigen::AngleAxisd(2.3, Eigen::Vector3d(0.1, -0.2, 1).normalized()).toRotationMatrix();
     T.translation() = Eigen::Vector3d(30, -12, 4);
     PointCloud moved;
     for (std::size_t i = 0; i < cloud.size(); ++i) {

@@ -17,12 +17,24 @@ std::vector<Eigen::Vector3d> room(std::uint32_t seed) {
     for (int i = 0; i < 20000; ++i) {
         const double a = u(rng), b = u(rng);
         switch (i % 6) {
-            case 0: points.emplace_back(-20.0, -15.0 + 30.0 * a, -3.0 + 10.0 * b); break;
-            case 1: points.emplace_back(20.0, -15.0 + 30.0 * a, -3.0 + 10.0 * b); break;
-            case 2: points.emplace_back(-20.0 + 40.0 * a, -15.0, -3.0 + 10.0 * b); break;
-            case 3: points.emplace_back(-20.0 + 40.0 * a, 15.0, -3.0 + 10.0 * b); break;
-            case 4: points.emplace_back(-20.0 + 40.0 * a, -15.0 + 30.0 * b, -3.0); break;
-            default: points.emplace_back(8.0 + 2.0 * a, 4.0, -3.0 + 10.0 * b); break;  // pillar face
+            case 0:
+                points.emplace_back(-20.0, -15.0 + 30.0 * a, -3.0 + 10.0 * b);
+                break;
+            case 1:
+                points.emplace_back(20.0, -15.0 + 30.0 * a, -3.0 + 10.0 * b);
+                break;
+            case 2:
+                points.emplace_back(-20.0 + 40.0 * a, -15.0, -3.0 + 10.0 * b);
+                break;
+            case 3:
+                points.emplace_back(-20.0 + 40.0 * a, 15.0, -3.0 + 10.0 * b);
+                break;
+            case 4:
+                points.emplace_back(-20.0 + 40.0 * a, -15.0 + 30.0 * b, -3.0);
+                break;
+            default:
+                points.emplace_back(8.0 + 2.0 * a, 4.0, -3.0 + 10.0 * b);
+                break;  // pillar face
         }
     }
     return points;
@@ -30,7 +42,8 @@ std::vector<Eigen::Vector3d> room(std::uint32_t seed) {
 
 // The room's points in the frame of a sensor at T_world_sensor (no occlusion: every
 // point is a real surface point, so the true transform can violate nothing).
-std::vector<Eigen::Vector3d> view(const std::vector<Eigen::Vector3d>& world, const Eigen::Isometry3d& T_world_sensor) {
+std::vector<Eigen::Vector3d> view(const std::vector<Eigen::Vector3d>& world,
+                                  const Eigen::Isometry3d& T_world_sensor) {
     std::vector<Eigen::Vector3d> out;
     const Eigen::Isometry3d T_sensor_world = T_world_sensor.inverse();
     for (const auto& p : world) out.push_back(T_sensor_world * p);
@@ -71,8 +84,8 @@ TEST(FreeSpaceCheck, NoReturnsMeansNothingTested) {
         free_space_violations(a, std::vector<Eigen::Vector3d>{}, Eigen::Isometry3d::Identity());
     EXPECT_EQ(r.num_tested, 0u);
     EXPECT_EQ(r.violation_share, 0.0);
-    const FreeSpaceResult nan_input =
-        free_space_violations({Eigen::Vector3d(NAN, 0, 0), Eigen::Vector3d::Zero()}, a, Eigen::Isometry3d::Identity());
+    const FreeSpaceResult nan_input = free_space_violations(
+        {Eigen::Vector3d(NAN, 0, 0), Eigen::Vector3d::Zero()}, a, Eigen::Isometry3d::Identity());
     EXPECT_EQ(nan_input.num_tested, 0u);
 }
 

@@ -16,8 +16,8 @@
 namespace lidarfuse::core {
 namespace {
 
-using testing::Scene;
 using testing::ScanPattern;
+using testing::Scene;
 
 constexpr int kSensors = 3;
 constexpr double kFramePeriodS = 0.05;
@@ -30,10 +30,12 @@ Eigen::Isometry3d true_pose(int sensor, int frame) {
     static const int kPick[kSensors] = {0, 2, 3};
     const auto nominal = testing::street_sensor_poses()[static_cast<std::size_t>(kPick[sensor])];
     Eigen::Isometry3d sway = Eigen::Isometry3d::Identity();
-    sway.translation() = Eigen::Vector3d(0.08 * std::sin(2.0 * t + sensor), 0.05 * std::cos(1.3 * t + 2 * sensor), 0.0);
-    sway.linear() = (Eigen::AngleAxisd(0.004 * std::sin(1.7 * t + sensor), Eigen::Vector3d::UnitX()) *
-                     Eigen::AngleAxisd(0.003 * std::cos(2.3 * t), Eigen::Vector3d::UnitY()))
-                        .toRotationMatrix();
+    sway.translation() = Eigen::Vector3d(0.08 * std::sin(2.0 * t + sensor),
+                                         0.05 * std::cos(1.3 * t + 2 * sensor), 0.0);
+    sway.linear() =
+        (Eigen::AngleAxisd(0.004 * std::sin(1.7 * t + sensor), Eigen::Vector3d::UnitX()) *
+         Eigen::AngleAxisd(0.003 * std::cos(2.3 * t), Eigen::Vector3d::UnitY()))
+            .toRotationMatrix();
     return nominal * sway;
 }
 
@@ -58,7 +60,8 @@ FrameInput make_frame(int frame, const std::vector<Eigen::Isometry3d>& poses,
         scan.t_ns = 1'000'000'000LL + frame * 50'000'000LL + s * 1'000'000LL;
         if (!scan.present) continue;
         scan.points = testing::scan_scene(scene, poses[static_cast<std::size_t>(s)], pattern,
-                                          static_cast<std::uint32_t>(1000 * frame + s)).points;
+                                          static_cast<std::uint32_t>(1000 * frame + s))
+                          .points;
     }
     return in;
 }
@@ -141,10 +144,12 @@ Eigen::Isometry3d fast_pose(int sensor, double t) {
     static const int kPick[kSensors] = {0, 2, 3};
     const auto nominal = testing::street_sensor_poses()[static_cast<std::size_t>(kPick[sensor])];
     Eigen::Isometry3d sway = Eigen::Isometry3d::Identity();
-    sway.translation() = Eigen::Vector3d(0.15 * std::sin(3.0 * t + sensor), 0.1 * std::cos(2.5 * t + 2 * sensor), 0.0);
-    sway.linear() = (Eigen::AngleAxisd(0.03 * std::sin(2.5 * t + sensor), Eigen::Vector3d::UnitX()) *
-                     Eigen::AngleAxisd(0.02 * std::cos(2.2 * t + sensor), Eigen::Vector3d::UnitY()))
-                        .toRotationMatrix();
+    sway.translation() = Eigen::Vector3d(0.15 * std::sin(3.0 * t + sensor),
+                                         0.1 * std::cos(2.5 * t + 2 * sensor), 0.0);
+    sway.linear() =
+        (Eigen::AngleAxisd(0.03 * std::sin(2.5 * t + sensor), Eigen::Vector3d::UnitX()) *
+         Eigen::AngleAxisd(0.02 * std::cos(2.2 * t + sensor), Eigen::Vector3d::UnitY()))
+            .toRotationMatrix();
     return nominal * sway;
 }
 
@@ -165,11 +170,15 @@ SensorScanInput moving_scan(const Scene& scene, int sensor, double t0_s, std::ui
         const double az = 2.0 * M_PI * c / pattern.columns;
         for (int b = 0; b < pattern.beams; ++b) {
             const double el = (pattern.min_elevation_deg +
-                               (pattern.max_elevation_deg - pattern.min_elevation_deg) * b / (pattern.beams - 1)) * d;
-            const Eigen::Vector3d dir(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+                               (pattern.max_elevation_deg - pattern.min_elevation_deg) * b /
+                                   (pattern.beams - 1)) *
+                              d;
+            const Eigen::Vector3d dir(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
+                                      std::sin(el));
             const double hit = testing::cast_ray(scene, T.translation(), T.linear() * dir);
             const double range = hit + noise(rng);
-            if (!std::isfinite(hit) || hit > pattern.max_range_m || range < pattern.min_range_m) continue;
+            if (!std::isfinite(hit) || hit > pattern.max_range_m || range < pattern.min_range_m)
+                continue;
             scan.points.push_back(range * dir);
             scan.point_dt_s.push_back(static_cast<float>(dt));
         }
@@ -180,7 +189,8 @@ SensorScanInput moving_scan(const Scene& scene, int sensor, double t0_s, std::ui
 // Strict RMSE (translation m, rotation deg) of `frames` frames of the fast sway with
 // per-column timing, over frames first_scored.., against the pose at each scan's timestamp.
 // A handed-out initial registration (initial_registration_inline off) runs at job_frame.
-Errors fast_sway_rmse(const FusionParams& params, int first_scored, int frames = 14, int job_frame = 0) {
+Errors fast_sway_rmse(const FusionParams& params, int first_scored, int frames = 14,
+                      int job_frame = 0) {
     FusionEngine engine(kSensors, params);
     double sum_t = 0, sum_r = 0;
     int count = 0;
@@ -191,7 +201,8 @@ Errors fast_sway_rmse(const FusionParams& params, int first_scored, int frames =
         FrameInput in;
         for (int s = 0; s < kSensors; ++s) {
             const double t0 = 1.0 + f * kFramePeriodS + s * 0.011;
-            in.sensors.push_back(moving_scan(scene, s, t0, static_cast<std::uint32_t>(1000 * f + s)));
+            in.sensors.push_back(
+                moving_scan(scene, s, t0, static_cast<std::uint32_t>(1000 * f + s)));
         }
         const auto out = engine.process(in);
         EXPECT_TRUE(out.graph_usable) << "frame " << f;
@@ -204,7 +215,8 @@ Errors fast_sway_rmse(const FusionParams& params, int first_scored, int frames =
         for (int s = 0; s < kSensors; ++s) {
             const auto k = static_cast<std::size_t>(s);
             EXPECT_TRUE(out.health[k].pose_valid);
-            const Eigen::Isometry3d truth = root0.inverse() * fast_pose(s, 1.0 + f * kFramePeriodS + s * 0.011);
+            const Eigen::Isometry3d truth =
+                root0.inverse() * fast_pose(s, 1.0 + f * kFramePeriodS + s * 0.011);
             const double et = translation_error_m(out.T_root_sensor[k], truth);
             const double er = rotation_error_deg(out.T_root_sensor[k], truth);
             sum_t += et * et;
@@ -224,8 +236,10 @@ Errors fast_sway_rmse(bool deskew) {
 TEST(FusionEngine, DeskewRemovesTheSweepMotionError) {
     const Errors off = fast_sway_rmse(false);
     const Errors on = fast_sway_rmse(true);
-    std::printf("fusion_engine_test_fast_sway_rmse_no_deskew %.4f m %.4f deg\n", off.trans_m, off.rot_deg);
-    std::printf("fusion_engine_test_fast_sway_rmse_deskew %.4f m %.4f deg\n", on.trans_m, on.rot_deg);
+    std::printf("fusion_engine_test_fast_sway_rmse_no_deskew %.4f m %.4f deg\n", off.trans_m,
+                off.rot_deg);
+    std::printf("fusion_engine_test_fast_sway_rmse_deskew %.4f m %.4f deg\n", on.trans_m,
+                on.rot_deg);
     EXPECT_LT(on.trans_m, 0.6 * off.trans_m);
     EXPECT_LT(on.rot_deg, 0.6 * off.rot_deg);
 }
@@ -250,8 +264,8 @@ Errors coarse_rmse(bool knobs) {
 TEST(FusionEngine, CoarseVoxelTracksWithAndWithoutTheReferenceKnobs) {
     for (const bool knobs : {true, false}) {
         const Errors e = coarse_rmse(knobs);
-        std::printf("fusion_engine_test_coarse_rmse_%s %.4f m %.4f deg\n", knobs ? "knobs" : "plain",
-                    e.trans_m, e.rot_deg);
+        std::printf("fusion_engine_test_coarse_rmse_%s %.4f m %.4f deg\n",
+                    knobs ? "knobs" : "plain", e.trans_m, e.rot_deg);
         EXPECT_LT(e.trans_m, 0.04) << knobs;
         EXPECT_LT(e.rot_deg, 0.15) << knobs;
     }
@@ -266,7 +280,8 @@ TEST_P(KnockedSensor, IsDetectedAndRegisteredAgain) {
     params.initial_registration_inline = GetParam();
     FusionEngine engine(kSensors, params);
     Eigen::Isometry3d knock = Eigen::Isometry3d::Identity();
-    knock.linear() = Eigen::AngleAxisd(10.0 * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    knock.linear() =
+        Eigen::AngleAxisd(10.0 * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     knock.translation() = Eigen::Vector3d(1.0, 0.0, 0.0);
     bool reinitialised = false;
     for (int f = 0; f < 16; ++f) {
@@ -289,7 +304,8 @@ TEST_P(KnockedSensor, IsDetectedAndRegisteredAgain) {
                 EXPECT_FALSE(out.health[static_cast<std::size_t>(s)].pose_valid);
                 continue;
             }
-            ASSERT_TRUE(out.health[static_cast<std::size_t>(s)].pose_valid) << "sensor " << s << " frame " << f;
+            ASSERT_TRUE(out.health[static_cast<std::size_t>(s)].pose_valid)
+                << "sensor " << s << " frame " << f;
             const auto e = error_of(out.T_root_sensor[static_cast<std::size_t>(s)], s, f);
             EXPECT_LT(e.trans_m, 0.03) << "sensor " << s << " frame " << f;
         }
@@ -318,10 +334,10 @@ TEST(FusionEngine, LateRegisteredSensorsAreAsAccurateAsInline) {
     const Errors inline_registration = fast_sway_rmse(params, 12, 18);
     params.initial_registration_inline = false;
     const Errors handed_out = fast_sway_rmse(params, 12, 18, 4);
-    std::printf("fusion_engine_test_fast_sway_rmse_inline %.4f m %.4f deg\n", inline_registration.trans_m,
-                inline_registration.rot_deg);
-    std::printf("fusion_engine_test_fast_sway_rmse_handed_out %.4f m %.4f deg\n", handed_out.trans_m,
-                handed_out.rot_deg);
+    std::printf("fusion_engine_test_fast_sway_rmse_inline %.4f m %.4f deg\n",
+                inline_registration.trans_m, inline_registration.rot_deg);
+    std::printf("fusion_engine_test_fast_sway_rmse_handed_out %.4f m %.4f deg\n",
+                handed_out.trans_m, handed_out.rot_deg);
     EXPECT_LT(handed_out.trans_m, 1.5 * inline_registration.trans_m + 0.002);
     EXPECT_LT(handed_out.rot_deg, 1.5 * inline_registration.rot_deg + 0.005);
 }

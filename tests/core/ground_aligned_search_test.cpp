@@ -39,7 +39,8 @@ TEST(GroundAlignedSearch, TruthIsAmongTheStrongestPeaks) {
     EXPECT_LE(found, 2);
     EXPECT_GE(candidates[found].votes, GroundAlignedSearchParams{}.min_votes);
     EXPECT_GE(candidates[found].inliers.size(), 6u);
-    for (std::size_t k = 1; k < candidates.size(); ++k) EXPECT_GE(candidates[k - 1].votes, candidates[k].votes);
+    for (std::size_t k = 1; k < candidates.size(); ++k)
+        EXPECT_GE(candidates[k - 1].votes, candidates[k].votes);
 
     const auto again = ground_aligned_search(keypoints_of(source), keypoints_of(target));
     ASSERT_EQ(again.size(), candidates.size());
@@ -53,7 +54,9 @@ TEST(GroundAlignedSearch, BadInputGivesNoCandidate) {
     EXPECT_TRUE(ground_aligned_search({}, keypoints_of(f)).empty());
     std::vector<Eigen::Vector3d> two(2, Eigen::Vector3d::Zero());
     std::vector<FpfhDescriptor> d2(2, FpfhDescriptor::Zero());
-    EXPECT_TRUE(ground_aligned_search({&two, &two, &d2, Eigen::Isometry3d::Identity()}, keypoints_of(f)).empty());
+    EXPECT_TRUE(
+        ground_aligned_search({&two, &two, &d2, Eigen::Isometry3d::Identity()}, keypoints_of(f))
+            .empty());
     GroundAlignedSearchParams bad;
     bad.cell_m = 0.0;
     EXPECT_TRUE(ground_aligned_search(keypoints_of(f), keypoints_of(f), bad).empty());

@@ -19,7 +19,8 @@ std::vector<PointCloud> scan_all(const testing::Scene& scene,
     pattern.range_noise_sigma_m = 0.03;
     std::vector<PointCloud> clouds;
     for (std::size_t i = 0; i < T_world_sensor.size(); ++i) {
-        clouds.push_back(testing::scan_scene(scene, T_world_sensor[i], pattern, 100 + static_cast<std::uint32_t>(i)));
+        clouds.push_back(testing::scan_scene(scene, T_world_sensor[i], pattern,
+                                             100 + static_cast<std::uint32_t>(i)));
     }
     return clouds;
 }
@@ -55,7 +56,8 @@ TEST(InitialRegistration, RegistersFourSensorsOfAStreet) {
         EXPECT_GT(p.overlap_share, 0.15);
         EXPECT_LT(p.p2p_error_m, 1.0);
         EXPECT_GT(p.min_hessian_eigenvalue, 0.0);
-        const Eigen::Isometry3d truth = T_world_sensor[p.target].inverse() * T_world_sensor[p.source];
+        const Eigen::Isometry3d truth =
+            T_world_sensor[p.target].inverse() * T_world_sensor[p.source];
         EXPECT_LT(translation_error_m(p.T_target_source, truth), 0.05);
     }
     EXPECT_GE(good, 3);
@@ -92,7 +94,8 @@ TEST(InitialRegistration, EmptyCloudsAndNoOverlap) {
     for (int k = 0; k < 8; ++k) {
         const double a = 0.8 * k;
         other.boxes.push_back({Eigen::Vector3d((7.0 + k) * std::cos(a), (7.0 + k) * std::sin(a), 0),
-                               Eigen::Vector3d(2.0 + 0.5 * k, 6.0 - 0.4 * k, 2.0 + 0.7 * k), 0.3 * k});
+                               Eigen::Vector3d(2.0 + 0.5 * k, 6.0 - 0.4 * k, 2.0 + 0.7 * k),
+                               0.3 * k});
     }
     other.poles.push_back({Eigen::Vector2d(-3, -4), 0.2, 5.0});
     clouds.push_back(scan_all(other, {testing::sensor_pose(0, 0, 6, 0, 8)})[0]);
@@ -163,7 +166,8 @@ namespace {
 PointCloud azimuth_sector(const PointCloud& cloud, double centre_deg, double fov_deg) {
     PointCloud out;
     for (const auto& p : cloud.points) {
-        const double d = std::remainder(std::atan2(p.y(), p.x()) * 180.0 / M_PI - centre_deg, 360.0);
+        const double d =
+            std::remainder(std::atan2(p.y(), p.x()) * 180.0 / M_PI - centre_deg, 360.0);
         if (std::abs(d) <= 0.5 * fov_deg) out.points.push_back(p);
     }
     return out;
@@ -194,7 +198,8 @@ TEST(InitialRegistration, NarrowViewLookAlikeIsRefusedNotGuessed) {
     const StreetPair street = street_pair(101, 201);
     const Eigen::Isometry3d& truth = street.truth;
     for (const double centre_deg : {0.0, 315.0}) {
-        const std::vector<PointCloud> clouds{street.target, azimuth_sector(street.source, centre_deg, 90.0)};
+        const std::vector<PointCloud> clouds{street.target,
+                                             azimuth_sector(street.source, centre_deg, 90.0)};
         const InitialRegistrationResult r = register_initial(clouds, registration_test_params());
         ASSERT_EQ(r.sensors.size(), 2u);
         const SensorRegistration& s = r.sensors[1];
@@ -217,7 +222,8 @@ TEST(InitialRegistration, NarrowViewLookAlikeIsRefusedNotGuessed) {
         guessing.consensus.min_bridge_information_per_inlier = 0.0;
         const InitialRegistrationResult g = register_initial(clouds, guessing);
         ASSERT_TRUE(g.sensors[1].registered) << "sector " << centre_deg;
-        EXPECT_GT(translation_error_m(g.sensors[1].T_root_sensor, truth), 1.0) << "sector " << centre_deg;
+        EXPECT_GT(translation_error_m(g.sensors[1].T_root_sensor, truth), 1.0)
+            << "sector " << centre_deg;
     }
 }
 

@@ -18,10 +18,12 @@ TEST(NormalVoting, PicksTheDominantAxisAndFoldsSigns) {
     const Eigen::Vector3d axis = Eigen::Vector3d(0.3, -0.8, 0.2).normalized();
     std::vector<Eigen::Vector3d> normals;
     for (int i = 0; i < 70; ++i) {
-        Eigen::Vector3d n = (axis + Eigen::Vector3d(jitter(rng), jitter(rng), jitter(rng))).normalized();
+        Eigen::Vector3d n =
+            (axis + Eigen::Vector3d(jitter(rng), jitter(rng), jitter(rng))).normalized();
         normals.push_back(i % 2 ? n : Eigen::Vector3d(-n));  // both signs: folded together
     }
-    for (int i = 0; i < 30; ++i) normals.push_back(Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized());
+    for (int i = 0; i < 30; ++i)
+        normals.push_back(Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized());
     std::vector<std::uint32_t> idx(normals.size());
     for (std::uint32_t i = 0; i < idx.size(); ++i) idx[i] = i;
     const NormalVoting::Vote vote = voting.dominant(normals, idx.data(), idx.size());
@@ -61,7 +63,8 @@ TEST(OctreeDownsample, DetailGetsFineVoxelsAndNormalsAreUnit) {
     testing::sample_rectangle(Eigen::Vector3d(-8, -8, 0), Eigen::Vector3d(16, 0, 0),
                               Eigen::Vector3d(0, 16, 0), 0.1, Eigen::Vector3d::UnitZ(), &cloud);
     // A small box: its edges and corners have normals that disagree.
-    testing::sample_box(Eigen::Vector3d(0.3, 0.3, 0.0), Eigen::Vector3d(1.0, 1.4, 1.2), 0.05, &cloud);
+    testing::sample_box(Eigen::Vector3d(0.3, 0.3, 0.0), Eigen::Vector3d(1.0, 1.4, 1.2), 0.05,
+                        &cloud);
     std::vector<double> curvature(cloud.size(), 0.01);
     OctreeDownsampleParams params;
     params.max_voxel_size_m = 2.0;
@@ -80,8 +83,10 @@ TEST(OctreeDownsample, DetailGetsFineVoxelsAndNormalsAreUnit) {
         const bool near_box = p.x() > -0.5 && p.x() < 2.5 && p.y() > -0.5 && p.y() < 2.5;
         if (near_box && r.voxel_size_m[i] <= 0.25f) ++fine_near_box;
         if (!near_box && p.norm() > 5.0) {
-            if (r.voxel_size_m[i] == 2.0f) ++coarse_far;
-            else ++fine_far;
+            if (r.voxel_size_m[i] == 2.0f)
+                ++coarse_far;
+            else
+                ++fine_far;
         }
     }
     EXPECT_EQ(total, cloud.size());  // every point is in exactly one leaf

@@ -47,7 +47,8 @@ Problem make_problem(const Eigen::Isometry3d& T, int n, double inlier_share, std
 
 Eigen::Isometry3d yaw_transform(double yaw_deg, const Eigen::Vector3d& t) {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    T.linear() =
+        Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     T.translation() = t;
     return T;
 }
@@ -104,11 +105,13 @@ TEST(Ransac, UpVectorCheckRejectsUpsideDown) {
     const Problem p = make_problem(flip, 100, 1.0, 4);
     RansacParams params;
     params.inlier_threshold_m = 0.2;
-    const RansacResult rejected = ransac_registration(p.source, p.target, p.correspondences, params);
+    const RansacResult rejected =
+        ransac_registration(p.source, p.target, p.correspondences, params);
     EXPECT_FALSE(rejected.success);
     EXPECT_GT(rejected.upside_down_hypotheses, 0);
     params.reject_upside_down = false;
-    const RansacResult accepted = ransac_registration(p.source, p.target, p.correspondences, params);
+    const RansacResult accepted =
+        ransac_registration(p.source, p.target, p.correspondences, params);
     ASSERT_TRUE(accepted.success);
     EXPECT_TRUE(accepted.T_target_source.isApprox(flip, 1e-2));
 }
@@ -140,7 +143,8 @@ TEST(Ransac, DegenerateInputs) {
     std::vector<Eigen::Vector3d> pts{{0, 0, 0}, {1, 0, 0}};
     EXPECT_FALSE(ransac_registration(pts, pts, {{0, 0, 0.f}, {1, 1, 0.f}}, params).success);
     // Out-of-range indices are refused, not read.
-    EXPECT_FALSE(ransac_registration(pts, pts, {{0, 0, 0.f}, {1, 5, 0.f}, {0, 1, 0.f}}, params).success);
+    EXPECT_FALSE(
+        ransac_registration(pts, pts, {{0, 0, 0.f}, {1, 5, 0.f}, {0, 1, 0.f}}, params).success);
     // Pure noise: no consensus of min_inliers.
     std::mt19937 rng(2);
     std::uniform_real_distribution<double> u(-30.0, 30.0);

@@ -11,8 +11,8 @@ PointCloud street_scan(std::size_t sensor) {
     testing::ScanPattern pattern;
     pattern.columns = 512;
     pattern.range_noise_sigma_m = 0.03;
-    return testing::scan_scene(testing::street_scene(), testing::street_sensor_poses()[sensor], pattern,
-                               100 + static_cast<std::uint32_t>(sensor));
+    return testing::scan_scene(testing::street_scene(), testing::street_sensor_poses()[sensor],
+                               pattern, 100 + static_cast<std::uint32_t>(sensor));
 }
 
 TEST(SensorFeatures, StreetScanGivesKeypointsAndDescriptors) {
@@ -47,7 +47,8 @@ TEST(SensorFeatures, PlaneOnlyAndEmpty) {
     testing::Scene flat;
     testing::ScanPattern pattern;
     pattern.columns = 512;
-    const PointCloud plane = testing::scan_scene(flat, testing::sensor_pose(0, 0, 6, 0, 10), pattern, 3);
+    const PointCloud plane =
+        testing::scan_scene(flat, testing::sensor_pose(0, 0, 6, 0, 10), pattern, 3);
     ASSERT_GT(plane.size(), 1000u);
     const SensorFeatures f = compute_sensor_features(plane, {});
     EXPECT_TRUE(f.status == SensorFeatureStatus::kPlaneOnly ||

@@ -40,7 +40,8 @@ Scene box_scene(bool with_box) {
     testing::sample_rectangle(Eigen::Vector3d(-10, -10, 0), Eigen::Vector3d(20, 0, 0),
                               Eigen::Vector3d(0, 20, 0), 0.2, Eigen::Vector3d::UnitZ(), &s.cloud);
     if (with_box) {
-        testing::sample_box(Eigen::Vector3d(-1, -1.5, 0), Eigen::Vector3d(3, 2.5, 2), 0.1, &s.cloud);
+        testing::sample_box(Eigen::Vector3d(-1, -1.5, 0), Eigen::Vector3d(3, 2.5, 2), 0.1,
+                            &s.cloud);
     }
     // A millimetre of noise, as a scanner has: on an exact lattice most neighbours are tied,
     // and which of them a k-d tree lists first would decide the curvature.

@@ -32,7 +32,8 @@ TEST(SlidingWindow, KeepsTheLastWindowOfFramesAndTheirEdgesOnly) {
         }
         window.slide(f);
         for (std::int64_t g = 0; g <= f; ++g) {
-            EXPECT_EQ(graph.has_node(node_id(0, g)), g > f - 3) << "frame " << f << ", node of frame " << g;
+            EXPECT_EQ(graph.has_node(node_id(0, g)), g > f - 3)
+                << "frame " << f << ", node of frame " << g;
             EXPECT_EQ(graph.has_node(node_id(1, g)), g > f - 3);
         }
     }

@@ -71,7 +71,8 @@ inline double cast_ray(const Scene& scene, const Eigen::Vector3d& o, const Eigen
     }
     for (const SceneBox& box : scene.boxes) {
         // Ray in the box frame (origin at the box centre, axes yawed).
-        const Eigen::Matrix3d R = Eigen::AngleAxisd(-box.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        const Eigen::Matrix3d R =
+            Eigen::AngleAxisd(-box.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
         const Eigen::Vector3d centre = box.centre + Eigen::Vector3d(0, 0, 0.5 * box.size.z());
         const Eigen::Vector3d lo = R * (o - centre);
         const Eigen::Vector3d ld = R * dir;
@@ -118,16 +119,18 @@ inline core::PointCloud scan_scene(const Scene& scene, const Eigen::Isometry3d& 
     const Eigen::Vector3d origin = T_world_sensor.translation();
     const double d = M_PI / 180.0;
     for (int b = 0; b < pattern.beams; ++b) {
-        const double el = (pattern.min_elevation_deg +
-                           (pattern.max_elevation_deg - pattern.min_elevation_deg) * b /
-                               std::max(1, pattern.beams - 1)) * d;
+        const double el =
+            (pattern.min_elevation_deg + (pattern.max_elevation_deg - pattern.min_elevation_deg) *
+                                             b / std::max(1, pattern.beams - 1)) *
+            d;
         for (int c = 0; c < pattern.columns; ++c) {
             const double az = 2.0 * M_PI * c / pattern.columns;
-            const Eigen::Vector3d dir_sensor(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
-                                             std::sin(el));
+            const Eigen::Vector3d dir_sensor(std::cos(el) * std::cos(az),
+                                             std::cos(el) * std::sin(az), std::sin(el));
             const double t = cast_ray(scene, origin, T_world_sensor.linear() * dir_sensor);
             const double range = t + noise(rng);
-            if (!std::isfinite(t) || t > pattern.max_range_m || range < pattern.min_range_m) continue;
+            if (!std::isfinite(t) || t > pattern.max_range_m || range < pattern.min_range_m)
+                continue;
             cloud.points.push_back(range * dir_sensor);
         }
     }
@@ -140,7 +143,8 @@ inline Scene street_scene() {
     Scene scene;
     scene.ground_half_extent_m = 60.0;
     auto box = [&](double x, double y, double sx, double sy, double sz, double yaw_deg) {
-        scene.boxes.push_back({Eigen::Vector3d(x, y, 0.0), Eigen::Vector3d(sx, sy, sz), yaw_deg * M_PI / 180.0});
+        scene.boxes.push_back(
+            {Eigen::Vector3d(x, y, 0.0), Eigen::Vector3d(sx, sy, sz), yaw_deg * M_PI / 180.0});
     };
     box(-14.0, 16.0, 10.0, 7.0, 9.0, 5.0);
     box(4.0, 19.0, 12.0, 6.0, 6.0, -8.0);
@@ -176,8 +180,8 @@ inline void sample_rectangle(const Eigen::Vector3d& corner, const Eigen::Vector3
 }
 
 // The five visible faces (no bottom) of an axis-aligned box on the ground, outward normals.
-inline void sample_box(const Eigen::Vector3d& min_corner, const Eigen::Vector3d& size, double step_m,
-                       core::PointCloud* cloud) {
+inline void sample_box(const Eigen::Vector3d& min_corner, const Eigen::Vector3d& size,
+                       double step_m, core::PointCloud* cloud) {
     const Eigen::Vector3d x(size.x(), 0, 0), y(0, size.y(), 0), z(0, 0, size.z());
     const Eigen::Vector3d& c = min_corner;
     sample_rectangle(c + z, x, y, step_m, Eigen::Vector3d::UnitZ(), cloud);
@@ -194,8 +198,7 @@ namespace lidarfuse::testing {
 // Four roadside sensors in street_scene(): 5-6 m high, tilted down 6-12 degrees, with
 // relative yaws up to 180 degrees; every one overlaps every other.
 inline std::vector<Eigen::Isometry3d> street_sensor_poses() {
-    return {sensor_pose(0.0, 0.0, 6.0, 0.0, 8.0),
-            sensor_pose(8.0, 6.0, 5.0, 180.0, 6.0, 1.0),
+    return {sensor_pose(0.0, 0.0, 6.0, 0.0, 8.0), sensor_pose(8.0, 6.0, 5.0, 180.0, 6.0, 1.0),
             sensor_pose(-11.0, -2.0, 5.5, -100.0, 10.0),
             sensor_pose(3.0, -11.0, 6.0, 75.0, 12.0, -1.5)};
 }

@@ -7,10 +7,10 @@
 
 #include <cctype>
 #include <cstdlib>
-#include <optional>
-#include <string>
 #include <fstream>
+#include <optional>
 #include <sstream>
+#include <string>
 
 #include "tests/support/test_data.hpp"
 
@@ -28,12 +28,14 @@ std::string cyclonedds_xml() {
 // warns inside it under the sanitizers, and warnings are errors.)
 double size_bytes(const std::string& text) {
     std::size_t digits = 0;
-    while (digits < text.size() && (std::isdigit(static_cast<unsigned char>(text[digits])) || text[digits] == '.')) {
+    while (digits < text.size() &&
+           (std::isdigit(static_cast<unsigned char>(text[digits])) || text[digits] == '.')) {
         ++digits;
     }
     EXPECT_GT(digits, 0u) << text;
     std::size_t unit_at = digits;
-    while (unit_at < text.size() && std::isspace(static_cast<unsigned char>(text[unit_at]))) ++unit_at;
+    while (unit_at < text.size() && std::isspace(static_cast<unsigned char>(text[unit_at])))
+        ++unit_at;
     const std::string unit = text.substr(unit_at);
     const double scale = unit == "kB"    ? 1e3
                          : unit == "KiB" ? 1024.0
@@ -64,7 +66,8 @@ std::string without_comments(const std::string& xml) {
 std::optional<std::string> attribute(const std::string& attributes, const std::string& name) {
     const std::string key = name + "=\"";
     std::size_t at = attributes.find(key);
-    while (at != std::string::npos && at > 0 && !std::isspace(static_cast<unsigned char>(attributes[at - 1]))) {
+    while (at != std::string::npos && at > 0 &&
+           !std::isspace(static_cast<unsigned char>(attributes[at - 1]))) {
         at = attributes.find(key, at + 1);
     }
     if (at == std::string::npos) return std::nullopt;

@@ -52,10 +52,10 @@ output:
     EXPECT_EQ(c.output.record.when_disk_low, LowDiskPolicy::kStop);
     EXPECT_DOUBLE_EQ(c.output.record.queue_mb, 32.0);
     try {
-        parse_daemon_config(
-            sensors_ + "output:\n  record_clouds_format: las\n"
-                       "  record: {when_disk_low: pause, max_file_mb: 0, size: 3}\n",
-            "s.yaml", dir_.path());
+        parse_daemon_config(sensors_ +
+                                "output:\n  record_clouds_format: las\n"
+                                "  record: {when_disk_low: pause, max_file_mb: 0, size: 3}\n",
+                            "s.yaml", dir_.path());
         FAIL() << "no error";
     } catch (const station::ConfigError& error) {
         EXPECT_THAT(
@@ -160,7 +160,8 @@ output:
 // its own parent and drop it from tf. Refused, naming the key and the sensor.
 TEST_F(DaemonConfigTest, FrameNamesThatCollideOrTf2RefusesAreRefused) {
     try {
-        parse_daemon_config(sensors_ + "output: {stamp: gps, dds: {frame_id: a}}\n", "s.yaml", dir_.path());
+        parse_daemon_config(sensors_ + "output: {stamp: gps, dds: {frame_id: a}}\n", "s.yaml",
+                            dir_.path());
         FAIL();
     } catch (const station::ConfigError& error) {
         const std::string text = error.what();
@@ -169,12 +170,13 @@ TEST_F(DaemonConfigTest, FrameNamesThatCollideOrTf2RefusesAreRefused) {
         EXPECT_EQ(error.problems().size(), 2u);
     }
     for (const char* bad : {"/map", "a b", ""}) {
-        EXPECT_THROW(parse_daemon_config(sensors_ + "output: {dds: {frame_id: \"" + bad + "\"}}\n", "s.yaml",
-                                         dir_.path()),
+        EXPECT_THROW(parse_daemon_config(sensors_ + "output: {dds: {frame_id: \"" + bad + "\"}}\n",
+                                         "s.yaml", dir_.path()),
                      station::ConfigError)
             << bad;
     }
-    EXPECT_NO_THROW(parse_daemon_config(sensors_ + "output: {dds: {frame_id: site_7/fused}}\n", "s.yaml", dir_.path()));
+    EXPECT_NO_THROW(parse_daemon_config(sensors_ + "output: {dds: {frame_id: site_7/fused}}\n",
+                                        "s.yaml", dir_.path()));
 }
 
 TEST_F(DaemonConfigTest, EveryDdsProblemIsListed) {
@@ -197,12 +199,13 @@ output:
         EXPECT_EQ(error.problems().size(), 6u);
     }
     for (const char* bad : {"1abc", "a/", "a b", "a//b"}) {
-        EXPECT_THROW(parse_daemon_config(sensors_ + "output: {dds: {namespace: \"" + bad + "\"}}\n", "s.yaml",
-                                         dir_.path()),
+        EXPECT_THROW(parse_daemon_config(sensors_ + "output: {dds: {namespace: \"" + bad + "\"}}\n",
+                                         "s.yaml", dir_.path()),
                      station::ConfigError)
             << bad;
     }
-    EXPECT_NO_THROW(parse_daemon_config(sensors_ + "output: {dds: {namespace: \"\"}}\n", "s.yaml", dir_.path()));
+    EXPECT_NO_THROW(parse_daemon_config(sensors_ + "output: {dds: {namespace: \"\"}}\n", "s.yaml",
+                                        dir_.path()));
 }
 
 TEST_F(DaemonConfigTest, FoxgloveIsOffByDefaultAndEveryKeyIsRead) {
@@ -274,7 +277,8 @@ TEST_F(DaemonConfigTest, FoxgloveWithoutDdsIsRefused) {
 // and dynamics sections read back as exactly lidarfused's defaults.
 TEST(DaemonConfigExample, RegistrationAndDynamicsHoldTheDefaults) {
     const core::FusionParams d = DaemonConfig().fusion;
-    const core::FusionParams e = station::load_fusion_params(test::source_dir() / "config" / "station.example.yaml");
+    const core::FusionParams e =
+        station::load_fusion_params(test::source_dir() / "config" / "station.example.yaml");
     EXPECT_EQ(e.voxel_size_m, d.voxel_size_m);
     EXPECT_EQ(e.window_frames, d.window_frames);
     EXPECT_EQ(e.covariance_neighbors, d.covariance_neighbors);
@@ -287,8 +291,10 @@ TEST(DaemonConfigExample, RegistrationAndDynamicsHoldTheDefaults) {
     EXPECT_EQ(e.divergence_frames, d.divergence_frames);
     EXPECT_EQ(e.retry_interval_frames, d.retry_interval_frames);
     EXPECT_EQ(e.num_threads, d.num_threads);
-    EXPECT_EQ(e.initial.features.octree.max_voxel_size_m, d.initial.features.octree.max_voxel_size_m);
-    EXPECT_EQ(e.initial.features.octree.min_voxel_size_m, d.initial.features.octree.min_voxel_size_m);
+    EXPECT_EQ(e.initial.features.octree.max_voxel_size_m,
+              d.initial.features.octree.max_voxel_size_m);
+    EXPECT_EQ(e.initial.features.octree.min_voxel_size_m,
+              d.initial.features.octree.min_voxel_size_m);
     EXPECT_EQ(e.initial.pair.ransac.max_iterations, d.initial.pair.ransac.max_iterations);
     EXPECT_EQ(e.initial.pair.ransac.inlier_threshold_m, d.initial.pair.ransac.inlier_threshold_m);
     EXPECT_EQ(e.initial.pair.p2p_cutoff_m, d.initial.pair.p2p_cutoff_m);

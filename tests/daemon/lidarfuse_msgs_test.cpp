@@ -135,7 +135,8 @@ std::string squeeze_spaces(const std::string& text) {
 std::vector<std::string> idl_struct_members(const std::string& idl, const std::string& name) {
     std::string code;
     std::istringstream lines(idl);
-    for (std::string line; std::getline(lines, line);) code += line.substr(0, line.find("//")) + "\n";
+    for (std::string line; std::getline(lines, line);)
+        code += line.substr(0, line.find("//")) + "\n";
     const std::string squeezed = squeeze_spaces(code);
     std::size_t at = squeezed.find("struct " + name + " {");
     if (at == std::string::npos) at = squeezed.find("struct " + name + "{");

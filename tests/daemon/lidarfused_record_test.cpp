@@ -171,10 +171,10 @@ TEST(LidarfusedRecord, FuseOnTheRecordingFolderEqualsFuseOnTheCaptureSent) {
     ASSERT_NO_FATAL_FAILURE(simulate_two_sensors(d / "sim", 2.0));
     const auto p0 = static_cast<std::uint16_t>(test::port_block() + 8);  // beside the other test's
     const int domain = test::unique_domain_id();
-    write_config(
-        d / "sim" / "daemon.yaml", p0, domain, d / "out",
-        "  record: {enabled: true, directory: " + (d / "rec").string() + ", max_file_mb: 4}\n" +
-            "  record_clouds_every: 10\n  record_clouds_format: pcd\n");
+    write_config(d / "sim" / "daemon.yaml", p0, domain, d / "out",
+                 "  record: {enabled: true, directory: " + (d / "rec").string() +
+                     ", max_file_mb: 4}\n" +
+                     "  record_clouds_every: 10\n  record_clouds_format: pcd\n");
     DaemonReaders readers(domain);
     DdsSeen seen;
     FedRun run;
@@ -199,7 +199,8 @@ TEST(LidarfusedRecord, FuseOnTheRecordingFolderEqualsFuseOnTheCaptureSent) {
         ++clouds;
         EXPECT_EQ(std::stoul(e.path().stem().string().substr(6)) % 10, 0u) << e.path();
         EXPECT_GT(io::read_pcd(e.path()).cloud.points.size(), 1000u) << e.path();
-        EXPECT_THAT(test::file_text(e.path()), HasSubstr("FIELDS x y z intensity sensor_id dynamic"));
+        EXPECT_THAT(test::file_text(e.path()),
+                    HasSubstr("FIELDS x y z intensity sensor_id dynamic"));
     }
     EXPECT_GE(clouds, 1u);
 

@@ -1,12 +1,12 @@
 // The lidarfused binary: config validation, a simulated station replayed (or sent live)
 // through its sockets on loopback, subscribed to over DDS from this process, stopped with
 // SIGTERM, and its systemd notify protocol. tf2's view of a run: lidarfused_tf_test.
-#include "tests/daemon/lidarfused_test_support.hpp"
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/un.h>
+
+#include "tests/daemon/lidarfused_test_support.hpp"
 
 namespace lidarfuse {
 namespace {
@@ -161,7 +161,8 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     std::ifstream log(d / "daemon.log");
     const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
     if (world_frame_never_fixed(text)) {
-        GTEST_SKIP() << "the initial registration outlasted the replay: no road frame, nothing published";
+        GTEST_SKIP()
+            << "the initial registration outlasted the replay: no road frame, nothing published";
     }
     // How many frames get fused depends on the machine (a slow fusion drops the oldest
     // frames, counted); what must hold is that every fused frame has its root pose written.
@@ -263,7 +264,8 @@ TEST(Lidarfused, FusesALiveSimulatedStationOntoDds) {
     std::ofstream(d / "meta" / "daemon.yaml")
         << "station: live\nsensors:\n"
         << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"
-        << "  - {name: lidar1, udp_port: " << p0 + 2 << ", metadata: lidar1.json}\n"
+        << "  - {name: lidar1, udp_port: " << p0 + 2
+        << ", metadata: lidar1.json}\n"
         // The root frame: the 1 s live run can end before the initial registration fixes a
         // road frame (the default, tested with a replay above), and this test is about every
         // fused frame reaching DDS.

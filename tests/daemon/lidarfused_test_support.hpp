@@ -54,7 +54,7 @@ struct DdsSeen {
     std::size_t clouds = 0, poses = 0, tf_messages = 0, points = 0;
     std::size_t sampled_points = 0, sampled_with_intensity = 0;  // every 97th point
     std::set<int> cloud_sensor_ids;
-    std::vector<io::PoseRecord> tf;    // rt/tf as poses.csv rows (frame = message number)
+    std::vector<io::PoseRecord> tf;  // rt/tf as poses.csv rows (frame = message number)
     // rt/tf_static: messages, and every transform as a row (sensor = child frame) with its parent.
     std::size_t tf_static_messages = 0;
     std::vector<io::PoseRecord> tf_static;
@@ -259,8 +259,8 @@ struct FedRun {
 // tries after it (fusion catching up) and once more after the daemon exited. Call through
 // ASSERT_NO_FATAL_FAILURE.
 inline void run_fed_daemon(const std::filesystem::path& config, const std::filesystem::path& log,
-                           const std::string& feed, int feed_tries, DaemonReaders* readers, DdsSeen* seen,
-                           FedRun* run) {
+                           const std::string& feed, int feed_tries, DaemonReaders* readers,
+                           DdsSeen* seen, FedRun* run) {
     ChildGuard guard{start_daemon(config, log)};
     ASSERT_TRUE(test::eventually(
         [&] { return read_text(log).find("listening on UDP") != std::string::npos; }, 1000));

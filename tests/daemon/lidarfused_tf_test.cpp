@@ -1,11 +1,11 @@
 // lidarfused's tf as tf2 sees it: a replay with a sensor silenced for 1 s and stamps on the
 // host's clock, everything published fed to a model of tf2's rules (tf2_model.hpp).
-#include "tests/daemon/lidarfused_test_support.hpp"
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/un.h>
+
+#include "tests/daemon/lidarfused_test_support.hpp"
 
 namespace lidarfuse {
 namespace {
@@ -49,8 +49,8 @@ TEST(Lidarfused, TfResolvesEveryCloudWithASensorSilencedAndHostStamps) {
     FedRun run;
     ASSERT_NO_FATAL_FAILURE(run_fed_daemon(
         d / "sim" / "daemon.yaml", d / "daemon.log",
-        test::tool_path() + " replay " + (d / "sim" / "capture.pcap").string() + " --port-map 7502:" +
-            std::to_string(p0) + " --port-map 7504:" + std::to_string(p0 + 2),
+        test::tool_path() + " replay " + (d / "sim" / "capture.pcap").string() +
+            " --port-map 7502:" + std::to_string(p0) + " --port-map 7504:" + std::to_string(p0 + 2),
         12000, &readers, &seen, &run));
     const std::int64_t stopped_ns = daemon::realtime_ns();
     const std::string text = read_text(d / "daemon.log");
@@ -77,9 +77,11 @@ TEST(Lidarfused, TfResolvesEveryCloudWithASensorSilencedAndHostStamps) {
     // lidar1 is first fused later than 2.5 s after it (its initial registration took that
     // long: a loaded machine, a sanitizer build), the silence may lie before its first frame
     // and no gap can be seen; the tf checks above still ran.
-    const std::int64_t first_with_ns = seen.frames[static_cast<std::size_t>(first_with - has1.begin())].stamp_ns;
+    const std::int64_t first_with_ns =
+        seen.frames[static_cast<std::size_t>(first_with - has1.begin())].stamp_ns;
     if (first_with_ns - seen.frames.front().stamp_ns > 2'500'000'000LL) {
-        GTEST_SKIP() << "lidar1 first fused " << 1e-9 * (first_with_ns - seen.frames.front().stamp_ns)
+        GTEST_SKIP() << "lidar1 first fused "
+                     << 1e-9 * (first_with_ns - seen.frames.front().stamp_ns)
                      << " s into the replay, too late to see its silence";
     }
     EXPECT_NE(gap, has1.end()) << "no frame without lidar1 during its silence";

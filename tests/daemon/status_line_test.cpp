@@ -18,7 +18,8 @@ SensorStats sensor(const std::string& name, SensorState state, double ms_since_l
 }
 
 TEST(StatusLine, AllOkIsCountedWithoutNames) {
-    const std::vector<SensorStats> all = {sensor("a", SensorState::kOk, 10), sensor("b", SensorState::kOk, 12)};
+    const std::vector<SensorStats> all = {sensor("a", SensorState::kOk, 10),
+                                          sensor("b", SensorState::kOk, 12)};
     EXPECT_EQ(sensors_summary(all), "2 OK");
 }
 
@@ -31,10 +32,12 @@ TEST(StatusLine, AReplayThatEndedSaysSoOnceForEverySensor) {
 TEST(StatusLine, MixedStatesNameTheSensorsThatAreNotOkWithTheirOwnReasons) {
     SensorStats mismatch = sensor("lidar3", SensorState::kModeMismatch, 20);
     mismatch.mode_seen = "2048x10";
-    const std::vector<SensorStats> all = {
-        sensor("lidar0", SensorState::kOk, 10), sensor("lidar1", SensorState::kStale, 400),
-        sensor("lidar2", SensorState::kLost, -1, 0), sensor("lidar4", SensorState::kLost, -1, 7),
-        mismatch, sensor("lidar5", SensorState::kDisabled, -1, 0)};
+    const std::vector<SensorStats> all = {sensor("lidar0", SensorState::kOk, 10),
+                                          sensor("lidar1", SensorState::kStale, 400),
+                                          sensor("lidar2", SensorState::kLost, -1, 0),
+                                          sensor("lidar4", SensorState::kLost, -1, 7),
+                                          mismatch,
+                                          sensor("lidar5", SensorState::kDisabled, -1, 0)};
     EXPECT_EQ(sensors_summary(all),
               "1 OK (lidar0); 1 STALE: last scan 0.4 s ago (lidar1); 2 LOST (lidar2: nothing "
               "received, lidar4: packets but no scan yet); 1 MODE_MISMATCH: sends 2048x10 "

@@ -12,14 +12,17 @@ namespace {
 std::filesystem::path test_unit() {
     // build/daemon/lidarfused -> build/systemd/test/lidarfused.service (CMake generates it
     // with ExecStart pointing at the built daemon).
-    return std::filesystem::path(test::daemon_path()).parent_path().parent_path() / "systemd" / "test" /
-           "lidarfused.service";
+    return std::filesystem::path(test::daemon_path()).parent_path().parent_path() / "systemd" /
+           "test" / "lidarfused.service";
 }
 
-bool have_systemd_analyze() { return test::run_command("command -v systemd-analyze", nullptr) == 0; }
+bool have_systemd_analyze() {
+    return test::run_command("command -v systemd-analyze", nullptr) == 0;
+}
 
 TEST(SystemdUnit, VerifiesWithoutAnyOutput) {
-    if (!have_systemd_analyze()) GTEST_SKIP() << "systemd-analyze not installed (Debian package systemd)";
+    if (!have_systemd_analyze())
+        GTEST_SKIP() << "systemd-analyze not installed (Debian package systemd)";
     ASSERT_TRUE(std::filesystem::exists(test_unit())) << test_unit();
     std::string out;
     const int status = test::run_command("systemd-analyze verify " + test_unit().string(), &out);
@@ -28,7 +31,8 @@ TEST(SystemdUnit, VerifiesWithoutAnyOutput) {
 }
 
 TEST(SystemdUnit, OfflineSecurityExposureIsLow) {
-    if (!have_systemd_analyze()) GTEST_SKIP() << "systemd-analyze not installed (Debian package systemd)";
+    if (!have_systemd_analyze())
+        GTEST_SKIP() << "systemd-analyze not installed (Debian package systemd)";
     std::string out;
     test::run_command("systemd-analyze security --offline=yes " + test_unit().string(), &out);
     const auto level = test::line_after(out, "Overall exposure level for lidarfused.service: ");

@@ -1,6 +1,8 @@
 // Point-cloud files (drivers/io/cloud_file.hpp): round trips through every encoding, the
 // entry point's choice of reader, LZF, and golden reads of the shared real captures. The
 // readers' variety and malformed files: cloud_pcd_reader_test, cloud_ply_reader_test.
+#include "drivers/io/cloud_file.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -8,7 +10,6 @@
 #include <string>
 #include <vector>
 
-#include "drivers/io/cloud_file.hpp"
 #include "drivers/io/cloud_lzf.hpp"
 #include "tests/drivers/cloud_file_test_support.hpp"
 #include "tests/support/test_data.hpp"

@@ -28,7 +28,6 @@ inline std::string file_bytes(const fs::path& file) {
     return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
-
 // Appends `value` in the given byte order (the tests build binary PCD / PLY by hand).
 template <typename T>
 inline void put(std::string* out, T value, bool big_endian = false) {
@@ -46,7 +45,6 @@ template <typename... T>
 inline void put_all(std::string* out, bool big_endian, T... values) {
     (put(out, values, big_endian), ...);
 }
-
 
 // Points whose coordinates are float32 values (so every encoding can keep them exactly):
 // a wide range, plus values that test the ascii digits (denormal, FLT_MAX, -0 in one axis).
@@ -68,7 +66,6 @@ inline CloudFile random_cloud(std::uint32_t seed, std::size_t n, bool with_inten
     }
     return cloud;
 }
-
 
 // Every bad point kind inserted at a known place, and the cloud a reader must return.
 struct Planted {
@@ -93,7 +90,6 @@ inline Planted with_bad_points(const CloudFile& good) {
     }
     return p;
 }
-
 
 inline void expect_same_cloud(const CloudFile& got, const CloudFile& expected) {
     ASSERT_EQ(got.cloud.points.size(), expected.cloud.points.size());
@@ -127,6 +123,5 @@ inline std::string replaced(std::string bytes, const std::string& from, const st
 inline std::size_t data_start(const std::string& bytes) {
     return bytes.find('\n', bytes.find("\nDATA ") + 1) + 1;
 }
-
 
 }  // namespace lidarfuse::io::cloud_test

@@ -61,9 +61,12 @@ TEST(ExtrinsicsYaml, DocumentRoundTripKeepsPosesReasonsAndPairFigures) {
         EXPECT_EQ(back.sensors[i].registered, doc.sensors[i].registered);
         EXPECT_EQ(back.sensors[i].quality, doc.sensors[i].quality);
     }
-    EXPECT_LT((back.sensors[1].T_root_sensor.translation() - doc.sensors[1].T_root_sensor.translation()).norm(),
-              1e-6);  // nine significant digits: micrometres at 100 m
-    EXPECT_TRUE(back.sensors[1].T_root_sensor.linear().isApprox(doc.sensors[1].T_root_sensor.linear(), 1e-8));
+    EXPECT_LT(
+        (back.sensors[1].T_root_sensor.translation() - doc.sensors[1].T_root_sensor.translation())
+            .norm(),
+        1e-6);  // nine significant digits: micrometres at 100 m
+    EXPECT_TRUE(back.sensors[1].T_root_sensor.linear().isApprox(
+        doc.sensors[1].T_root_sensor.linear(), 1e-8));
     EXPECT_TRUE(back.sensors[0].T_root_sensor.isApprox(Eigen::Isometry3d::Identity()));
     EXPECT_EQ(back.sensors[2].reason, "no_consistent_candidate");
     ASSERT_EQ(back.pairs.size(), 1u);
@@ -113,17 +116,21 @@ TEST(ExtrinsicsYaml, DamagedFilesAreRefusedNamingTheKey) {
     expect_refused("sensors: [{name: a}]\n", "sensors[0].registered: missing");
     expect_refused("sensors: [{name: a, registered: true}]\n", "sensors[0].T_root_sensor");
     expect_refused(
-        "sensors: [{name: a, registered: true, T_root_sensor: {translation: [1, 2], rotation_wxyz: [1, 0, 0, 0]}}]\n",
+        "sensors: [{name: a, registered: true, T_root_sensor: {translation: [1, 2], rotation_wxyz: "
+        "[1, 0, 0, 0]}}]\n",
         "expected 3 + 4 numbers");
     expect_refused(
-        "sensors: [{name: a, registered: true, T_root_sensor: {translation: [1, 2, 3], rotation_wxyz: [2, 0, 0, 0]}}]\n",
+        "sensors: [{name: a, registered: true, T_root_sensor: {translation: [1, 2, 3], "
+        "rotation_wxyz: [2, 0, 0, 0]}}]\n",
         "rotation_wxyz: not unit length");
     expect_refused(
-        "sensors: [{name: a, registered: true, T_root_sensor: {translation: [.nan, 2, 3], rotation_wxyz: [1, 0, 0, 0]}}]\n",
+        "sensors: [{name: a, registered: true, T_root_sensor: {translation: [.nan, 2, 3], "
+        "rotation_wxyz: [1, 0, 0, 0]}}]\n",
         "translation: not finite");
     expect_refused("sensors: [{name: a, registered: false, quality: {points: lots}}]\n",
                    "sensors[0].quality.points: expected a number");
-    expect_refused("sensors: []\npairs: [{source: a, status: accepted}]\n", "pairs[0]: expected source and target");
+    expect_refused("sensors: []\npairs: [{source: a, status: accepted}]\n",
+                   "pairs[0]: expected source and target");
     expect_refused("sensors: []\npairs: [{source: a, target: b, status: ok, inliers: many}]\n",
                    "pairs[0].inliers: expected a number");
     expect_refused("sensors: [\n", "broken.yaml");

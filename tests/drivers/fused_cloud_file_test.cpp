@@ -23,7 +23,9 @@ core::FusedCloud three_points() {
 }
 
 // The last 3 x 18 bytes of the file: the points' records.
-std::string records_of(const std::string& file_text) { return file_text.substr(file_text.size() - 54); }
+std::string records_of(const std::string& file_text) {
+    return file_text.substr(file_text.size() - 54);
+}
 
 TEST(FusedCloudFile, PcdAndPlyReadBackWithEveryField) {
     test::TempDir dir("fused-cloud");
@@ -59,7 +61,8 @@ TEST(FusedCloudFile, MismatchedAttributesAreRefusedByName) {
         write_fused_cloud_ply(dir.path() / "c.ply", cloud);
         FAIL() << "no error";
     } catch (const std::runtime_error& error) {
-        EXPECT_THAT(error.what(), ::testing::HasSubstr("c.ply: fused cloud attributes do not match"));
+        EXPECT_THAT(error.what(),
+                    ::testing::HasSubstr("c.ply: fused cloud attributes do not match"));
     }
 }
 

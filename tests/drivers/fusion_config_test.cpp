@@ -28,11 +28,14 @@ TEST(FusionConfig, BadFilesAreRefusedNamingTheFileAndEveryKey) {
         ADD_FAILURE() << "accepted:\n" << text;
         return "";
     };
-    EXPECT_THAT(refused("registration:\n  window_frames: 1\n  windw: 3\ndynamics:\n  attenuation: 2\n"),
-                AllOf(HasSubstr("s.yaml"), HasSubstr("registration.window_frames"),
-                      HasSubstr("registration.windw"), HasSubstr("dynamics.attenuation")));
-    EXPECT_THAT(refused("registration:\n  covariance_neighbors: 3\n"),
-                HasSubstr("registration.covariance_neighbors: expected 0 (by voxel size) or 4..100, got 3"));
+    EXPECT_THAT(
+        refused("registration:\n  window_frames: 1\n  windw: 3\ndynamics:\n  attenuation: 2\n"),
+        AllOf(HasSubstr("s.yaml"), HasSubstr("registration.window_frames"),
+              HasSubstr("registration.windw"), HasSubstr("dynamics.attenuation")));
+    EXPECT_THAT(
+        refused("registration:\n  covariance_neighbors: 3\n"),
+        HasSubstr(
+            "registration.covariance_neighbors: expected 0 (by voxel size) or 4..100, got 3"));
     EXPECT_THAT(refused("registration: [1, 2\n"), HasSubstr("not valid YAML"));
     EXPECT_THAT(refused("- a\n- b\n"), HasSubstr("mapping"));
     EXPECT_THAT(refused("registration: 3\n"), HasSubstr("registration"));

@@ -147,8 +147,8 @@ TEST(UdpReceiver, OversizedDatagramIsCountedAsTruncatedAndNotDelivered) {
 }
 
 // Sends `count` copies of `data` to the receiver's first socket.
-void send_burst(UdpSender& sender, const UdpReceiver& receiver, const std::vector<std::uint8_t>& data,
-                int count) {
+void send_burst(UdpSender& sender, const UdpReceiver& receiver,
+                const std::vector<std::uint8_t>& data, int count) {
     for (int i = 0; i < count; ++i) {
         ASSERT_TRUE(
             sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));

@@ -21,8 +21,8 @@ TEST(OusterDestagger, MovesEachRowByItsShift) {
     const std::vector<int> shift{0, 2, -1};
     std::vector<int> out(img.size());
     destagger(img.data(), h, w, shift, out.data());
-    EXPECT_EQ(out, (std::vector<int>{0, 1, 2, 3, 4,        // unchanged
-                                     8, 9, 5, 6, 7,        // out[(m + 2) % 5] = in[m]
+    EXPECT_EQ(out, (std::vector<int>{0, 1, 2, 3, 4,          // unchanged
+                                     8, 9, 5, 6, 7,          // out[(m + 2) % 5] = in[m]
                                      11, 12, 13, 14, 10}));  // out[(m - 1) % 5] = in[m]
     std::vector<int> back(img.size());
     restagger(out.data(), h, w, shift, back.data());
@@ -34,8 +34,9 @@ TEST(OusterDestagger, MovesEachRowByItsShift) {
 TEST(OusterDestagger, RoundTripsRealAndRandomShifts) {
     std::vector<std::vector<int>> shifts;
     std::vector<int> widths;
-    for (const char* name : {"crc_test.json", "same_ports_nonlegacy.2.json",
-                             "OS-0-128-U1_v2.3.0_1024x10.json", "OS-1-64_sensor_config_reduced.json"}) {
+    for (const char* name :
+         {"crc_test.json", "same_ports_nonlegacy.2.json", "OS-0-128-U1_v2.3.0_1024x10.json",
+          "OS-1-64_sensor_config_reduced.json"}) {
         if (const auto path = test::ouster_file(name)) {
             const SensorInfo info = load_metadata(*path);
             shifts.push_back(info.pixel_shift_by_row);
@@ -62,8 +63,9 @@ TEST(OusterDestagger, RoundTripsRealAndRandomShifts) {
         // Every pixel lands where destaggered_column says.
         for (int row = 0; row < h; row += 7) {
             for (int m = 0; m < w; m += 13) {
-                ASSERT_EQ(d[static_cast<std::size_t>(row) * w + destaggered_column(m, row, w, shifts[k])],
-                          img[static_cast<std::size_t>(row) * w + m]);
+                ASSERT_EQ(
+                    d[static_cast<std::size_t>(row) * w + destaggered_column(m, row, w, shifts[k])],
+                    img[static_cast<std::size_t>(row) * w + m]);
             }
         }
     }

@@ -64,36 +64,186 @@ struct Expected {
 };
 
 const Expected kSamples[] = {
-    {"OS-0-128-U1_v2.3.0_1024x10.json", "122150000150", MetadataForm::kLegacyFlat, "1024x10",
-     1024, UdpProfileLidar::kRng15Rfl8Nir8, 128, 7502, 7503, {0, 1023}, 5431292, 27.67},
-    {"OS-0-32-U1_v2.2.0_1024x10.json", "992137000142", MetadataForm::kLegacyFlat, "1024x10",
-     1024, UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, 32, 7502, 7503, {0, 1023}, 9599938, 27.67},
-    {"OS-1-32-G_v2.1.1_1024x10.json", "992101000280", MetadataForm::kLegacyFlat, "1024x10", 1024,
-     UdpProfileLidar::kLegacy, 32, 7502, 7503, {0, 1023}, 0, 15.806},
-    {"OS-1-64_sensor_config_reduced.json", "", MetadataForm::kLegacyFlat, "1024x10", 1024,
-     UdpProfileLidar::kLegacy, 64, 7502, 7503, {0, 1023}, 0, 12.163},
-    {"OS-2-128-U1_v2.3.0_1024x10.json", "992210000957", MetadataForm::kLegacyFlat, "1024x10",
-     1024, UdpProfileLidar::kRng19Rfl8Sig16Nir16, 128, 7502, 7503, {0, 1023}, 5431293, 13.762},
-    {"crc_test.json", "122247000785", MetadataForm::kNested, "512x10", 512,
-     UdpProfileLidar::kRng15Rfl8Nir8, 128, 7502, 7503, {0, 511}, 11394290, 27.116},
-    {"duplicate_id.json", "992219000042", MetadataForm::kNested, "1024x10", 1024,
-     UdpProfileLidar::kRng15Rfl8Nir8, 128, 34636, 48887, {0, 1023}, 8247312, 13.762},
-    {"same_ports.1.json", "122247000785", MetadataForm::kNested, "1024x10", 1024,
-     UdpProfileLidar::kFusaRng15Rfl8Nir8Dual, 128, 7502, 7502, {912, 1022}, 390073, 27.116},
-    {"same_ports.2.json", "122239000672", MetadataForm::kNested, "1024x10", 1024,
-     UdpProfileLidar::kLegacy, 64, 7502, 7502, {912, 1022}, 16413612, 15.806},
-    {"same_ports_legacy.1.json", "122247000785", MetadataForm::kNested, "1024x10", 1024,
-     UdpProfileLidar::kLegacy, 128, 7502, 7502, {0, 1023}, 15278603, 27.116},
-    {"same_ports_legacy.2.json", "122239000672", MetadataForm::kNested, "1024x10", 1024,
-     UdpProfileLidar::kLegacy, 64, 7502, 7502, {0, 1023}, 9342168, 15.806},
-    {"same_ports_nonlegacy.1.json", "122247000785", MetadataForm::kNested, "1024x10", 1024,
-     UdpProfileLidar::kFusaRng15Rfl8Nir8Dual, 128, 7502, 7502, {0, 1023}, 390078, 27.116},
-    {"same_ports_nonlegacy.2.json", "122239000672", MetadataForm::kNested, "1024x10", 1024,
-     UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, 64, 7502, 7502, {0, 1023}, 9342165, 15.806},
-    {"windowed_frame1_0.json", "992108000265", MetadataForm::kNested, "512x10", 512,
-     UdpProfileLidar::kRng15Rfl8Nir8, 128, 53750, 7503, {1, 256}, 7109746, 27.67},
-    {"windowed_frame2_0.json", "992108000265", MetadataForm::kNested, "512x10", 512,
-     UdpProfileLidar::kRng15Rfl8Nir8, 128, 53750, 7503, {370, 85}, 7109747, 27.67},
+    {"OS-0-128-U1_v2.3.0_1024x10.json",
+     "122150000150",
+     MetadataForm::kLegacyFlat,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kRng15Rfl8Nir8,
+     128,
+     7502,
+     7503,
+     {0, 1023},
+     5431292,
+     27.67},
+    {"OS-0-32-U1_v2.2.0_1024x10.json",
+     "992137000142",
+     MetadataForm::kLegacyFlat,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual,
+     32,
+     7502,
+     7503,
+     {0, 1023},
+     9599938,
+     27.67},
+    {"OS-1-32-G_v2.1.1_1024x10.json",
+     "992101000280",
+     MetadataForm::kLegacyFlat,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kLegacy,
+     32,
+     7502,
+     7503,
+     {0, 1023},
+     0,
+     15.806},
+    {"OS-1-64_sensor_config_reduced.json",
+     "",
+     MetadataForm::kLegacyFlat,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kLegacy,
+     64,
+     7502,
+     7503,
+     {0, 1023},
+     0,
+     12.163},
+    {"OS-2-128-U1_v2.3.0_1024x10.json",
+     "992210000957",
+     MetadataForm::kLegacyFlat,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kRng19Rfl8Sig16Nir16,
+     128,
+     7502,
+     7503,
+     {0, 1023},
+     5431293,
+     13.762},
+    {"crc_test.json",
+     "122247000785",
+     MetadataForm::kNested,
+     "512x10",
+     512,
+     UdpProfileLidar::kRng15Rfl8Nir8,
+     128,
+     7502,
+     7503,
+     {0, 511},
+     11394290,
+     27.116},
+    {"duplicate_id.json",
+     "992219000042",
+     MetadataForm::kNested,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kRng15Rfl8Nir8,
+     128,
+     34636,
+     48887,
+     {0, 1023},
+     8247312,
+     13.762},
+    {"same_ports.1.json",
+     "122247000785",
+     MetadataForm::kNested,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kFusaRng15Rfl8Nir8Dual,
+     128,
+     7502,
+     7502,
+     {912, 1022},
+     390073,
+     27.116},
+    {"same_ports.2.json",
+     "122239000672",
+     MetadataForm::kNested,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kLegacy,
+     64,
+     7502,
+     7502,
+     {912, 1022},
+     16413612,
+     15.806},
+    {"same_ports_legacy.1.json",
+     "122247000785",
+     MetadataForm::kNested,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kLegacy,
+     128,
+     7502,
+     7502,
+     {0, 1023},
+     15278603,
+     27.116},
+    {"same_ports_legacy.2.json",
+     "122239000672",
+     MetadataForm::kNested,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kLegacy,
+     64,
+     7502,
+     7502,
+     {0, 1023},
+     9342168,
+     15.806},
+    {"same_ports_nonlegacy.1.json",
+     "122247000785",
+     MetadataForm::kNested,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kFusaRng15Rfl8Nir8Dual,
+     128,
+     7502,
+     7502,
+     {0, 1023},
+     390078,
+     27.116},
+    {"same_ports_nonlegacy.2.json",
+     "122239000672",
+     MetadataForm::kNested,
+     "1024x10",
+     1024,
+     UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual,
+     64,
+     7502,
+     7502,
+     {0, 1023},
+     9342165,
+     15.806},
+    {"windowed_frame1_0.json",
+     "992108000265",
+     MetadataForm::kNested,
+     "512x10",
+     512,
+     UdpProfileLidar::kRng15Rfl8Nir8,
+     128,
+     53750,
+     7503,
+     {1, 256},
+     7109746,
+     27.67},
+    {"windowed_frame2_0.json",
+     "992108000265",
+     MetadataForm::kNested,
+     "512x10",
+     512,
+     UdpProfileLidar::kRng15Rfl8Nir8,
+     128,
+     53750,
+     7503,
+     {370, 85},
+     7109747,
+     27.67},
 };
 
 class SampleMetadata : public ::testing::TestWithParam<Expected> {};
@@ -271,24 +421,28 @@ TEST(OusterMetadata, TruncatedRealFileFailsCleanly) {
 TEST(OusterMetadata, EveryProblemIsListedWithItsPath) {
     json doc = sample_nested();
     if (doc.is_null()) GTEST_SKIP() << "sample data not found";
-    doc["beam_intrinsics"]["beam_altitude_angles"].erase(0);                       // 63 of 64
-    doc["lidar_data_format"]["columns_per_frame"] = 2048;                          // vs 1024x10
-    doc["config_params"]["udp_port_lidar"] = "abc";                                // type
-    doc["lidar_data_format"]["udp_profile_lidar"] = "RNG99";                       // unknown
-    doc["beam_intrinsics"]["beam_azimuth_angles"][5] = "x";                        // element type
+    doc["beam_intrinsics"]["beam_altitude_angles"].erase(0);                        // 63 of 64
+    doc["lidar_data_format"]["columns_per_frame"] = 2048;                           // vs 1024x10
+    doc["config_params"]["udp_port_lidar"] = "abc";                                 // type
+    doc["lidar_data_format"]["udp_profile_lidar"] = "RNG99";                        // unknown
+    doc["beam_intrinsics"]["beam_azimuth_angles"][5] = "x";                         // element type
     doc["lidar_intrinsics"]["lidar_to_sensor_transform"] = json::array({1, 2, 3});  // size
     const auto problems = problems_of(doc.dump());
-    EXPECT_TRUE(has_problem(problems, "beam_intrinsics.beam_altitude_angles: expected 64 numbers, got 63"))
+    EXPECT_TRUE(
+        has_problem(problems, "beam_intrinsics.beam_altitude_angles: expected 64 numbers, got 63"))
         << joined(problems);
     EXPECT_TRUE(has_problem(problems, "lidar_data_format.columns_per_frame: 2048 contradicts"))
         << joined(problems);
     EXPECT_TRUE(has_problem(problems, "config_params.udp_port_lidar: expected an integer"))
         << joined(problems);
-    EXPECT_TRUE(has_problem(problems, "lidar_data_format.udp_profile_lidar: unknown UDP lidar profile \"RNG99\""))
+    EXPECT_TRUE(has_problem(
+        problems, "lidar_data_format.udp_profile_lidar: unknown UDP lidar profile \"RNG99\""))
         << joined(problems);
-    EXPECT_TRUE(has_problem(problems, "beam_intrinsics.beam_azimuth_angles[5]: expected a finite number"))
+    EXPECT_TRUE(
+        has_problem(problems, "beam_intrinsics.beam_azimuth_angles[5]: expected a finite number"))
         << joined(problems);
-    EXPECT_TRUE(has_problem(problems, "lidar_intrinsics.lidar_to_sensor_transform: expected 16 numbers"))
+    EXPECT_TRUE(
+        has_problem(problems, "lidar_intrinsics.lidar_to_sensor_transform: expected 16 numbers"))
         << joined(problems);
     EXPECT_EQ(problems.size(), 6u) << joined(problems);
 }
@@ -303,14 +457,16 @@ TEST(OusterMetadata, ContradictoryKeysAreReported) {
     doc["lidar_data_format"]["pixel_shift_by_row"].push_back(3);
     doc["lidar_data_format"]["column_window"] = json::array({0, 1024});
     const auto problems = problems_of(doc.dump());
-    EXPECT_TRUE(has_problem(problems, "lidar_data_format.udp_profile_lidar: RNG19_RFL8_SIG16_NIR16_DUAL contradicts"))
+    EXPECT_TRUE(has_problem(
+        problems, "lidar_data_format.udp_profile_lidar: RNG19_RFL8_SIG16_NIR16_DUAL contradicts"))
         << joined(problems);
     EXPECT_TRUE(has_problem(problems, "lidar_data_format.columns_per_packet: 16 contradicts"))
         << joined(problems);
     EXPECT_TRUE(has_problem(problems, "beam_intrinsics.beam_to_lidar_transform: translation gives"))
         << joined(problems);
     EXPECT_TRUE(has_problem(problems, "lidar_data_format.fps: 20 contradicts")) << joined(problems);
-    EXPECT_TRUE(has_problem(problems, "lidar_data_format.pixel_shift_by_row: expected 64 integers, got 65"))
+    EXPECT_TRUE(
+        has_problem(problems, "lidar_data_format.pixel_shift_by_row: expected 64 integers, got 65"))
         << joined(problems);
     EXPECT_TRUE(has_problem(problems, "lidar_data_format.column_window[1]: 1024 outside 0..1023"))
         << joined(problems);
@@ -325,7 +481,8 @@ TEST(OusterMetadata, MissingKeysAreReported) {
     doc["lidar_data_format"].erase("columns_per_frame");
     const auto problems = problems_of(doc.dump());
     EXPECT_TRUE(has_problem(problems, "sensor_info: missing")) << joined(problems);
-    EXPECT_TRUE(has_problem(problems, "beam_intrinsics.beam_azimuth_angles: missing")) << joined(problems);
+    EXPECT_TRUE(has_problem(problems, "beam_intrinsics.beam_azimuth_angles: missing"))
+        << joined(problems);
     EXPECT_TRUE(has_problem(problems, "config_params.lidar_mode: missing")) << joined(problems);
 }
 
@@ -343,7 +500,8 @@ TEST(OusterMetadata, NonRigidTransformIsRejected) {
 
 TEST(OusterMetadata, ValidateSensorInfoBuiltInCode) {
     SensorInfo info;
-    EXPECT_TRUE(has_problem(validate_sensor_info(info), "beam_altitude_angles_deg: expected 64 numbers, got 0"));
+    EXPECT_TRUE(has_problem(validate_sensor_info(info),
+                            "beam_altitude_angles_deg: expected 64 numbers, got 0"));
     info.beam_altitude_angles_deg.assign(64, 1.0);
     info.beam_azimuth_angles_deg.assign(64, 0.5);
     info.pixel_shift_by_row.assign(64, 0);
@@ -352,8 +510,10 @@ TEST(OusterMetadata, ValidateSensorInfoBuiltInCode) {
     info.columns_per_packet = 24;  // does not divide 1024
     info.lidar_mode = "2048x10";   // contradicts columns_per_frame 1024
     const auto problems = validate_sensor_info(info);
-    EXPECT_TRUE(has_problem(problems, "columns_per_packet: 24 does not divide")) << joined(problems);
-    EXPECT_TRUE(has_problem(problems, "columns_per_frame: 1024 x 10 Hz contradicts")) << joined(problems);
+    EXPECT_TRUE(has_problem(problems, "columns_per_packet: 24 does not divide"))
+        << joined(problems);
+    EXPECT_TRUE(has_problem(problems, "columns_per_frame: 1024 x 10 Hz contradicts"))
+        << joined(problems);
 }
 
 // --- randomised corpus ---
@@ -367,9 +527,9 @@ TEST(OusterMetadata, RandomMutationsNeverCrash) {
     }
     if (corpus.empty()) GTEST_SKIP() << "sample data not found";
     std::mt19937_64 rng(20261121);
-    const json kWeird[] = {json(), json(-1), json(1e308), json("x"), json::array(),
-                           json::object(), json(true), json(4294967296LL), json(0.5),
-                           json::array({1, "a"})};
+    const json kWeird[] = {
+        json(),         json(-1),   json(1e308),        json("x"), json::array(),
+        json::object(), json(true), json(4294967296LL), json(0.5), json::array({1, "a"})};
     int parsed = 0;
     int rejected = 0;
     for (int iter = 0; iter < 3000; ++iter) {
@@ -384,8 +544,8 @@ TEST(OusterMetadata, RandomMutationsNeverCrash) {
         } else {  // structural: replace or delete a random value somewhere in the tree
             json doc = json::parse(text);
             json* node = &doc;
-            for (int depth = 0; depth < 3 && (node->is_object() || node->is_array()) && !node->empty();
-                 ++depth) {
+            for (int depth = 0;
+                 depth < 3 && (node->is_object() || node->is_array()) && !node->empty(); ++depth) {
                 auto it = node->begin();
                 std::advance(it, static_cast<long>(rng() % node->size()));
                 node = &*it;

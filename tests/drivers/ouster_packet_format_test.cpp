@@ -21,8 +21,8 @@ constexpr UdpProfileLidar kProfiles[] = {
     UdpProfileLidar::kLegacy, UdpProfileLidar::kRng19Rfl8Sig16Nir16,
     UdpProfileLidar::kRng15Rfl8Nir8, UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual,
     UdpProfileLidar::kFusaRng15Rfl8Nir8Dual};
-constexpr Field kFields[] = {Field::kRange,        Field::kRange2,        Field::kSignal,
-                             Field::kSignal2,      Field::kReflectivity, Field::kReflectivity2,
+constexpr Field kFields[] = {Field::kRange,   Field::kRange2,       Field::kSignal,
+                             Field::kSignal2, Field::kReflectivity, Field::kReflectivity2,
                              Field::kNearIr};
 
 struct Datagram {
@@ -48,11 +48,15 @@ TEST(OusterPacketFormat, SizesMatchTheCaptures) {
     EXPECT_EQ(PacketFormat(UdpProfileLidar::kLegacy, 64, 16).lidar_packet_size(), 12608u);
     EXPECT_EQ(PacketFormat(UdpProfileLidar::kLegacy, 32, 16).lidar_packet_size(), 6464u);
     EXPECT_EQ(PacketFormat(UdpProfileLidar::kLegacy, 128, 16).lidar_packet_size(), 24896u);
-    EXPECT_EQ(PacketFormat(UdpProfileLidar::kRng19Rfl8Sig16Nir16, 128, 16).lidar_packet_size(), 24832u);
+    EXPECT_EQ(PacketFormat(UdpProfileLidar::kRng19Rfl8Sig16Nir16, 128, 16).lidar_packet_size(),
+              24832u);
     EXPECT_EQ(PacketFormat(UdpProfileLidar::kRng15Rfl8Nir8, 128, 16).lidar_packet_size(), 8448u);
-    EXPECT_EQ(PacketFormat(UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, 32, 16).lidar_packet_size(), 8448u);
-    EXPECT_EQ(PacketFormat(UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, 64, 16).lidar_packet_size(), 16640u);
-    EXPECT_EQ(PacketFormat(UdpProfileLidar::kFusaRng15Rfl8Nir8Dual, 128, 16).lidar_packet_size(), 16640u);
+    EXPECT_EQ(PacketFormat(UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, 32, 16).lidar_packet_size(),
+              8448u);
+    EXPECT_EQ(PacketFormat(UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, 64, 16).lidar_packet_size(),
+              16640u);
+    EXPECT_EQ(PacketFormat(UdpProfileLidar::kFusaRng15Rfl8Nir8Dual, 128, 16).lidar_packet_size(),
+              16640u);
     EXPECT_EQ(PacketFormat(UdpProfileLidar::kLegacy, 64, 16).imu_packet_size(), 48u);
     EXPECT_THROW(PacketFormat(UdpProfileLidar::kLegacy, 0, 16), std::invalid_argument);
     EXPECT_THROW(PacketFormat(UdpProfileLidar::kLegacy, 64, 0), std::invalid_argument);
@@ -142,9 +146,9 @@ void round_trip(UdpProfileLidar profile, int rows, int columns, std::mt19937_64*
             std::uint8_t* px = f.pixel(cb, r);
             for (const Field fld : kFields) {
                 const FieldSpec& s = f.spec(fld);
-                const std::uint32_t v =
-                    static_cast<std::uint32_t>((*rng)() & s.mask) << s.upshift;
-                values[static_cast<std::size_t>((c * rows + r) * kFieldCount + static_cast<int>(fld))] = v;
+                const std::uint32_t v = static_cast<std::uint32_t>((*rng)() & s.mask) << s.upshift;
+                values[static_cast<std::size_t>((c * rows + r) * kFieldCount +
+                                                static_cast<int>(fld))] = v;
                 EXPECT_EQ(f.set_field(px, fld, v), s.present());
             }
         }
@@ -172,12 +176,13 @@ void round_trip(UdpProfileLidar profile, int rows, int columns, std::mt19937_64*
         for (const Field fld : kFields) {
             f.read_column(cb, fld, column_values.data(), 1);
             for (int r = 0; r < rows; ++r) {
-                const std::uint32_t expected =
-                    values[static_cast<std::size_t>((c * rows + r) * kFieldCount + static_cast<int>(fld))];
+                const std::uint32_t expected = values[static_cast<std::size_t>(
+                    (c * rows + r) * kFieldCount + static_cast<int>(fld))];
                 const std::uint32_t got = f.field(f.pixel(cb, r), fld);
-                if (got != expected || (f.has_field(fld) && column_values[static_cast<std::size_t>(r)] != expected)) {
-                    ADD_FAILURE() << to_string(fld) << " col " << c << " row " << r << ": "
-                                  << got << " != " << expected;
+                if (got != expected ||
+                    (f.has_field(fld) && column_values[static_cast<std::size_t>(r)] != expected)) {
+                    ADD_FAILURE() << to_string(fld) << " col " << c << " row " << r << ": " << got
+                                  << " != " << expected;
                     return;
                 }
             }
@@ -230,7 +235,8 @@ TEST(OusterPacketFormat, RandomPacketsNeverCrash) {
         const int rows = 16 << (rng() % 4);
         const PacketFormat f(profile, rows, 16);
         const bool exact = rng() % 2 == 0;
-        const std::size_t size = exact ? f.lidar_packet_size() : rng() % (2 * f.lidar_packet_size());
+        const std::size_t size =
+            exact ? f.lidar_packet_size() : rng() % (2 * f.lidar_packet_size());
         std::vector<std::uint8_t> buf(size);
         for (auto& b : buf) b = static_cast<std::uint8_t>(rng());
         if (exact && rng() % 2 == 0) f.set_packet_type(buf.data(), 1);
@@ -371,7 +377,8 @@ void check_digest(const char* pcap_name, const char* meta_name, const char* dige
     std::vector<std::uint32_t> range(n), range2(n);
     std::vector<std::uint16_t> signal(n), signal2(n), near_ir(n);
     std::vector<std::uint8_t> refl(n), refl2(n);
-    std::vector<std::uint64_t> timestamp(static_cast<std::size_t>(w)), status(static_cast<std::size_t>(w));
+    std::vector<std::uint64_t> timestamp(static_cast<std::size_t>(w)),
+        status(static_cast<std::size_t>(w));
     std::vector<std::uint16_t> mid(static_cast<std::size_t>(w));
     int packets = 0;
     for (const Datagram& d : read_capture(*pcap_path)) {
@@ -397,9 +404,7 @@ void check_digest(const char* pcap_name, const char* meta_name, const char* dige
     const nlohmann::json digest = read_json_file(*digest_path);
     // Upstream digests list "scans"; the DERIVED reference calls them "frames".
     const nlohmann::json scan = digest.contains("scans") ? digest["scans"][0] : digest["frames"][0];
-    auto md5 = [](const auto& v) {
-        return test::md5_hex(v.data(), v.size() * sizeof(v[0]));
-    };
+    auto md5 = [](const auto& v) { return test::md5_hex(v.data(), v.size() * sizeof(v[0])); };
     EXPECT_EQ(md5(timestamp), scan["TIMESTAMP"]);
     EXPECT_EQ(md5(status), scan["STATUS"]);
     EXPECT_EQ(md5(mid), scan["MEASUREMENT_ID"]);

@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-
 #include <atomic>
 #include <cstdint>
 #include <cstdlib>
@@ -449,7 +448,8 @@ TEST(Projection, OnePointPerReturnAtTheLookupTablePosition) {
 // The fused cloud's intensity: the signal field where the profile has one, else
 // reflectivity, pixel by pixel.
 TEST(Projection, IntensityIsSignalOrElseReflectivityOfEachPointsPixel) {
-    for (const auto profile : {UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, UdpProfileLidar::kRng15Rfl8Nir8}) {
+    for (const auto profile :
+         {UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, UdpProfileLidar::kRng15Rfl8Nir8}) {
         const auto info = make_info(profile);
         Rig rig(info);
         rig.send_frame(3);
@@ -465,7 +465,8 @@ TEST(Projection, IntensityIsSignalOrElseReflectivityOfEachPointsPixel) {
         std::size_t nonzero = 0;
         for (std::size_t k = 0; k < intensity.size(); ++k) {
             const std::uint32_t px = cloud.pixel_index[k];
-            const float expected = has_signal ? static_cast<float>(s.signal[px]) : static_cast<float>(s.reflectivity[px]);
+            const float expected = has_signal ? static_cast<float>(s.signal[px])
+                                              : static_cast<float>(s.reflectivity[px]);
             ASSERT_EQ(intensity[k], expected) << "point " << k;
             nonzero += intensity[k] != 0.0f;
         }
@@ -473,7 +474,8 @@ TEST(Projection, IntensityIsSignalOrElseReflectivityOfEachPointsPixel) {
         // Without pixel indices the intensities are unknown: zeros, never misattributed.
         cloud.pixel_index.clear();
         point_intensity(s, cloud, &intensity);
-        EXPECT_EQ(std::count(intensity.begin(), intensity.end(), 0.0f), static_cast<long>(intensity.size()));
+        EXPECT_EQ(std::count(intensity.begin(), intensity.end(), 0.0f),
+                  static_cast<long>(intensity.size()));
     }
 }
 

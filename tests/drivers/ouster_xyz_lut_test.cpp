@@ -52,14 +52,16 @@ TEST(OusterXyzLut, ReproducesDerivedReferencePoints) {
 Eigen::Vector3d documented_xyz(const SensorInfo& info, int row, int m, double r_mm) {
     const double w = info.columns_per_frame;
     const double theta_e = 2 * kPi * (1 - m / w);
-    const double theta_a = -2 * kPi * info.beam_azimuth_angles_deg[static_cast<std::size_t>(row)] / 360;
+    const double theta_a =
+        -2 * kPi * info.beam_azimuth_angles_deg[static_cast<std::size_t>(row)] / 360;
     const double phi = 2 * kPi * info.beam_altitude_angles_deg[static_cast<std::size_t>(row)] / 360;
     const double bx = info.beam_to_lidar_transform(0, 3);
     const double bz = info.beam_to_lidar_transform(2, 3);
     const double n = std::sqrt(bx * bx + bz * bz);
-    const Eigen::Vector4d lidar((r_mm - n) * std::cos(theta_e + theta_a) * std::cos(phi) + bx * std::cos(theta_e),
-                                (r_mm - n) * std::sin(theta_e + theta_a) * std::cos(phi) + bx * std::sin(theta_e),
-                                (r_mm - n) * std::sin(phi) + bz, 1.0);
+    const Eigen::Vector4d lidar(
+        (r_mm - n) * std::cos(theta_e + theta_a) * std::cos(phi) + bx * std::cos(theta_e),
+        (r_mm - n) * std::sin(theta_e + theta_a) * std::cos(phi) + bx * std::sin(theta_e),
+        (r_mm - n) * std::sin(phi) + bz, 1.0);
     return (info.lidar_to_sensor_transform * lidar).head<3>() * 1e-3;
 }
 
@@ -85,23 +87,32 @@ TEST(OusterXyzLut, GeometryOfDirectionsAndOffsets) {
     for (int i = 0; i < h; ++i) alt[static_cast<std::size_t>(i)] = 15.0 - 2.0 * i;
     Eigen::Matrix4d beam_to_lidar = Eigen::Matrix4d::Identity();
     beam_to_lidar(0, 3) = 15.806;
-    const XyzLut lut = make_xyz_lut(w, h, alt, az, beam_to_lidar, default_lidar_to_sensor_transform());
+    const XyzLut lut =
+        make_xyz_lut(w, h, alt, az, beam_to_lidar, default_lidar_to_sensor_transform());
     for (Eigen::Index i = 0; i < lut.direction.rows(); ++i) {
         ASSERT_NEAR(lut.direction.row(i).norm(), 1.0, 1e-12);
         const int row = static_cast<int>(i / w);
         // lidar_to_sensor keeps the z axis: z of the direction is sin(altitude).
-        ASSERT_NEAR(lut.direction(i, 2), std::sin(alt[static_cast<std::size_t>(row)] * kPi / 180), 1e-12);
+        ASSERT_NEAR(lut.direction(i, 2), std::sin(alt[static_cast<std::size_t>(row)] * kPi / 180),
+                    1e-12);
     }
     // Encoder: measurement 0 looks along lidar +x = sensor -x; a quarter turn later the
     // beam looks along lidar -y = sensor +y (the encoder angle decreases with the id).
     const int row = 7;  // altitude 1 degree
     const double c = std::cos(1.0 * kPi / 180);
-    EXPECT_LT((lut.direction.row(row * w + 0).transpose() - Eigen::Vector3d(-c, 0, std::sin(kPi / 180))).norm(), 1e-12);
-    EXPECT_LT((lut.direction.row(row * w + w / 4).transpose() - Eigen::Vector3d(0, c, std::sin(kPi / 180))).norm(), 1e-12);
+    EXPECT_LT(
+        (lut.direction.row(row * w + 0).transpose() - Eigen::Vector3d(-c, 0, std::sin(kPi / 180)))
+            .norm(),
+        1e-12);
+    EXPECT_LT((lut.direction.row(row * w + w / 4).transpose() -
+               Eigen::Vector3d(0, c, std::sin(kPi / 180)))
+                  .norm(),
+              1e-12);
     // A range equal to n puts the point at the beam origin: on a circle of radius n
     // around the lidar axis, at the lidar_to_sensor height.
     for (int m = 0; m < w; m += 37) {
-        const Eigen::Vector3d p = lut.point(row, m, 0) + lut.direction.row(row * w + m).transpose() * 0.015806;
+        const Eigen::Vector3d p =
+            lut.point(row, m, 0) + lut.direction.row(row * w + m).transpose() * 0.015806;
         EXPECT_NEAR(std::hypot(p.x(), p.y()), 0.015806, 1e-12);
         EXPECT_NEAR(p.z(), 0.03618, 1e-12);
     }
@@ -148,9 +159,9 @@ TEST(OusterXyzLut, RejectsInconsistentIntrinsics) {
     EXPECT_THROW(make_xyz_lut(1024, 64, std::vector<double>(63), std::vector<double>(64),
                               Eigen::Matrix4d::Identity(), Eigen::Matrix4d::Identity()),
                  std::invalid_argument);
-    EXPECT_THROW(make_xyz_lut(0, 1, {0.0}, {0.0}, Eigen::Matrix4d::Identity(),
-                              Eigen::Matrix4d::Identity()),
-                 std::invalid_argument);
+    EXPECT_THROW(
+        make_xyz_lut(0, 1, {0.0}, {0.0}, Eigen::Matrix4d::Identity(), Eigen::Matrix4d::Identity()),
+        std::invalid_argument);
 }
 
 }  // namespace

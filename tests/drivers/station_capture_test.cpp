@@ -25,7 +25,7 @@ TEST(StationCapture, DecodesTheRealOs1Capture) {
     capture.run([&](const CaptureScan& scan) {
         frames.push_back(scan.scan->frame_id);
         points = scan.cloud->cloud.size();
-        EXPECT_EQ(scan.sensor_t_ns, 278211490950);  // column 0 (DERIVED frame_summary)
+        EXPECT_EQ(scan.sensor_t_ns, 278211490950);      // column 0 (DERIVED frame_summary)
         EXPECT_EQ(scan.t_ns, scan.sensor_t_ns + 1000);  // the configured time offset
         ouster::point_times_s(*scan.cloud, static_cast<std::uint64_t>(scan.sensor_t_ns), &dt);
         return true;

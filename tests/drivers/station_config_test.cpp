@@ -81,27 +81,32 @@ sensors:
 // byte as U+FFFD, so the name changed on the way through extrinsics.yaml).
 TEST_F(StationConfigTest, StationNameMustBePrintableUtf8) {
     const std::string sensor = "sensors:\n  - {name: a, udp_port: 7502, metadata: a.json}\n";
-    for (const std::string good : {"Kreuzung Süd", "路口-3", "A9 km 12.4 (Nord) \xF0\x9F\x9A\x97"}) {
-        const auto config = parse_station_config("station: \"" + good + "\"\n" + sensor, "good.yaml", dir_.path());
+    for (const std::string good :
+         {"Kreuzung Süd", "路口-3", "A9 km 12.4 (Nord) \xF0\x9F\x9A\x97"}) {
+        const auto config =
+            parse_station_config("station: \"" + good + "\"\n" + sensor, "good.yaml", dir_.path());
         EXPECT_EQ(config.station, good);
-        const auto back = parse_station_config(to_yaml(config, dir_.path()), "back.yaml", dir_.path());
+        const auto back =
+            parse_station_config(to_yaml(config, dir_.path()), "back.yaml", dir_.path());
         EXPECT_EQ(back.station, good);
     }
     const std::string bad_names[] = {
-        "samples\xFF\xFF",      // not UTF-8 at all
-        "caf\xC3",               // truncated sequence
-        "\xC0\xAF",             // overlong '/'
-        "\xED\xA0\x80",        // a UTF-16 surrogate
-        "two\nlines",            // a control character
-        "bell\x07",
-        std::string(129, 'x'),  // too long
+        "samples\xFF\xFF",                         // not UTF-8 at all
+        "caf\xC3",                                 // truncated sequence
+        "\xC0\xAF",                                // overlong '/'
+        "\xED\xA0\x80",                            // a UTF-16 surrogate
+        "two\nlines",                              // a control character
+        "bell\x07",        std::string(129, 'x'),  // too long
     };
     for (const std::string& bad : bad_names) {
         std::string yaml = "station: \"";
         for (const char c : bad) {
-            if (c == '\n') yaml += "\\n";
-            else if (c == '\x07') yaml += "\\a";
-            else yaml += c;
+            if (c == '\n')
+                yaml += "\\n";
+            else if (c == '\x07')
+                yaml += "\\a";
+            else
+                yaml += c;
         }
         yaml += "\"\n" + sensor;
         try {
@@ -109,7 +114,8 @@ TEST_F(StationConfigTest, StationNameMustBePrintableUtf8) {
             ADD_FAILURE() << "accepted station name of " << bad.size() << " bytes";
         } catch (const ConfigError& error) {
             EXPECT_THAT(error.what(), HasSubstr("bad.yaml"));
-            EXPECT_THAT(error.what(), HasSubstr("station: expected 1..128 bytes of printable UTF-8 text"));
+            EXPECT_THAT(error.what(),
+                        HasSubstr("station: expected 1..128 bytes of printable UTF-8 text"));
             EXPECT_EQ(error.problems().size(), 1u) << error.what();
         }
     }

@@ -26,22 +26,26 @@ protected:
         fs::create_directories(dir_);
         // build/tools/lidarfuse -> build/
         const fs::path build = fs::path(test::tool_path()).parent_path().parent_path();
-        ASSERT_EQ(test::run_command("cpack -G DEB --config " + (build / "CPackConfig.cmake").string() +
-                                        " -B " + dir_.string(),
-                                    &cpack_output_),
-                  0)
+        ASSERT_EQ(
+            test::run_command("cpack -G DEB --config " + (build / "CPackConfig.cmake").string() +
+                                  " -B " + dir_.string(),
+                              &cpack_output_),
+            0)
             << cpack_output_;
         for (const auto& e : fs::directory_iterator(dir_)) {
             if (e.path().extension() == ".deb") deb_ = e.path();
         }
         ASSERT_FALSE(deb_.empty()) << cpack_output_;
         std::string out;
-        ASSERT_EQ(test::run_command("dpkg-deb -x " + deb_.string() + " " + (dir_ / "root").string(), &out), 0)
+        ASSERT_EQ(test::run_command("dpkg-deb -x " + deb_.string() + " " + (dir_ / "root").string(),
+                                    &out),
+                  0)
             << out;
     }
     void SetUp() override {
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-        GTEST_SKIP() << "the package is built and checked in the release build, not the sanitizer ones";
+        GTEST_SKIP()
+            << "the package is built and checked in the release build, not the sanitizer ones";
 #endif
     }
     static void TearDownTestSuite() {
@@ -58,9 +62,11 @@ TEST_F(DebianPackage, IsNamedAfterItsVersionAndHoldsWhatAStationNeeds) {
     const fs::path root = dir_ / "root";
     for (const char* path :
          {"usr/bin/lidarfuse", "usr/bin/lidarfused", "usr/lib/systemd/system/lidarfused.service",
-          "usr/lib/sysctl.d/60-lidarfuse-udp.conf", "usr/share/lidarfuse/config/station.example.yaml",
-          "usr/share/lidarfuse/config/station.schema.md", "usr/share/lidarfuse/config/cyclonedds.xml",
-          "usr/share/doc/lidarfuse/copyright", "usr/share/doc/lidarfuse/changelog.gz"}) {
+          "usr/lib/sysctl.d/60-lidarfuse-udp.conf",
+          "usr/share/lidarfuse/config/station.example.yaml",
+          "usr/share/lidarfuse/config/station.schema.md",
+          "usr/share/lidarfuse/config/cyclonedds.xml", "usr/share/doc/lidarfuse/copyright",
+          "usr/share/doc/lidarfuse/changelog.gz"}) {
         EXPECT_TRUE(fs::is_regular_file(root / path)) << path;
     }
     // The unit starts the packaged binary, not the build tree's or /usr/local's.
@@ -71,7 +77,8 @@ TEST_F(DebianPackage, IsNamedAfterItsVersionAndHoldsWhatAStationNeeds) {
 
 TEST_F(DebianPackage, DependsOnTheLibrariesItLinksAndRunsNoMaintainerScripts) {
     std::string fields;
-    ASSERT_EQ(test::run_command("dpkg-deb -f " + deb_.string() + " Package Version Depends", &fields), 0);
+    ASSERT_EQ(
+        test::run_command("dpkg-deb -f " + deb_.string() + " Package Version Depends", &fields), 0);
     EXPECT_NE(fields.find("Package: lidarfuse"), std::string::npos) << fields;
     EXPECT_NE(fields.find("Version: 0.1.0"), std::string::npos) << fields;
     // From dpkg-shlibdeps: Cyclone DDS, Ceres' solvers, yaml-cpp, libc.
@@ -82,7 +89,8 @@ TEST_F(DebianPackage, DependsOnTheLibrariesItLinksAndRunsNoMaintainerScripts) {
     // station's config exists.
     const fs::path control = dir_ / "control";
     std::string out;
-    ASSERT_EQ(test::run_command("dpkg-deb -e " + deb_.string() + " " + control.string(), &out), 0) << out;
+    ASSERT_EQ(test::run_command("dpkg-deb -e " + deb_.string() + " " + control.string(), &out), 0)
+        << out;
     for (const char* script : {"preinst", "postinst", "prerm", "postrm"}) {
         EXPECT_FALSE(fs::exists(control / script)) << script;
     }
@@ -101,14 +109,16 @@ TEST_F(DebianPackage, PackagedExecutablesRunFromTheExtractedTree) {
     const fs::path station = dir_ / "station";
     fs::create_directories(station);
     std::string out;
-    ASSERT_EQ(test::run_command((root / "usr/bin/lidarfuse").string() +
-                                    " sim --scenario straight --sensors 2 --seconds 0.1 --quiet --out " +
-                                    (station / "sim").string(),
-                                &out),
-              0)
+    ASSERT_EQ(
+        test::run_command((root / "usr/bin/lidarfuse").string() +
+                              " sim --scenario straight --sensors 2 --seconds 0.1 --quiet --out " +
+                              (station / "sim").string(),
+                          &out),
+        0)
         << out;
     // The example config names north.json and south.json beside it.
-    fs::copy_file(root / "usr/share/lidarfuse/config/station.example.yaml", station / "station.yaml");
+    fs::copy_file(root / "usr/share/lidarfuse/config/station.example.yaml",
+                  station / "station.yaml");
     fs::copy_file(station / "sim" / "lidar0.json", station / "north.json");
     fs::copy_file(station / "sim" / "lidar1.json", station / "south.json");
     ASSERT_EQ(test::run_command((root / "usr/bin/lidarfused").string() + " --check --config " +

@@ -42,7 +42,8 @@ SyncRun run(int scans, OffsetFn offset_ns) {
         while (auto f = sync.poll(now + kPeriodNs / 2)) out.frames.push_back(std::move(*f));
     }
     for (int k = 0; k < 10; ++k) {
-        while (auto f = sync.poll(1'000'000'000 + (scans + k) * kPeriodNs)) out.frames.push_back(std::move(*f));
+        while (auto f = sync.poll(1'000'000'000 + (scans + k) * kPeriodNs))
+            out.frames.push_back(std::move(*f));
     }
     out.counters = sync.counters();
     return out;
@@ -50,7 +51,8 @@ SyncRun run(int scans, OffsetFn offset_ns) {
 
 void expect_healthy_pair_kept_fusing(const SyncRun& r, int scans) {
     std::size_t with_both = 0;
-    for (const auto& f : r.frames) with_both += f.members[0].has_value() && f.members[1].has_value();
+    for (const auto& f : r.frames)
+        with_both += f.members[0].has_value() && f.members[1].has_value();
     // Sensors 0 and 1 were never disturbed: (nearly) every one of their scans leaves
     // grouped with the other's.
     EXPECT_GE(with_both, static_cast<std::size_t>(scans) - 3);
@@ -58,7 +60,8 @@ void expect_healthy_pair_kept_fusing(const SyncRun& r, int scans) {
 
 void expect_never_backwards_without_reset(const SyncRun& r) {
     std::size_t backwards = 0;
-    for (std::size_t i = 1; i < r.frames.size(); ++i) backwards += r.frames[i].t_ns < r.frames[i - 1].t_ns;
+    for (std::size_t i = 1; i < r.frames.size(); ++i)
+        backwards += r.frames[i].t_ns < r.frames[i - 1].t_ns;
     EXPECT_LE(backwards, r.counters.resets);
 }
 

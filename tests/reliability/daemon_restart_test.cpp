@@ -7,12 +7,11 @@
 //    poses.csv appended: after each kill both files parse completely (no half-written
 //    row or document); a restart appends to poses.csv (one header) and registers again
 //    from scratch (its frame numbers start over at 0).
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <fcntl.h>
 
 #include <fstream>
 #include <random>
@@ -71,7 +70,8 @@ protected:
         const bool up = wait_for(
             [&] {
                 std::ifstream in(log);
-                const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+                const std::string text((std::istreambuf_iterator<char>(in)),
+                                       std::istreambuf_iterator<char>());
                 return text.find("listening on UDP") != std::string::npos;
             },
             20s);
@@ -90,12 +90,14 @@ protected:
         const fs::path poses = out_dir / "poses.csv";
         ASSERT_TRUE(fs::exists(poses));
         std::ifstream in(poses, std::ios::binary);
-        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        const std::string text((std::istreambuf_iterator<char>(in)),
+                               std::istreambuf_iterator<char>());
         ASSERT_FALSE(text.empty());
         EXPECT_EQ(text.back(), '\n') << "poses.csv ends in the middle of a row";
         EXPECT_NO_THROW(io::read_pose_csv(poses));
         std::size_t headers = 0;
-        for (std::size_t at = text.find("frame,"); at != std::string::npos; at = text.find("frame,", at + 1)) {
+        for (std::size_t at = text.find("frame,"); at != std::string::npos;
+             at = text.find("frame,", at + 1)) {
             headers += at == 0 || text[at - 1] == '\n';
         }
         EXPECT_EQ(headers, 1u) << "poses.csv has a second header";
@@ -135,7 +137,8 @@ TEST_F(DaemonRestart, SigtermUnderFullLoadExitsCleanly) {
         FAIL() << "lidarfused did not exit within 60 s of SIGTERM";
     }
     ASSERT_EQ(waited, pid);
-    const double exit_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double exit_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::printf("lidarfused_sigterm_exit %.3f s\n", exit_s);
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "status " << status;
     replay.join();
@@ -150,9 +153,11 @@ TEST_F(DaemonRestart, SigkillNeverLeavesHalfWrittenFilesAndARestartRegistersAgai
     for (int cycle = 0; cycle < 3; ++cycle) {
         SCOPED_TRACE("cycle " + std::to_string(cycle));
         const pid_t pid = start_daemon(config, "kill" + std::to_string(cycle) + ".log");
-        BackgroundReplay replay(sim_->path() / "capture.pcap", "--to 127.0.0.1 --rate 2" + port_map(4, 2));
+        BackgroundReplay replay(sim_->path() / "capture.pcap",
+                                "--to 127.0.0.1 --rate 2" + port_map(4, 2));
         ASSERT_TRUE(wait_for([&] { return pose_rows(poses) > rows_before + 2; }, 15s));
-        std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(0, 400)(rng)));
+        std::this_thread::sleep_for(
+            std::chrono::milliseconds(std::uniform_int_distribution<int>(0, 400)(rng)));
         ASSERT_EQ(::kill(pid, SIGKILL), 0);
         ASSERT_EQ(::waitpid(pid, nullptr, 0), pid);
         replay.join();

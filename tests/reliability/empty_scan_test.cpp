@@ -31,7 +31,9 @@ core::FrameInput frame(int f, bool sensor2_empty) {
         scan.present = true;  // the scan arrived ...
         scan.t_ns = 1'000'000'000LL + f * 50'000'000LL + s * 1'000'000LL;
         if (s == 2 && sensor2_empty) continue;  // ... but without a single valid point
-        scan.points = lidarfuse::testing::scan_scene(scene, pose(s), pattern, static_cast<std::uint32_t>(1000 * f + s)).points;
+        scan.points = lidarfuse::testing::scan_scene(scene, pose(s), pattern,
+                                                     static_cast<std::uint32_t>(1000 * f + s))
+                          .points;
     }
     return in;
 }
@@ -50,7 +52,8 @@ TEST(EmptyScans, AnEmptySensorIsSkippedWhileTheOthersKeepTracking) {
         ASSERT_EQ(out.health.size(), static_cast<std::size_t>(kSensors));
         if (empty) {
             EXPECT_EQ(out.health[2].registration_points, 0u) << "frame " << f;
-            EXPECT_FALSE(out.health[2].included && out.health[2].state == core::TrackState::kTracking &&
+            EXPECT_FALSE(out.health[2].included &&
+                         out.health[2].state == core::TrackState::kTracking &&
                          out.health[2].fitness_previous > 0.0)
                 << "frame " << f << ": an empty scan was registered";
             // Skipped like a missing scan, and said so; the pose is the prediction.
@@ -60,16 +63,20 @@ TEST(EmptyScans, AnEmptySensorIsSkippedWhileTheOthersKeepTracking) {
         }
         // The root and the other sensor are fused every frame, at their true poses.
         for (int s = 0; s < 2; ++s) {
-            EXPECT_TRUE(out.health[static_cast<std::size_t>(s)].pose_valid) << "sensor " << s << " frame " << f;
+            EXPECT_TRUE(out.health[static_cast<std::size_t>(s)].pose_valid)
+                << "sensor " << s << " frame " << f;
             const Eigen::Isometry3d truth = pose(0).inverse() * pose(s);
-            const double err = (out.T_root_sensor[static_cast<std::size_t>(s)].translation() - truth.translation()).norm();
+            const double err =
+                (out.T_root_sensor[static_cast<std::size_t>(s)].translation() - truth.translation())
+                    .norm();
             EXPECT_LT(err, 0.05) << "sensor " << s << " frame " << f;
         }
         EXPECT_GT(out.cloud.points.size(), 0u) << "frame " << f;
         if (f >= 10) {  // points again: tracked again, at its true pose
             EXPECT_TRUE(out.health[2].pose_valid) << "frame " << f;
             const Eigen::Isometry3d truth = pose(0).inverse() * pose(2);
-            EXPECT_LT((out.T_root_sensor[2].translation() - truth.translation()).norm(), 0.05) << "frame " << f;
+            EXPECT_LT((out.T_root_sensor[2].translation() - truth.translation()).norm(), 0.05)
+                << "frame " << f;
         }
     }
 }

@@ -190,9 +190,10 @@ TEST(HostClockJump, WallClockJumpsChangeOnlyTheReportedClockOffset) {
                          late.end());
         median_offset_ms[p] = late[late.size() / 2];
     }
-    std::printf("host_clock_jump_clock_offset_ms %.1f %.1f %.1f ms (true, +1 h, -1 day)\n", median_offset_ms[0],
-                median_offset_ms[1], median_offset_ms[2]);
-    std::printf("host_clock_jump_shifted_reads %llu reads\n", static_cast<unsigned long long>(reads_before_stop));
+    std::printf("host_clock_jump_clock_offset_ms %.1f %.1f %.1f ms (true, +1 h, -1 day)\n",
+                median_offset_ms[0], median_offset_ms[1], median_offset_ms[2]);
+    std::printf("host_clock_jump_shifted_reads %llu reads\n",
+                static_cast<unsigned long long>(reads_before_stop));
     // The daemon read the shifted wall clock: sensor clock minus host clock jumped by
     // minus the shift (to within the scans' spacing and the replay's jitter).
     EXPECT_NEAR(median_offset_ms[1] - median_offset_ms[0], -3'600'000.0, 500.0);

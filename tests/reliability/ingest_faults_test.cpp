@@ -267,10 +267,9 @@ TEST(IngestFaults, ModeChangeOnOneSensorIsReportedNotFusedAndItResumesWhenItFits
     EXPECT_NE(log_text.str().find(
                   "[error] lidar1: data does not match its metadata, not fused until it does"),
               std::string::npos);
-    EXPECT_NE(
-        log_text.str().find(
-            "[info] lidar1: data matches its metadata (512x20 RNG19_RFL8_SIG16_NIR16) again"),
-        std::string::npos);
+    EXPECT_NE(log_text.str().find(
+                  "[info] lidar1: data matches its metadata (512x20 RNG19_RFL8_SIG16_NIR16) again"),
+              std::string::npos);
     EXPECT_EQ(log_text.str().find("lidar0: data does not match"), std::string::npos);
     ASSERT_TRUE(while_mismatched);
     daemon::DiagnosticsBuilder diagnostics({"test", "map", {"lidar0", "lidar1"}, 0});

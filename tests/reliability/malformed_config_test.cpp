@@ -26,9 +26,10 @@ TEST(MalformedConfig, SensorNamesThatWouldCorruptOutputFilesAreRefused) {
     test::TempDir dir("cfg-names");
     std::ofstream(dir.path() / "m.json") << "{}";
     const std::string fuzzed = std::string("s\xff\xff\x51\xa9", 5);
-    for (const std::string& bad : {std::string("a,b"), std::string("x y"), std::string("n:1"), fuzzed,
-                                   std::string(65, 'a')}) {
-        const std::string yaml = "sensors:\n  - name: \"" + bad + "\"\n    udp_port: 7502\n    metadata: m.json\n";
+    for (const std::string& bad : {std::string("a,b"), std::string("x y"), std::string("n:1"),
+                                   fuzzed, std::string(65, 'a')}) {
+        const std::string yaml =
+            "sensors:\n  - name: \"" + bad + "\"\n    udp_port: 7502\n    metadata: m.json\n";
         try {
             station::parse_station_config(yaml, "s.yaml", dir.path());
             ADD_FAILURE() << "accepted the name \"" << bad << "\"";
@@ -37,8 +38,10 @@ TEST(MalformedConfig, SensorNamesThatWouldCorruptOutputFilesAreRefused) {
         }
     }
     for (const char* good : {"lidar0", "north-pole_2.top", "L"}) {
-        const std::string yaml = std::string("sensors:\n  - {name: ") + good + ", udp_port: 7502, metadata: m.json}\n";
-        EXPECT_EQ(station::parse_station_config(yaml, "s.yaml", dir.path()).sensors.at(0).name, good);
+        const std::string yaml =
+            std::string("sensors:\n  - {name: ") + good + ", udp_port: 7502, metadata: m.json}\n";
+        EXPECT_EQ(station::parse_station_config(yaml, "s.yaml", dir.path()).sensors.at(0).name,
+                  good);
     }
 }
 
@@ -64,7 +67,8 @@ TEST(MalformedConfig, BeamOriginFollowsTheMatrixWhenAbsentAndTheRewrittenFormPar
     ouster::SensorInfo info;
     info.prod_line = "OS-0-64-U02";  // default n would be 27.67 mm
     info.beam_altitude_angles_deg.assign(64, 0.0);
-    for (int r = 0; r < 64; ++r) info.beam_altitude_angles_deg[static_cast<std::size_t>(r)] = 40.0 - 1.25 * r;
+    for (int r = 0; r < 64; ++r)
+        info.beam_altitude_angles_deg[static_cast<std::size_t>(r)] = 40.0 - 1.25 * r;
     info.beam_azimuth_angles_deg.assign(64, 0.0);
     info.pixel_shift_by_row.assign(64, 0);
     info.lidar_origin_to_beam_origin_mm = 27.116;
@@ -86,8 +90,10 @@ protected:
         simulate(dir_.path(), 0.1, {});
         // lidar1's metadata cut in the middle, as a failed copy would leave it.
         std::ifstream in(dir_.path() / "lidar1.json");
-        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-        std::ofstream(dir_.path() / "lidar1.json", std::ios::trunc) << text.substr(0, text.size() / 2);
+        const std::string text((std::istreambuf_iterator<char>(in)),
+                               std::istreambuf_iterator<char>());
+        std::ofstream(dir_.path() / "lidar1.json", std::ios::trunc)
+            << text.substr(0, text.size() / 2);
     }
     test::TempDir dir_{"cfg-meta"};
     test::TempDir out_{"cfg-out"};

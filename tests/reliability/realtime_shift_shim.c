@@ -56,7 +56,7 @@ static void shift(struct timespec* ts) {
 
 int clock_gettime(clockid_t id, struct timespec* ts) {
     const int rc = real_clock_gettime(id, ts);
-    if (rc == 0 && is_wall_clock(id)) shift(ts);  /* ts: nonnull in glibc's declaration */
+    if (rc == 0 && is_wall_clock(id)) shift(ts); /* ts: nonnull in glibc's declaration */
     return rc;
 }
 

@@ -8,9 +8,8 @@
 //    returns
 //  - fusion slower than input: frames are dropped oldest-first and counted; every sent
 //    datagram reaches the assemblers
-#include <gtest/gtest.h>
-
 #include <dirent.h>
+#include <gtest/gtest.h>
 
 #include <fstream>
 #include <map>
@@ -30,8 +29,8 @@ protected:
         sim_dir_ = new test::TempDir("outage-sim");
         // lidar1 silent in [2 s, 7 s); lidar0 reboots at 1 s and has a faulty link.
         simulate(sim_dir_->path(), 9.0,
-                 {"silence:lidar1:2:5", "init-id:lidar0:1", "duplicate:0.02:lidar0", "reorder:0.02:lidar0",
-                  "drop:0.005:lidar0"});
+                 {"silence:lidar1:2:5", "init-id:lidar0:1", "duplicate:0.02:lidar0",
+                  "reorder:0.02:lidar0", "drop:0.005:lidar0"});
         silent_dir_ = new test::TempDir("outage-silent");
         simulate(silent_dir_->path(), 6.0, {"silence:lidar0:1.5:3", "silence:lidar1:1.5:3"});
     }
@@ -96,7 +95,8 @@ TEST_F(SensorOutage, SilentSensorGoesStaleThenLostAndRejoinsWhileTheOtherKeepsFu
     BackgroundReplay replay(capture(), "--to 127.0.0.1" + port_map(0, 2));
     while (!replay.done()) {
         const auto st = pipeline.stats();
-        const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        const double t =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         for (std::size_t k = 0; k < st.sensors.size(); ++k) {
             auto& list = seen[k];
             if (list.empty() || list.back().state != st.sensors[k].state) {
@@ -113,7 +113,8 @@ TEST_F(SensorOutage, SilentSensorGoesStaleThenLostAndRejoinsWhileTheOtherKeepsFu
     std::string story;
     for (const auto& [k, list] : seen) {
         story += st.sensors[k].name + ":";
-        for (const auto& tr : list) story += std::string(" ") + daemon::to_string(tr.state) + "@" + std::to_string(tr.at_s);
+        for (const auto& tr : list)
+            story += std::string(" ") + daemon::to_string(tr.state) + "@" + std::to_string(tr.at_s);
         story += "\n";
     }
     SCOPED_TRACE(story);
@@ -121,12 +122,13 @@ TEST_F(SensorOutage, SilentSensorGoesStaleThenLostAndRejoinsWhileTheOtherKeepsFu
     // lidar1: LOST (no data yet) -> OK -> STALE -> LOST -> OK, in that order.
     std::vector<SensorState> order;
     for (const auto& tr : seen[1]) order.push_back(tr.state);
-    const std::vector<SensorState> expected = {SensorState::kOk, SensorState::kStale, SensorState::kLost,
-                                               SensorState::kOk};
+    const std::vector<SensorState> expected = {SensorState::kOk, SensorState::kStale,
+                                               SensorState::kLost, SensorState::kOk};
     auto it = order.begin();
     for (SensorState want : expected) {
         it = std::find(it, order.end(), want);
-        ASSERT_NE(it, order.end()) << "lidar1 never reached " << daemon::to_string(want) << " in order";
+        ASSERT_NE(it, order.end())
+            << "lidar1 never reached " << daemon::to_string(want) << " in order";
         ++it;
     }
     // While lidar1 was LOST, lidar0 was never LOST and frames kept leaving the synchroniser
@@ -140,7 +142,8 @@ TEST_F(SensorOutage, SilentSensorGoesStaleThenLostAndRejoinsWhileTheOtherKeepsFu
     ASSERT_TRUE(lost && back);
     const double lost_s = back->at_s - lost->at_s;
     EXPECT_GT(lost_s, 2.0);  // 5 s of silence minus the 2 s lost_after_ms, give or take
-    EXPECT_GE(static_cast<double>(back->frames_synchronised - lost->frames_synchronised), 0.5 * 20.0 * lost_s);
+    EXPECT_GE(static_cast<double>(back->frames_synchronised - lost->frames_synchronised),
+              0.5 * 20.0 * lost_s);
     for (const auto& tr : seen[0]) {
         if (tr.at_s > lost->at_s && tr.at_s < back->at_s) {
             EXPECT_NE(tr.state, SensorState::kLost);
@@ -171,7 +174,8 @@ TEST_F(SensorOutage, AllSensorsSilentKeepsThePipelineUpReportingLostAndItResumes
         return true;
     };
     // Both sensors send for 1.5 s, are silent for 3 s, then send for 1.5 s.
-    BackgroundReplay replay(silent_dir_->path() / "capture.pcap", "--to 127.0.0.1" + port_map(1, 2));
+    BackgroundReplay replay(silent_dir_->path() / "capture.pcap",
+                            "--to 127.0.0.1" + port_map(1, 2));
     ASSERT_TRUE(wait_for([&] { return all_in(SensorState::kOk); }, 5s));
     // Nothing arrives: every sensor goes LOST (lost_after_ms 2000), the threads keep
     // running (the fusion heartbeat stays fresh), no frame is made out of nothing.
@@ -223,13 +227,16 @@ TEST_F(SensorOutage, FusionSlowerThanInputDropsOldestFramesAndNoPackets) {
     const auto sent = test::figure(replay.output(), "replay_datagrams_sent");
     ASSERT_TRUE(sent);
     // Let the receivers drain their sockets (slow under the sanitizers) before stopping.
-    wait_for([&] {
-        const auto now = pipeline.stats();
-        return now.datagrams + now.kernel_drops >= static_cast<std::uint64_t>(*sent);
-    }, 20s);
+    wait_for(
+        [&] {
+            const auto now = pipeline.stats();
+            return now.datagrams + now.kernel_drops >= static_cast<std::uint64_t>(*sent);
+        },
+        20s);
     pipeline.stop();
     const auto st = pipeline.stats();
-    EXPECT_GT(st.frame_queue_drops, 0u) << "fusion kept up at 80 frames/s: the test did not overload it";
+    EXPECT_GT(st.frame_queue_drops, 0u)
+        << "fusion kept up at 80 frames/s: the test did not overload it";
     EXPECT_LT(st.frames_fused, st.frames_synchronised);
     // Every datagram sent is accounted for: received, or dropped by the kernel and counted.
     EXPECT_EQ(st.datagrams + st.kernel_drops, static_cast<std::uint64_t>(*sent));

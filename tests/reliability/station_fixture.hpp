@@ -29,10 +29,12 @@ inline std::uint16_t base_port(int slot) {
 inline std::string simulate(const std::filesystem::path& dir, double seconds,
                             const std::vector<std::string>& faults, int sensors = 2,
                             const std::string& mode = "512x20") {
-    std::string command = test::tool_path() + " sim --scenario straight --sensors " + std::to_string(sensors) +
-                          " --seconds " + std::to_string(seconds) +
-                          " --mode " + mode + " --profile RNG19_RFL8_SIG16_NIR16 --no-traffic --whole-datagrams"
-                          " --threads 2 --seed 3 --out " + dir.string();
+    std::string command = test::tool_path() + " sim --scenario straight --sensors " +
+                          std::to_string(sensors) + " --seconds " + std::to_string(seconds) +
+                          " --mode " + mode +
+                          " --profile RNG19_RFL8_SIG16_NIR16 --no-traffic --whole-datagrams"
+                          " --threads 2 --seed 3 --out " +
+                          dir.string();
     for (const auto& f : faults) command += " --fault " + f;
     std::string out;
     if (test::run_command(command, &out) != 0) throw std::runtime_error("sim failed: " + out);
@@ -58,7 +60,8 @@ inline daemon::DaemonConfig station_config(const std::filesystem::path& sim_dir,
 inline std::string port_map(int slot, int sensors) {
     std::string args;
     for (int k = 0; k < sensors; ++k) {
-        args += " --port-map " + std::to_string(7502 + 2 * k) + ":" + std::to_string(base_port(slot) + k);
+        args += " --port-map " + std::to_string(7502 + 2 * k) + ":" +
+                std::to_string(base_port(slot) + k);
     }
     return args;
 }

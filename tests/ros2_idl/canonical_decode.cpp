@@ -131,7 +131,8 @@ void run_station(const std::filesystem::path& d, Readers* readers, Seen* seen) {
     std::ofstream(d / "sim" / "daemon.yaml")
         << "station: canon\nsensors:\n"
         << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"
-        << "  - {name: lidar1, udp_port: " << p0 + 2 << ", metadata: lidar1.json}\n"
+        << "  - {name: lidar1, udp_port: " << p0 + 2
+        << ", metadata: lidar1.json}\n"
         // The root frame: every fused frame is published from the first on (the 1 s capture
         // could end before the initial registration fixes a road frame).
         << "network: {bind_address: 127.0.0.1}\nworld: {frame: sensor}\noutput:\n  directory: "

@@ -68,10 +68,10 @@ std::optional<std::string> line_after(const std::string& output, const std::stri
 }  // namespace lidarfuse::test
 
 // Skips the current test, with a visible reason, when a sample file is not available.
-#define LIDARFUSE_REQUIRE_OUSTER_FILE(var, name)                                           \
-    const auto var##_opt = ::lidarfuse::test::ouster_file(name);                           \
-    if (!var##_opt) {                                                                      \
-        GTEST_SKIP() << "sample data " << (name)                                           \
-                     << " not found (set LIDARFUSE_DATA_DIR to the shared/data folder)";  \
-    }                                                                                      \
+#define LIDARFUSE_REQUIRE_OUSTER_FILE(var, name)                                         \
+    const auto var##_opt = ::lidarfuse::test::ouster_file(name);                         \
+    if (!var##_opt) {                                                                    \
+        GTEST_SKIP() << "sample data " << (name)                                         \
+                     << " not found (set LIDARFUSE_DATA_DIR to the shared/data folder)"; \
+    }                                                                                    \
     const std::filesystem::path var = *var##_opt

@@ -50,9 +50,10 @@ Outcome simulate_and_calibrate(const std::string& sim_args) {
     }
     out.clear();
     // Exit status 2 means "some sensors not registered"; the file is written either way.
-    const int status = test::run_command(tool + " calibrate " + d + "/sim/capture.pcap --config " + d +
-                                             "/sim/station.yaml --out " + d + "/extrinsics.yaml",
-                                         &out);
+    const int status =
+        test::run_command(tool + " calibrate " + d + "/sim/capture.pcap --config " + d +
+                              "/sim/station.yaml --out " + d + "/extrinsics.yaml",
+                          &out);
     EXPECT_TRUE(status == 0 || status == 2) << out;
     const auto estimates = read_extrinsics(d + "/extrinsics.yaml");
     // A rigid fit of a whole sweep of a swaying sensor measures its pose near the middle of
@@ -70,7 +71,9 @@ Outcome simulate_and_calibrate(const std::string& sim_args) {
         if (it == frame1.end()) continue;
         Eigen::Isometry3d mid = Eigen::Isometry3d::Identity();
         mid.translation() = 0.5 * (T0.translation() + it->second.translation());
-        mid.linear() = Eigen::Quaterniond(T0.linear()).slerp(0.5, Eigen::Quaterniond(it->second.linear())).toRotationMatrix();
+        mid.linear() = Eigen::Quaterniond(T0.linear())
+                           .slerp(0.5, Eigen::Quaterniond(it->second.linear()))
+                           .toRotationMatrix();
         truth[name] = mid;
     }
     EXPECT_TRUE(truth.count("lidar0")) << "no root in the ground truth";
@@ -82,9 +85,11 @@ Outcome simulate_and_calibrate(const std::string& sim_args) {
         ++outcome.registered;
         const Eigen::Isometry3d T_root_sensor = truth["lidar0"].inverse() * T_world_sensor;
         const Eigen::Isometry3d delta = T_root_sensor.inverse() * it->second.T_root_sensor;
-        const double dt_m = (it->second.T_root_sensor.translation() - T_root_sensor.translation()).norm();
+        const double dt_m =
+            (it->second.T_root_sensor.translation() - T_root_sensor.translation()).norm();
         const double dr_deg = Eigen::AngleAxisd(delta.linear()).angle() * 180.0 / M_PI;
-        outcome.detail += name + ": " + std::to_string(dt_m) + " m " + std::to_string(dr_deg) + " deg\n";
+        outcome.detail +=
+            name + ": " + std::to_string(dt_m) + " m " + std::to_string(dr_deg) + " deg\n";
         if (dt_m > 0.03 || dr_deg > 0.1) ++outcome.wrong;
     }
     outcome.detail += out;
@@ -97,7 +102,8 @@ Outcome simulate_and_calibrate(const std::string& sim_args) {
 // check for two pairs (3-0 rotated by 180 deg, 3-1 by 90 deg) and agree with each other;
 // the consensus over all pairs must still place every sensor right.
 TEST(CalibrateCommand, IntersectionRegistersEverySensorDespiteLookAlikes) {
-    const Outcome o = simulate_and_calibrate("--scenario intersection --sensors 4 --seconds 0.1 --seed 2");
+    const Outcome o =
+        simulate_and_calibrate("--scenario intersection --sensors 4 --seconds 0.1 --seed 2");
     EXPECT_EQ(o.sensors, 4);
     EXPECT_EQ(o.registered, 4) << o.detail;
     EXPECT_EQ(o.wrong, 0) << o.detail;
@@ -115,9 +121,10 @@ TEST(CalibrateCommand, MissingCaptureFailsWithItsName) {
     test::TempDir dir("calibrate_bad");
     const std::string d = dir.path().string();
     std::string out;
-    const int status = test::run_command(test::tool_path() + " calibrate " + d + "/absent.pcap --config " + d +
-                                             "/absent.yaml --out " + d + "/extrinsics.yaml",
-                                         &out);
+    const int status =
+        test::run_command(test::tool_path() + " calibrate " + d + "/absent.pcap --config " + d +
+                              "/absent.yaml --out " + d + "/extrinsics.yaml",
+                          &out);
     EXPECT_EQ(status, 1) << out;
     EXPECT_NE(out.find("absent"), std::string::npos) << out;
     EXPECT_FALSE(std::ifstream(d + "/extrinsics.yaml").good());
@@ -130,15 +137,18 @@ TEST(CalibrateCommand, BadRegistrationKeyIsRefusedWithItsPath) {
     const std::string d = dir.path().string();
     const std::string tool = test::tool_path();
     std::string out;
-    ASSERT_EQ(test::run_command(tool + " sim --scenario curve --sensors 2 --seconds 0.1 --out " + d, &out), 0) << out;
+    ASSERT_EQ(test::run_command(tool + " sim --scenario curve --sensors 2 --seconds 0.1 --out " + d,
+                                &out),
+              0)
+        << out;
     {
         std::ifstream in(d + "/station.yaml");
         std::ofstream config(d + "/bad.yaml");
         config << in.rdbuf() << "registration:\n  ransac_iterations: 5\n";
     }
     out.clear();
-    EXPECT_EQ(test::run_command(tool + " calibrate " + d + "/capture.pcap --config " + d + "/bad.yaml --out " + d +
-                                    "/extrinsics.yaml",
+    EXPECT_EQ(test::run_command(tool + " calibrate " + d + "/capture.pcap --config " + d +
+                                    "/bad.yaml --out " + d + "/extrinsics.yaml",
                                 &out),
               1)
         << out;

@@ -35,7 +35,8 @@ protected:
     }
     static Eigen::Isometry3d make(double x, double y, double z, double yaw_deg) {
         Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-        T.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        T.linear() =
+            Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
         T.translation() = Eigen::Vector3d(x, y, z);
         return T;
     }
@@ -45,10 +46,11 @@ protected:
 TEST_F(EvalCommand, PrintsPerSensorAndMeanFigures) {
     std::string out;
     const auto d = dir_.path().string();
-    ASSERT_EQ(test::run_command(test::tool_path() + " eval --gt " + d + "/ground_truth.csv --poses " +
-                                    d + "/poses.csv --plot " + d + "/plots",
-                                &out),
-              0)
+    ASSERT_EQ(
+        test::run_command(test::tool_path() + " eval --gt " + d + "/ground_truth.csv --poses " + d +
+                              "/poses.csv --plot " + d + "/plots",
+                          &out),
+        0)
         << out;
     EXPECT_THAT(out, HasSubstr("eval_root_sensor lidar0 name"));
     EXPECT_THAT(out, HasSubstr("eval_lidar1_strict_rmse_trans 0.020000 m"));
@@ -80,10 +82,11 @@ TEST_F(EvalCommand, DrawsATopViewOfAFusedCloudColouredBySensor) {
     const auto d = dir_.path().string();
     io::write_fused_cloud_ply(dir_.path() / "fused_7.ply", cloud);
     std::string out;
-    ASSERT_EQ(test::run_command(test::tool_path() + " eval --gt " + d + "/ground_truth.csv --poses " +
-                                    d + "/poses.csv --plot " + d + "/plots --cloud " + d + "/fused_7.ply",
-                                &out),
-              0)
+    ASSERT_EQ(
+        test::run_command(test::tool_path() + " eval --gt " + d + "/ground_truth.csv --poses " + d +
+                              "/poses.csv --plot " + d + "/plots --cloud " + d + "/fused_7.ply",
+                          &out),
+        0)
         << out;
     EXPECT_THAT(out, HasSubstr("eval_top_view_points 2000 points"));
     std::ifstream svg(dir_.path() / "plots" / "top_view.svg");
@@ -96,17 +99,19 @@ TEST_F(EvalCommand, DrawsATopViewOfAFusedCloudColouredBySensor) {
 
     // --cloud alone, and a file that is not a fused cloud, fail with the reason.
     out.clear();
-    EXPECT_NE(test::run_command(test::tool_path() + " eval --gt " + d + "/ground_truth.csv --poses " +
-                                    d + "/poses.csv --cloud " + d + "/fused_7.ply",
-                                &out),
-              0);
+    EXPECT_NE(
+        test::run_command(test::tool_path() + " eval --gt " + d + "/ground_truth.csv --poses " + d +
+                              "/poses.csv --cloud " + d + "/fused_7.ply",
+                          &out),
+        0);
     EXPECT_THAT(out, HasSubstr("--cloud needs --plot"));
     std::ofstream(dir_.path() / "bad.ply") << "ply\nformat ascii 1.0\nend_header\n";
     out.clear();
-    EXPECT_EQ(test::run_command(test::tool_path() + " eval --gt " + d + "/ground_truth.csv --poses " +
-                                    d + "/poses.csv --plot " + d + "/plots --cloud " + d + "/bad.ply",
-                                &out),
-              1);
+    EXPECT_EQ(
+        test::run_command(test::tool_path() + " eval --gt " + d + "/ground_truth.csv --poses " + d +
+                              "/poses.csv --plot " + d + "/plots --cloud " + d + "/bad.ply",
+                          &out),
+        1);
     EXPECT_THAT(out, HasSubstr("bad.ply: unsupported \"format ascii 1.0\""));
 }
 

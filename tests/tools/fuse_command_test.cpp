@@ -22,7 +22,10 @@ TEST(FuseCommand, SimulatedStationIsFusedAgainstGroundTruth) {
     const std::string d = dir.path().string();
     const std::string tool = test::tool_path();
     std::string out;
-    ASSERT_EQ(test::run_command(tool + " sim --scenario curve --sensors 2 --seconds 0.5 --out " + d + "/sim", &out), 0)
+    ASSERT_EQ(
+        test::run_command(
+            tool + " sim --scenario curve --sensors 2 --seconds 0.5 --out " + d + "/sim", &out),
+        0)
         << out;
     out.clear();
     ASSERT_EQ(test::run_command(tool + " fuse " + d + "/sim/capture.pcap --config " + d +
@@ -72,7 +75,9 @@ TEST(FuseCommand, UsesTheConfigsRegistrationSectionUnlessOverridden) {
     const std::string d = dir.path().string();
     const std::string tool = test::tool_path();
     std::string out;
-    ASSERT_EQ(test::run_command(tool + " sim --scenario curve --sensors 2 --seconds 0.2 --out " + d, &out), 0)
+    ASSERT_EQ(test::run_command(tool + " sim --scenario curve --sensors 2 --seconds 0.2 --out " + d,
+                                &out),
+              0)
         << out;
     const auto with_sections = [&](const std::string& name, const std::string& sections) {
         std::ifstream in(dir.path() / "station.yaml");
@@ -81,8 +86,10 @@ TEST(FuseCommand, UsesTheConfigsRegistrationSectionUnlessOverridden) {
         return d + "/" + name;
     };
     const std::string tuned = with_sections(
-        "tuned.yaml", "registration:\n  voxel_size_m: 3.0\n  window_frames: 7\ndynamics:\n  enabled: false\n");
-    const std::string run = tool + " fuse " + d + "/capture.pcap --out " + d + "/out --max-frames 2 --config ";
+        "tuned.yaml",
+        "registration:\n  voxel_size_m: 3.0\n  window_frames: 7\ndynamics:\n  enabled: false\n");
+    const std::string run =
+        tool + " fuse " + d + "/capture.pcap --out " + d + "/out --max-frames 2 --config ";
     out.clear();
     ASSERT_EQ(test::run_command(run + tuned, &out), 0) << out;
     EXPECT_EQ(figure(out, "fuse_voxel_size"), 3.0) << out;
@@ -90,7 +97,8 @@ TEST(FuseCommand, UsesTheConfigsRegistrationSectionUnlessOverridden) {
     EXPECT_EQ(figure(out, "fuse_remove_dynamic"), 0.0);
     EXPECT_EQ(figure(out, "fuse_deskew"), 1.0);
     out.clear();
-    ASSERT_EQ(test::run_command(run + tuned + " --voxel-size 1 --window 4 --no-deskew", &out), 0) << out;
+    ASSERT_EQ(test::run_command(run + tuned + " --voxel-size 1 --window 4 --no-deskew", &out), 0)
+        << out;
     EXPECT_EQ(figure(out, "fuse_voxel_size"), 1.0) << out;
     EXPECT_EQ(figure(out, "fuse_window"), 4.0);
     EXPECT_EQ(figure(out, "fuse_deskew"), 0.0);
@@ -100,7 +108,8 @@ TEST(FuseCommand, UsesTheConfigsRegistrationSectionUnlessOverridden) {
     EXPECT_EQ(figure(out, "fuse_window"), 5.0);
     EXPECT_EQ(figure(out, "fuse_remove_dynamic"), 1.0);
     out.clear();
-    const std::string bad = with_sections("bad.yaml", "registration:\n  voxel_size_m: -1\n  voxel_sise_m: 2\n");
+    const std::string bad =
+        with_sections("bad.yaml", "registration:\n  voxel_size_m: -1\n  voxel_sise_m: 2\n");
     EXPECT_NE(test::run_command(run + bad, &out), 0);
     EXPECT_THAT(out, HasSubstr("bad.yaml"));
     EXPECT_THAT(out, HasSubstr("registration.voxel_size_m"));
@@ -111,7 +120,8 @@ TEST(FuseCommand, BadInputFailsWithTheFileNamed) {
     test::TempDir dir("fusebad");
     std::string out;
     EXPECT_NE(test::run_command(test::tool_path() + " fuse /nonexistent.pcap --config " +
-                                    (dir.path() / "missing.yaml").string() + " --out " + dir.path().string(),
+                                    (dir.path() / "missing.yaml").string() + " --out " +
+                                    dir.path().string(),
                                 &out),
               0);
     EXPECT_THAT(out, HasSubstr("missing.yaml"));

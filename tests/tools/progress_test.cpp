@@ -76,7 +76,7 @@ TEST(ProgressLine, RedrawsInPlaceAtMostFiveTimesASecondButOnEveryNewStage) {
         line.update({"features", 0, 4, "sensors", 0, 0});
         line.update({"features", 1, 4, "sensors", 0.25, 0});  // within 0.2 s: not drawn
         line.update({"pairs", 0, 6, "pairs", 0, 0});          // new stage: drawn
-    }  // the destructor clears the line
+    }                                                         // the destructor clears the line
     const std::string text = read_all(f);
     EXPECT_EQ(text.find("1/4 sensors"), std::string::npos) << text;
     EXPECT_NE(text.find("\rcalibrate: features 0/4 sensors (0 %)"), std::string::npos) << text;
@@ -119,8 +119,10 @@ protected:
         fs::remove_all(dir_);
         fs::create_directories(dir_);
         std::string out;
-        ASSERT_EQ(test::run_command(test::tool_path() + " sim --scenario curve --sensors 2 --seconds 0.6"
-                                                        " --quiet --out " + (dir_ / "sim").string(),
+        ASSERT_EQ(test::run_command(test::tool_path() +
+                                        " sim --scenario curve --sensors 2 --seconds 0.6"
+                                        " --quiet --out " +
+                                        (dir_ / "sim").string(),
                                     &out),
                   0)
             << out;
@@ -167,10 +169,10 @@ TEST_F(ProgressCommands, QuietOrNoTerminalMeansNoProgressLine) {
 TEST_F(ProgressCommands, FuseCalibrateAndReplayDrawOnATerminal) {
     const std::string cap = (dir_ / "sim").string();
     int status = 0;
-    const std::string fuse = run_on_terminal(
-        test::tool_path() + " fuse " + cap + "/capture.pcap --config " + cap + "/station.yaml --out " +
-            (dir_ / "fuse_tty").string() + " > /dev/null",
-        &status);
+    const std::string fuse =
+        run_on_terminal(test::tool_path() + " fuse " + cap + "/capture.pcap --config " + cap +
+                            "/station.yaml --out " + (dir_ / "fuse_tty").string() + " > /dev/null",
+                        &status);
     ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << fuse;
     EXPECT_NE(fuse.find("\rfuse: fusing "), std::string::npos) << fuse;
     EXPECT_NE(fuse.find(" frames ("), std::string::npos) << "the share of the file: " << fuse;
@@ -186,10 +188,10 @@ TEST_F(ProgressCommands, FuseCalibrateAndReplayDrawOnATerminal) {
     EXPECT_NE(calibrate.find("\rcalibrate: pose graph"), std::string::npos) << calibrate;
 
     // Sent to a port nobody listens on (UDP: no error), as fast as possible.
-    const std::string replay = run_on_terminal(
-        test::tool_path() + " replay " + cap + "/capture.pcap --max-rate --port-map 7502:9 "
-                            "--port-map 7504:9 > /dev/null",
-        &status);
+    const std::string replay = run_on_terminal(test::tool_path() + " replay " + cap +
+                                                   "/capture.pcap --max-rate --port-map 7502:9 "
+                                                   "--port-map 7504:9 > /dev/null",
+                                               &status);
     ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << replay;
     EXPECT_NE(replay.find("\rreplay: sending "), std::string::npos) << replay;
     EXPECT_NE(replay.find(" datagrams ("), std::string::npos) << replay;
