@@ -116,8 +116,15 @@ void BackgroundModel::update(const std::vector<Eigen::Vector3d>& current, Backgr
         if (changes_.removed[j]) raise(reference_keys_[j]);
     }
     mark_hot_voxels();
-    const auto above_threshold = [this](std::uint64_t key) {
-        return maybe_hot(key) && score_of(key) > params_.dynamic_threshold;
+    // Neighbouring points of a scan row mostly share a voxel: the last key's answer is kept.
+    std::uint64_t last_key = kNoKey;
+    bool last_above = false;
+    const auto above_threshold = [&](std::uint64_t key) {
+        if (key != last_key) {
+            last_above = maybe_hot(key) && score_of(key) > params_.dynamic_threshold;
+            last_key = key;
+        }
+        return last_above;
     };
     out->dynamic.assign(current.size(), 0);
     out->num_dynamic = 0;

@@ -7,25 +7,12 @@
 namespace lidarfuse::core {
 
 namespace {
-
-// Voxel coordinates are packed into 21 bits each (offset binary): +-2^20 voxels per axis,
-// i.e. +-10 km at 1 cm voxels. Keys therefore stay below 2^63, and all-ones marks an empty
-// hash slot.
-constexpr int kBitsPerAxis = 21;
-constexpr std::int64_t kAxisOffset = std::int64_t{1} << (kBitsPerAxis - 1);
 constexpr std::uint64_t kEmptyKey = std::numeric_limits<std::uint64_t>::max();
-
-inline std::uint64_t hash_key(std::uint64_t key) {
-    // Fibonacci hashing (multiply by 2^64 / golden ratio); the table index takes the high
-    // bits, which mix all three packed coordinates.
-    return key * 0x9E3779B97F4A7C15ull;
-}
-
 }  // namespace
 
 std::size_t VoxelGrid::Table::slot_of(std::uint64_t key) const {
     const std::size_t mask = keys.size() - 1;
-    std::size_t slot = static_cast<std::size_t>(hash_key(key) >> hash_shift);
+    std::size_t slot = voxel_slot(key, hash_shift);
     while (keys[slot] != key && keys[slot] != kEmptyKey) slot = (slot + 1) & mask;
     return slot;
 }
@@ -96,37 +83,39 @@ void VoxelGrid::insert_points(const std::vector<Eigen::Vector3d>& points, double
     counts_.clear();
 
     const double inv_size = 1.0 / voxel_size_m;
+    // Neighbouring pixels of a scan row mostly share a voxel: the last key's voxel skips
+    // the probe (the same sums in the same order).
+    std::uint64_t last_key = kEmptyKey;
+    std::uint32_t last_voxel = 0;
     for (std::size_t i = 0; i < n; ++i) {
         const Eigen::Vector3d& p = points[i];
         voxel_of_point_[i] = VoxelIndexMap::kNoVoxel;
-        if (!p.allFinite()) {
+        std::uint64_t key = 0;
+        if (!voxel_key(p, inv_size, &key)) {
             ++stats->num_invalid;
             continue;
         }
-        const Eigen::Vector3d c = (p * inv_size).array().floor();
-        if ((c.array().abs() >= static_cast<double>(kAxisOffset)).any()) {
-            ++stats->num_invalid;
-            continue;
+        if (key != last_key) {
+            last_voxel = voxel_of(key);
+            last_key = key;
         }
-        const std::uint64_t key =
-            (static_cast<std::uint64_t>(static_cast<std::int64_t>(c.x()) + kAxisOffset)
-             << (2 * kBitsPerAxis)) |
-            (static_cast<std::uint64_t>(static_cast<std::int64_t>(c.y()) + kAxisOffset)
-             << kBitsPerAxis) |
-            static_cast<std::uint64_t>(static_cast<std::int64_t>(c.z()) + kAxisOffset);
-        const std::size_t slot = table_.slot_of(key);
-        if (table_.keys[slot] == kEmptyKey) {
-            table_.keys[slot] = key;
-            table_.values[slot] = static_cast<std::uint32_t>(sums_.size());
-            voxel_keys_.push_back(key);
-            sums_.emplace_back(Eigen::Vector3d::Zero());
-            counts_.push_back(0);
-        }
-        const std::uint32_t voxel = table_.values[slot];
-        voxel_of_point_[i] = voxel;
-        sums_[voxel] += p;
-        ++counts_[voxel];
+        voxel_of_point_[i] = last_voxel;
+        sums_[last_voxel] += p;
+        ++counts_[last_voxel];
     }
+}
+
+// The voxel of `key`, a new one (in order of first appearance) when the key is new.
+std::uint32_t VoxelGrid::voxel_of(std::uint64_t key) {
+    const std::size_t slot = table_.slot_of(key);
+    if (table_.keys[slot] == kEmptyKey) {
+        table_.keys[slot] = key;
+        table_.values[slot] = static_cast<std::uint32_t>(sums_.size());
+        voxel_keys_.push_back(key);
+        sums_.emplace_back(Eigen::Vector3d::Zero());
+        counts_.push_back(0);
+    }
+    return table_.values[slot];
 }
 
 // One centroid per voxel with enough points, in voxel order.

@@ -43,6 +43,29 @@ struct VoxelGridStats {
     std::size_t num_dropped_sparse = 0;  // input points in voxels below min_points_per_voxel
 };
 
+// A voxel's integer coordinates floor(p / size) packed into 21 bits each (offset binary):
+// +-2^20 voxels per axis, i.e. +-10 km at 1 cm voxels. Keys stay below 2^63 (bit 63 is
+// free for a caller's flag) and all-ones is never a key. False for a point that is not
+// finite or lies beyond the grid. `inv_size` = 1 / voxel size (1/m).
+inline bool voxel_key(const Eigen::Vector3d& p, double inv_size, std::uint64_t* key) {
+    constexpr int kBitsPerAxis = 21;
+    constexpr std::int64_t kAxisOffset = std::int64_t{1} << (kBitsPerAxis - 1);
+    if (!p.allFinite()) return false;
+    const Eigen::Vector3d c = (p * inv_size).array().floor();
+    if ((c.array().abs() >= static_cast<double>(kAxisOffset)).any()) return false;
+    const auto packed = [](double v) {
+        return static_cast<std::uint64_t>(static_cast<std::int64_t>(v) + kAxisOffset);
+    };
+    *key = (packed(c.x()) << (2 * kBitsPerAxis)) | (packed(c.y()) << kBitsPerAxis) | packed(c.z());
+    return true;
+}
+
+// The slot of `key` in an open-addressing table of 2^(64 - shift) slots: Fibonacci hashing
+// (multiply by 2^64 / golden ratio), whose high bits mix all three packed coordinates.
+inline std::size_t voxel_slot(std::uint64_t key, int shift) {
+    return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> shift);
+}
+
 class VoxelGrid {
 public:
     // `out` gets points only (normals / covariances cleared). `index_map` may be null.
@@ -70,6 +93,7 @@ private:
     };
     void insert_points(const std::vector<Eigen::Vector3d>& points, double voxel_size_m,
                        VoxelGridStats* stats);
+    std::uint32_t voxel_of(std::uint64_t key);
     void emit_centroids(const VoxelGridParams& params, PointCloud* out, VoxelGridStats* stats);
     void fill_index_map(std::size_t n, std::size_t num_output, VoxelIndexMap* index_map) const;
     void find_twins(std::vector<std::uint32_t>* twins) const;

@@ -238,8 +238,7 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
             Eigen::Matrix3d ANA;  // -A N A: row i is a x (row i of A N)
             for (int r = 0; r < 3; ++r) ANA.row(r) = a.cross(AN.row(r).transpose()).transpose();
             local.H.topLeftCorner<3, 3>().noalias() += w * ANA;
-            local.H.topRightCorner<3, 3>().noalias() += w * AN;
-            local.H.bottomLeftCorner<3, 3>().noalias() += w * AN.transpose();
+            local.H.topRightCorner<3, 3>().noalias() += w * AN;  // lower-left: its transpose
             local.H.bottomRightCorner<3, 3>().noalias() += w * N;
             local.b.head<3>() += w * u.cross(a);
             local.b.tail<3>() -= w * u;
@@ -252,6 +251,8 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
     // Fixed summation order: the result does not depend on thread timing.
     lin->reset();
     for (const auto& p : partial_) lin->add(p);
+    // The same sums as accumulating the lower-left block itself, in the same order.
+    lin->H.bottomLeftCorner<3, 3>() = lin->H.topRightCorner<3, 3>().transpose();
 }
 
 double GicpRegistration::evaluate(const GicpTarget& target, const PointCloud& source,
