@@ -6,10 +6,10 @@
 #include <fstream>
 
 #include "core/evaluation/evaluation.hpp"
+#include "drivers/io/fused_cloud_file.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "tools/args.hpp"
 #include "tools/command.hpp"
-#include "tools/fused_cloud_reader.hpp"
 #include "tools/svg_plot.hpp"
 
 namespace lidarfuse::tools {
@@ -135,7 +135,7 @@ int run_eval(int argc, char** argv) {
         write_plot(d / "strict_rotation_error.svg", result, "Rotation error (strict)", "deg",
                    &core::SensorErrors::strict_rot_err_deg);
         if (const auto cloud_file = args.value("--cloud")) {
-            const auto cloud = read_fused_cloud_ply(*cloud_file);
+            const auto cloud = io::read_fused_cloud_ply(*cloud_file);
             TopViewSpec view;
             view.title = "Fused frame, top view (" +
                          std::filesystem::path(*cloud_file).filename().string() + ")";

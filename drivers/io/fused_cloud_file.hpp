@@ -15,4 +15,8 @@ namespace lidarfuse::io {
 void write_fused_cloud_ply(const std::filesystem::path& file, const core::FusedCloud& cloud);
 void write_fused_cloud_pcd(const std::filesystem::path& file, const core::FusedCloud& cloud);
 
+// Reads back what write_fused_cloud_ply wrote. Only that layout is accepted; anything else
+// throws std::runtime_error naming the file and the header line that differs.
+core::FusedCloud read_fused_cloud_ply(const std::filesystem::path& file);
+
 }  // namespace lidarfuse::io

@@ -18,13 +18,13 @@
 #include <thread>
 
 #include "diagnostic_msgs/msg/DiagnosticArray.h"
+#include "drivers/io/fused_cloud_file.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "lidarfuse_msgs/msg/FramePoses.h"
 #include "sensor_msgs/msg/PointCloud2.h"
 #include "tests/daemon/dds_test_support.hpp"
 #include "tests/support/test_data.hpp"
 #include "tf2_msgs/msg/TFMessage.h"
-#include "tools/fused_cloud_reader.hpp"
 
 namespace lidarfuse {
 namespace {
@@ -214,7 +214,7 @@ TEST(CanonicalRos2Types, DecodeEverySampleEqualToTheDaemonsFiles) {
     for (std::size_t c = 0; c < seen.clouds.size(); ++c) {
         const auto frame = seen.frame_of_stamp.find(seen.clouds[c].first);
         ASSERT_NE(frame, seen.frame_of_stamp.end()) << "a cloud without its poses message";
-        const core::FusedCloud ply = tools::read_fused_cloud_ply(
+        const core::FusedCloud ply = io::read_fused_cloud_ply(
             dir.path() / "out" / ("fused_" + std::to_string(frame->second) + ".ply"));
         const auto& xyzi = seen.clouds[c].second;
         const auto& ids = seen.cloud_ids[c];
