@@ -68,7 +68,7 @@ void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
     const std::string p = "output.dds.";
     r.only_keys(n, "output.dds",
                 {"enabled", "domain_id", "namespace", "frame_id", "depth", "max_blocking_ms",
-                 "publish_points", "diagnostics_period_ms"});
+                 "publish_points", "points_voxel_size_m", "diagnostics_period_ms"});
     set_if(r.boolean(n["enabled"], p + "enabled"), &c->enabled);
     // Cyclone maps domain d to UDP ports 7400 + 250 d + ..., so 232 is the largest id.
     set_if(r.integer(n["domain_id"], p + "domain_id", -1, 232, false), &c->domain_id);
@@ -101,6 +101,8 @@ void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
     set_if(r.number(n["max_blocking_ms"], p + "max_blocking_ms", 0, 1000, false),
            &c->max_blocking_ms);
     set_if(r.boolean(n["publish_points"], p + "publish_points"), &c->publish_points);
+    set_if(r.number(n["points_voxel_size_m"], p + "points_voxel_size_m", 0, 100, false),
+           &c->points_voxel_size_m);
     set_if(r.number(n["diagnostics_period_ms"], p + "diagnostics_period_ms", 10, 60000, false),
            &c->diagnostics_period_ms);
 }

@@ -45,6 +45,9 @@ struct DdsConfig {
     int depth = 2;                 // keep-last history of every writer
     double max_blocking_ms = 5.0;  // longest a write may wait for a slow reader
     bool publish_points = true;    // rt/<ns>/points (the poses, tf and diagnostics always)
+    // > 0: rt/<ns>/points_voxel too, the fused cloud thinned to one point per voxel of this
+    // size (m) in the fused frame (core/pipeline/fused_cloud_voxels.hpp); 0: not published.
+    double points_voxel_size_m = 0.0;
     double diagnostics_period_ms = 1000.0;
 };
 

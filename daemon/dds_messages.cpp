@@ -85,9 +85,8 @@ FrameMessageBuilder::FrameMessageBuilder(StationFrames frames) : frames_(std::mo
     sensor_poses_.resize(frames_.sensor_names.size());
 }
 
-const sensor_msgs_msg_dds__PointCloud2_& FrameMessageBuilder::cloud(const core::FrameOutput& frame,
+const sensor_msgs_msg_dds__PointCloud2_& FrameMessageBuilder::cloud(const core::FusedCloud& c,
                                                                     const FrameStamps& stamps) {
-    const auto& c = frame.cloud;
     const std::size_t n = c.points.size();
     cloud_data_.resize(n * kPointStep);  // grows to the largest cloud, then stays
     std::uint8_t* out = cloud_data_.data();

@@ -51,6 +51,11 @@ public:
 
     // The fused cloud in the fused frame, stamped with the frame's stamp.
     const sensor_msgs_msg_dds__PointCloud2_& cloud(const core::FrameOutput& frame,
+                                                   const FrameStamps& stamps) {
+        return cloud(frame.cloud, stamps);
+    }
+    // The same message for another cloud of this frame (e.g. the thinned one).
+    const sensor_msgs_msg_dds__PointCloud2_& cloud(const core::FusedCloud& cloud,
                                                    const FrameStamps& stamps);
     // rt/tf: T_fused_sensor of every sensor, the root included, that has a valid pose and a
     // scan in this frame, stamped with that scan's stamp. The others are left out (never a

@@ -57,6 +57,7 @@ DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames,
       static_parent_frame_(std::move(static_parent_frame)),
       domain_id_(resolve_domain_id(config.domain_id, std::getenv("ROS_DOMAIN_ID"))),
       frame_builder_(frames_),
+      voxel_builder_(frames_),
       diagnostics_builder_(frames_) {
     participant_ =
         dds_create_participant(static_cast<dds_domainid_t>(domain_id_), nullptr, nullptr);
@@ -88,6 +89,10 @@ DdsPublisher::DdsPublisher(const DdsConfig& config, StationFrames frames,
     if (config_.publish_points) {
         points_writer_ = make_writer(ros_topic_name(config_.topic_namespace, "points"),
                                      &sensor_msgs_msg_dds__PointCloud2__desc, depth);
+    }
+    if (config_.points_voxel_size_m > 0) {
+        voxel_writer_ = make_writer(ros_topic_name(config_.topic_namespace, "points_voxel"),
+                                    &sensor_msgs_msg_dds__PointCloud2__desc, depth);
     }
     poses_writer_ = make_writer(ros_topic_name(config_.topic_namespace, "poses"),
                                 &lidarfuse_msgs_msg_dds__FramePoses__desc, depth);
@@ -130,12 +135,27 @@ void DdsPublisher::publish_frame(const core::FrameOutput& frame, const FrameStam
         write(points_writer_, sensor_msgs_msg_dds__PointCloud2__desc,
               &frame_builder_.cloud(frame, stamps), &clouds_, FoxgloveChannel::kPoints);
     }
+    if (voxel_writer_ > 0 && voxel_cloud_wanted()) {
+        voxels_.downsample(frame.cloud, config_.points_voxel_size_m, &voxel_cloud_);
+        write(voxel_writer_, sensor_msgs_msg_dds__PointCloud2__desc,
+              &voxel_builder_.cloud(voxel_cloud_, stamps), &voxel_clouds_,
+              FoxgloveChannel::kPointsVoxel);
+    }
     const auto& tf = frame_builder_.tf(frame, stamps);
     if (tf.transforms._length > 0) {
         write(tf_writer_, tf2_msgs_msg_dds__TFMessage__desc, &tf, &tf_, FoxgloveChannel::kTf);
     }
     write(poses_writer_, lidarfuse_msgs_msg_dds__FramePoses__desc,
           &frame_builder_.poses(frame, stamps), &poses_, FoxgloveChannel::kPoses);
+}
+
+// A DDS reader matched, or a live-view client subscribed: thinning costs a pass over the
+// fused cloud, which nobody may want.
+bool DdsPublisher::voxel_cloud_wanted() const {
+    if (foxglove_ && foxglove_->wants(FoxgloveChannel::kPointsVoxel)) return true;
+    dds_publication_matched_status_t matched{};
+    return dds_get_publication_matched_status(voxel_writer_, &matched) == DDS_RETCODE_OK &&
+           matched.current_count > 0;
 }
 
 void DdsPublisher::publish_static(const Eigen::Isometry3d& T_parent_fused, std::int64_t stamp_ns) {
@@ -169,6 +189,7 @@ DdsCounters DdsPublisher::counters() const {
     c.failures = failures_.value.load();
     c.timeouts = timeouts_.value.load();
     c.clouds = clouds_.value.load();
+    c.voxel_clouds = voxel_clouds_.value.load();
     c.tf = tf_.value.load();
     c.tf_static = tf_static_.value.load();
     c.poses = poses_.value.load();

@@ -3,6 +3,9 @@
 // it without a bridge:
 //
 //   rt/<ns>/points   sensor_msgs::msg::dds_::PointCloud2_        one per fused frame
+//   rt/<ns>/points_voxel   the same, thinned to one point per voxel (points_voxel_size_m
+//                    > 0 only; core/pipeline/fused_cloud_voxels.hpp), for consumers on
+//                    slow links; thinned on the output thread, only while it is wanted
 //   rt/<ns>/poses    lidarfuse_msgs::msg::dds_::FramePoses_      one per fused frame
 //   rt/tf            tf2_msgs::msg::dds_::TFMessage_             one per fused frame with a
 //                    registered sensor in it: T_fused_sensor of each such sensor (the root
@@ -35,6 +38,7 @@
 #include <memory>
 #include <string>
 
+#include "core/pipeline/fused_cloud_voxels.hpp"
 #include "core/pipeline/fusion_types.hpp"
 #include "daemon/cdr_sample.hpp"
 #include "daemon/daemon_config.hpp"
@@ -50,7 +54,7 @@ struct DdsCounters {
     std::uint64_t written = 0;   // samples accepted by dds_write
     std::uint64_t failures = 0;  // dds_write errors (timeouts included)
     std::uint64_t timeouts = 0;  // ... of which a reader held the writer past max_blocking_ms
-    std::uint64_t clouds = 0, tf = 0, tf_static = 0, poses = 0,
+    std::uint64_t clouds = 0, voxel_clouds = 0, tf = 0, tf_static = 0, poses = 0,
                   diagnostics = 0;       // written per topic
     std::uint64_t unstamped_frames = 0;  // frames without a stamped sensor: nothing sent
 };
@@ -75,6 +79,8 @@ public:
     DdsPublisher& operator=(const DdsPublisher&) = delete;
 
     void publish_frame(const core::FrameOutput& frame, const FrameStamps& stamps);
+    // The thinned cloud of the last publish_frame that published one (empty before).
+    const core::FusedCloud& last_voxel_cloud() const { return voxel_cloud_; }
     void publish_diagnostics(const PipelineStats& stats, std::int64_t stamp_ns);
     // rt/tf_static: static_parent_frame -> the fused frame, T_parent_fused. Sent the first
     // time and again only when the transform changes; nothing without a static writer or
@@ -95,6 +101,7 @@ private:
     // dds_write, counted, and the sample mirrored to the live view's `channel`.
     bool write(dds_entity_t writer, const dds_topic_descriptor_t& type, const void* sample,
                Counter* topic_counter, FoxgloveChannel channel);
+    bool voxel_cloud_wanted() const;
 
     DdsConfig config_;
     StationFrames frames_;
@@ -104,13 +111,16 @@ private:
     int domain_id_ = 0;
     dds_entity_t participant_ = 0;
     dds_entity_t points_writer_ = 0, poses_writer_ = 0, tf_writer_ = 0, diagnostics_writer_ = 0,
-                 tf_static_writer_ = 0;
+                 tf_static_writer_ = 0, voxel_writer_ = 0;
     FrameMessageBuilder frame_builder_;
+    FrameMessageBuilder voxel_builder_;  // its own buffers: both clouds are written per frame
+    core::FusedCloudVoxels voxels_;
+    core::FusedCloud voxel_cloud_;
     DiagnosticsBuilder diagnostics_builder_;
     FoxgloveServer* foxglove_ = nullptr;
     CdrSampleWriter cdr_;
-    Counter written_, failures_, timeouts_, clouds_, tf_, tf_static_, poses_, diagnostics_,
-        unstamped_;
+    Counter written_, failures_, timeouts_, clouds_, voxel_clouds_, tf_, tf_static_, poses_,
+        diagnostics_, unstamped_;
 };
 
 }  // namespace lidarfuse::daemon

@@ -97,19 +97,25 @@ std::string ros2msg_schema(const std::string& type_name) {
     return text;
 }
 
-std::vector<FoxgloveChannelInfo> foxglove_channels(const std::string& topic_namespace) {
+std::vector<FoxgloveChannelInfo> foxglove_channels(const std::string& topic_namespace,
+                                                   bool points_voxel) {
     const std::string prefix = topic_namespace.empty() ? "/" : "/" + topic_namespace + "/";
     const auto channel = [](FoxgloveChannel id, std::string topic, const std::string& type,
                             bool latched = false) {
         return FoxgloveChannelInfo{id, std::move(topic), ros2_type_name(type), ros2msg_schema(type),
                                    latched};
     };
-    return {
+    std::vector<FoxgloveChannelInfo> channels = {
         channel(FoxgloveChannel::kPoints, prefix + "points", "sensor_msgs/PointCloud2"),
         channel(FoxgloveChannel::kTf, "/tf", "tf2_msgs/TFMessage"),
         channel(FoxgloveChannel::kTfStatic, "/tf_static", "tf2_msgs/TFMessage", true),
         channel(FoxgloveChannel::kDiagnostics, "/diagnostics", "diagnostic_msgs/DiagnosticArray"),
         channel(FoxgloveChannel::kPoses, prefix + "poses", "lidarfuse_msgs/FramePoses")};
+    if (points_voxel) {
+        channels.push_back(channel(FoxgloveChannel::kPointsVoxel, prefix + "points_voxel",
+                                   "sensor_msgs/PointCloud2"));
+    }
+    return channels;
 }
 
 }  // namespace lidarfuse::daemon

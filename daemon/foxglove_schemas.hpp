@@ -16,9 +16,10 @@ enum class FoxgloveChannel : std::uint32_t {
     kTf = 2,
     kTfStatic = 3,
     kDiagnostics = 4,
-    kPoses = 5
+    kPoses = 5,
+    kPointsVoxel = 6
 };
-inline constexpr std::size_t kFoxgloveChannelCount = 5;
+inline constexpr std::size_t kFoxgloveChannelCount = 6;
 
 struct FoxgloveChannelInfo {
     FoxgloveChannel id;
@@ -28,9 +29,11 @@ struct FoxgloveChannelInfo {
     bool latched = false;     // the last message goes to every new subscriber (/tf_static)
 };
 
-// The five channels; `topic_namespace` as output.dds.namespace ("" puts the clouds and
-// poses at /points and /poses, as DDS does at rt/points).
-std::vector<FoxgloveChannelInfo> foxglove_channels(const std::string& topic_namespace);
+// The five channels, and with `points_voxel` (output.dds.points_voxel_size_m > 0) the
+// thinned cloud's as a sixth; `topic_namespace` as output.dds.namespace ("" puts the clouds
+// and poses at /points and /poses, as DDS does at rt/points).
+std::vector<FoxgloveChannelInfo> foxglove_channels(const std::string& topic_namespace,
+                                                   bool points_voxel = false);
 
 // One type's schema: its definition, then each dependency's as Foxglove expects them.
 // Exposed for the test that compares lidarfuse_msgs' with ros2/lidarfuse_msgs/msg/.

@@ -130,8 +130,8 @@ int main(int argc, char** argv) {
     }
     if (pipeline->foxglove_port() > 0) {
         std::string topics;
-        for (const auto& c :
-             lidarfuse::daemon::foxglove_channels(config.output.dds.topic_namespace))
+        for (const auto& c : lidarfuse::daemon::foxglove_channels(
+                 config.output.dds.topic_namespace, config.output.dds.points_voxel_size_m > 0))
             topics += (topics.empty() ? "" : ", ") + c.topic;
         log->info("foxglove: live view on ws://{}:{} ({})", config.output.foxglove.bind_address,
                   pipeline->foxglove_port(), topics);

@@ -137,7 +137,9 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         // The config check refuses output.foxglove without output.dds.
         if (config.output.foxglove.enabled) {
             foxglove = std::make_unique<FoxgloveServer>(
-                config.output.foxglove, foxglove_channels(config.output.dds.topic_namespace),
+                config.output.foxglove,
+                foxglove_channels(config.output.dds.topic_namespace,
+                                  config.output.dds.points_voxel_size_m > 0),
                 "lidarfused " + config.station.station, logger("foxglove"));
             dds->mirror_to(foxglove.get());
         }

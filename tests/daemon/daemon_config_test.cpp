@@ -137,12 +137,14 @@ TEST_F(DaemonConfigTest, DdsDefaultsAndKeys) {
     EXPECT_EQ(defaults.output.stamp, StampSource::kSensor);
     EXPECT_EQ(defaults.output.dds.depth, 2);
     EXPECT_TRUE(defaults.output.dds.publish_points);
+    EXPECT_EQ(defaults.output.dds.points_voxel_size_m, 0.0);  // no thinned cloud
 
     const auto c = parse_daemon_config(sensors_ + R"(
 output:
   stamp: host
   dds: {enabled: false, domain_id: 42, namespace: site_7/fusion, frame_id: map, depth: 5,
-        max_blocking_ms: 2, publish_points: false, diagnostics_period_ms: 500}
+        max_blocking_ms: 2, publish_points: false, points_voxel_size_m: 0.25,
+        diagnostics_period_ms: 500}
 )",
                                        "s.yaml", dir_.path());
     EXPECT_FALSE(c.output.dds.enabled);
@@ -152,7 +154,17 @@ output:
     EXPECT_EQ(c.output.dds.depth, 5);
     EXPECT_DOUBLE_EQ(c.output.dds.max_blocking_ms, 2.0);
     EXPECT_FALSE(c.output.dds.publish_points);
+    EXPECT_DOUBLE_EQ(c.output.dds.points_voxel_size_m, 0.25);
     EXPECT_DOUBLE_EQ(c.output.dds.diagnostics_period_ms, 500.0);
+    for (const char* bad : {"-0.5", "101", "fine"}) {
+        try {
+            parse_daemon_config(sensors_ + "output: {dds: {points_voxel_size_m: " + bad + "}}\n",
+                                "s.yaml", dir_.path());
+            FAIL() << bad;
+        } catch (const station::ConfigError& error) {
+            EXPECT_THAT(error.what(), HasSubstr("output.dds.points_voxel_size_m")) << bad;
+        }
+    }
     EXPECT_EQ(c.output.stamp, StampSource::kHost);
 }
 

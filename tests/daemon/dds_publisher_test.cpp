@@ -386,3 +386,69 @@ TEST_F(DdsPublisherTest, DiagnosticsCarryStateLevelsAndCounters) {
 
 }  // namespace
 }  // namespace lidarfuse::daemon
+
+namespace lidarfuse::daemon {
+namespace {
+
+// A cloud whose points fall 4 to a voxel of 1 m: (i / 4) m along x, static and dynamic apart.
+core::FrameOutput frame_in_voxels(std::int64_t index, std::size_t points) {
+    core::FrameOutput f = frame(index, 0);
+    for (std::size_t i = 0; i < points; ++i) {
+        const float x = static_cast<float>(i / 4) + 0.125f + 0.25f * static_cast<float>(i % 4);
+        f.cloud.points.emplace_back(x, 0.5f, 0.5f);
+        f.cloud.intensity.push_back(static_cast<float>(i % 4));
+        f.cloud.sensor.push_back(static_cast<std::uint8_t>(i % 3));
+        f.cloud.dynamic.push_back(static_cast<std::uint8_t>((i / 4) % 5 == 0));
+    }
+    return f;
+}
+
+TEST_F(DdsPublisherTest, TheThinnedCloudGoesOutOnlyWhenConfiguredAndWanted) {
+    const auto f = frame_in_voxels(3, 400);
+    {
+        DdsPublisher off(config_, frames3());  // points_voxel_size_m 0: no such writer
+        off.publish_frame(f, sensor_stamps(f));
+        EXPECT_EQ(off.counters().voxel_clouds, 0u);
+        EXPECT_TRUE(off.last_voxel_cloud().points.empty());
+    }
+    config_.points_voxel_size_m = 1.0;
+    DdsPublisher publisher(config_, frames3());
+    publisher.publish_frame(f, sensor_stamps(f));  // no reader yet: not even thinned
+    EXPECT_EQ(publisher.counters().voxel_clouds, 0u);
+    EXPECT_TRUE(publisher.last_voxel_cloud().points.empty());
+
+    DdsReader<sensor_msgs_msg_dds__PointCloud2_> voxels(
+        participant_, &sensor_msgs_msg_dds__PointCloud2__desc, "rt/lidarfuse/points_voxel",
+        test::reader_qos(4));
+    ASSERT_TRUE(voxels.wait_matched());
+    publisher.publish_frame(f, sensor_stamps(f));
+    EXPECT_EQ(publisher.counters().voxel_clouds, 1u);
+    EXPECT_EQ(publisher.counters().clouds, 2u);  // the full cloud every time
+    int received = 0;
+    ASSERT_TRUE(test::eventually([&] {
+        received += voxels.take([&](const sensor_msgs_msg_dds__PointCloud2_& m) {
+            EXPECT_STREQ(m.header.frame_id, "station");
+            EXPECT_EQ(from_ros_time(m.header.stamp), f.t_ns[0]);
+            ASSERT_EQ(m.width, 100u);  // 400 points, 4 per voxel
+            ASSERT_EQ(m.fields._length, 6u);
+            ASSERT_EQ(m.data._length, 100u * kPointStep);
+            for (std::size_t v = 0; v < 100; ++v) {
+                const std::uint8_t* p = m.data._buffer + v * kPointStep;
+                float xyz[3], intensity;
+                std::memcpy(xyz, p, sizeof(xyz));
+                std::memcpy(&intensity, p + 12, sizeof(float));
+                EXPECT_FLOAT_EQ(xyz[0], static_cast<float>(v) + 0.5f);  // the centroid
+                EXPECT_FLOAT_EQ(xyz[1], 0.5f);
+                EXPECT_FLOAT_EQ(intensity, 1.5f);                          // the mean
+                EXPECT_EQ(p[16], static_cast<std::uint8_t>((4 * v) % 3));  // the first point's
+                EXPECT_EQ(p[17], v % 5 == 0 ? 1 : 0);
+            }
+        });
+        return received >= 1;
+    }));
+    EXPECT_EQ(received, 1);
+    EXPECT_EQ(publisher.last_voxel_cloud().points.size(), 100u);
+}
+
+}  // namespace
+}  // namespace lidarfuse::daemon

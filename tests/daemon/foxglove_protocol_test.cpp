@@ -81,7 +81,7 @@ TEST(FoxgloveProtocol, ServerInfoAndAdvertiseNameEveryChannel) {
     const auto channels = foxglove_channels("site/a");
     const auto ad = nlohmann::json::parse(foxglove_advertise(channels));
     EXPECT_EQ(ad["op"], "advertise");
-    ASSERT_EQ(ad["channels"].size(), kFoxgloveChannelCount);
+    ASSERT_EQ(ad["channels"].size(), 5u);
     std::vector<std::string> topics;
     for (const auto& c : ad["channels"]) {
         topics.push_back(c["topic"]);
@@ -95,6 +95,12 @@ TEST(FoxgloveProtocol, ServerInfoAndAdvertiseNameEveryChannel) {
                                                "/diagnostics", "/site/a/poses"));
     EXPECT_EQ(foxglove_channels("")[0].topic, "/points");
     EXPECT_TRUE(channels[2].latched);
+    // output.dds.points_voxel_size_m > 0: the thinned cloud as a sixth channel.
+    const auto with_voxels = foxglove_channels("site/a", true);
+    ASSERT_EQ(with_voxels.size(), kFoxgloveChannelCount);
+    EXPECT_EQ(with_voxels.back().topic, "/site/a/points_voxel");
+    EXPECT_EQ(with_voxels.back().id, FoxgloveChannel::kPointsVoxel);
+    EXPECT_EQ(with_voxels.back().schema_name, with_voxels.front().schema_name);
 }
 
 TEST(FoxgloveProtocol, SubscribeAndUnsubscribeAreParsedAndBadRequestsSayWhy) {

@@ -83,7 +83,8 @@ void write_station(Station* s, bool foxglove) {
         // The sensor frame: frames are published from the first one, not after the road fit.
         << "network: {bind_address: 127.0.0.1}\nworld: {frame: sensor}\noutput:\n  directory: "
         << (s->dir / (foxglove ? "out" : "out-plain")).string() << "\n"
-        << "  dds: {domain_id: " << domain << ", diagnostics_period_ms: 200}\n"
+        << "  dds: {domain_id: " << domain << ", diagnostics_period_ms: 200"
+        << (foxglove ? ", points_voxel_size_m: 0.5" : "") << "}\n"
         << "  foxglove: {enabled: " << (foxglove ? "true" : "false") << ", port: "
         << s->ws_port
         // 2 MiB per client: two or three clouds of this station (0.5-0.8 MB each), so a
@@ -213,7 +214,7 @@ TEST(LidarfusedFoxglove, ANodeClientDecodesCloudsAndTfOfAReplayWhileAStalledOneO
     EXPECT_EQ(seen["encapsulations"], Json::array({1})) << "CDR_LE only";
     EXPECT_EQ(seen["serverName"], "lidarfused fox");
     EXPECT_EQ(seen["topics"], Json::array({"/lidarfuse/points", "/tf", "/tf_static", "/diagnostics",
-                                           "/lidarfuse/poses"}));
+                                           "/lidarfuse/poses", "/lidarfuse/points_voxel"}));
     EXPECT_EQ(seen["cloudFrame"], "lidarfuse/fused");
     EXPECT_EQ(seen["cloudFields"], Json::array({"x:0:7", "y:4:7", "z:8:7", "intensity:12:7",
                                                 "sensor_id:16:2", "dynamic:17:2"}));
@@ -238,6 +239,16 @@ TEST(LidarfusedFoxglove, ANodeClientDecodesCloudsAndTfOfAReplayWhileAStalledOneO
     EXPECT_GT(matched, frames.size() / 2);
     // A viewer that keeps up gets most clouds (it shares the 2 cores with the daemon).
     EXPECT_GE(clouds, poses / 2);
+    // The thinned cloud (0.5 m voxels) beside it, far smaller than the full one.
+    const long voxel_clouds = seen["voxelClouds"].get<long>();
+    EXPECT_GE(voxel_clouds, poses / 2);
+    if (voxel_clouds > 0 && clouds > 0) {
+        const double full = seen["cloudPoints"].get<double>() / static_cast<double>(clouds);
+        const double thin = seen["voxelPoints"].get<double>() / static_cast<double>(voxel_clouds);
+        std::printf("foxglove: %.0f points per cloud, %.0f per thinned cloud\n", full, thin);
+        EXPECT_GT(thin, 0.0);
+        EXPECT_LT(thin, 0.8 * full);
+    }
     // The stalled client costs neither the output thread nor fusion: every frame fused was
     // published (a server that waited for the stalled client would hold the output thread,
     // whose queue drops the oldest), and fusion fused about as many frames as with no client

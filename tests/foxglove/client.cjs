@@ -37,6 +37,8 @@ const seen = {
   cloudFrame: "",
   cloudFields: [],
   cloudSizeErrors: 0,
+  voxelClouds: 0,  // the thinned cloud (<ns>/points_voxel), kept apart from the full one
+  voxelPoints: 0,
   sampledPoints: 0,
   finitePoints: 0,
   tf: [],        // [child, parent, stamp ns as text, x, y, z, qw, qx, qy, qz]
@@ -59,7 +61,13 @@ function stampNs(stamp) {
   return (BigInt(stamp.sec) * 1000000000n + BigInt(stamp.nanosec)).toString();
 }
 
-function onCloud(m) {
+function onCloud(m, topic) {
+  if (topic.endsWith("/points_voxel")) {
+    seen.voxelClouds += 1;
+    seen.voxelPoints += m.width * m.height;
+    if (m.data.length !== m.row_step * m.height) seen.cloudSizeErrors += 1;
+    return;
+  }
   seen.clouds += 1;
   seen.cloudPoints += m.width * m.height;
   seen.cloudBytes += m.data.length;
@@ -147,7 +155,7 @@ if (mode === "refused") {
       if (kind !== EncapsulationKind.CDR_LE) return;
       const message = channel.reader.readMessage(data);
       if (channel.static) seen.tfStatic += 1;
-      else handlers[channel.schemaName](message);
+      else handlers[channel.schemaName](message, channel.topic);
     } catch (error) {
       seen.decodeErrors.push(`${channel ? channel.topic : subscriptionId}: ${error}`);
     }
