@@ -175,7 +175,6 @@ public:
     PacketKind classify(const std::uint8_t* data, std::size_t size) const;
     // 40-bit serial the header must carry for classify() to accept it; 0 = do not check.
     void set_expected_serial(std::uint64_t serial) { expected_serial_ = serial; }
-    std::uint64_t expected_serial() const { return expected_serial_; }
 
     // --- packet header (all need a full lidar packet) ---
     // LEGACY: 0 (no packet header).
