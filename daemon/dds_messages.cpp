@@ -223,19 +223,8 @@ const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
         strings_.push_back(s.name);
         st.hardware_id = c_str(strings_.back());
         add(v, "state", to_string(s.state));
-        add(v, "packets", std::to_string(s.packets));
-        add(v, "lidar_packets", std::to_string(s.lidar_packets));
-        add(v, "bad_packets", std::to_string(s.bad_packets));
-        add(v, "late_packets", std::to_string(s.late_packets));
-        add(v, "duplicate_packets", std::to_string(s.duplicate_packets));
-        add(v, "crc_errors", std::to_string(s.crc_errors));
-        add(v, "resets", std::to_string(s.resets));
-        add(v, "scans", std::to_string(s.scans));
-        add(v, "scans_incomplete", std::to_string(s.scans_incomplete));
-        add(v, "scans_rejected", std::to_string(s.scans_rejected));
-        add(v, "mode_mismatch_frames", std::to_string(s.mode_mismatch_frames));
-        add(v, "mode_mismatches", std::to_string(s.mode_mismatches));
-        add(v, "scans_mode_rejected", std::to_string(s.scans_mode_rejected));
+        for (const auto& counter : kSensorCounters)
+            add(v, counter.name, std::to_string(s.*counter.member));
         add(v, "mode_seen", s.mode_seen);
         add(v, "metadata_source", s.metadata.source);
         add(v, "metadata_fetches", std::to_string(s.metadata.fetches));

@@ -19,8 +19,10 @@
 // starts nothing; start() starts the threads; stop() wakes every thread and joins them.
 // Thread-safe accessors: stats(), heartbeat(), sensor_states().
 
+#include <array>
 #include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -29,6 +31,7 @@
 #include "daemon/foxglove_server.hpp"
 #include "daemon/metadata_status.hpp"
 #include "daemon/recorder.hpp"
+#include "drivers/ouster/assembly_counters.hpp"
 
 namespace lidarfuse::daemon {
 
@@ -42,8 +45,9 @@ const char* to_string(SensorState state);
 struct SensorStats {
     std::string name;
     SensorState state = SensorState::kLost;
-    std::uint64_t packets = 0, lidar_packets = 0, imu_packets = 0, bad_packets = 0,
-                  late_packets = 0, duplicate_packets = 0, crc_errors = 0, resets = 0;
+    // Every std::uint64_t counter here has its row in kSensorCounters (below).
+    std::uint64_t packets = 0, lidar_packets = 0, bad_packets = 0, late_packets = 0,
+                  duplicate_packets = 0, crc_errors = 0, resets = 0;
     std::uint64_t scans = 0, scans_incomplete = 0,
                   scans_rejected = 0;  // rejected: below min completeness
     // Mode check: frames that disagreed with the metadata, times the sensor was flagged,
@@ -61,6 +65,38 @@ struct SensorStats {
     std::string track_state;
     double fitness = 0.0;
 };
+
+// A counter of SensorStats: its diagnostics key, the member, its unit, and the assembler's
+// counter it copies (nullptr: counted by the ingest, or bad_packets, the sum of bad_size and
+// bad_profile).
+struct SensorCounter {
+    const char* name;
+    std::uint64_t SensorStats::*member;
+    const char* unit;
+    std::uint64_t ouster::AssemblyCounters::*from;
+};
+
+// Every counter of SensorStats once, in the order of the diagnostics' values.
+inline constexpr std::array<SensorCounter, 13> kSensorCounters{{
+    {"packets", &SensorStats::packets, "packets", &ouster::AssemblyCounters::packets},
+    {"lidar_packets", &SensorStats::lidar_packets, "packets",
+     &ouster::AssemblyCounters::lidar_packets},
+    {"bad_packets", &SensorStats::bad_packets, "packets", nullptr},
+    {"late_packets", &SensorStats::late_packets, "packets",
+     &ouster::AssemblyCounters::late_packets},
+    {"duplicate_packets", &SensorStats::duplicate_packets, "packets",
+     &ouster::AssemblyCounters::duplicate_packets},
+    {"crc_errors", &SensorStats::crc_errors, "packets", &ouster::AssemblyCounters::crc_errors},
+    {"resets", &SensorStats::resets, "resets", &ouster::AssemblyCounters::resets},
+    {"scans", &SensorStats::scans, "scans", nullptr},
+    {"scans_incomplete", &SensorStats::scans_incomplete, "scans", nullptr},
+    {"scans_rejected", &SensorStats::scans_rejected, "scans", nullptr},
+    {"mode_mismatch_frames", &SensorStats::mode_mismatch_frames, "frames",
+     &ouster::AssemblyCounters::mode_mismatch_frames},
+    {"mode_mismatches", &SensorStats::mode_mismatches, "mismatches",
+     &ouster::AssemblyCounters::mode_mismatches},
+    {"scans_mode_rejected", &SensorStats::scans_mode_rejected, "scans", nullptr},
+}};
 
 struct PipelineStats {
     std::uint64_t datagrams = 0, unassigned_datagrams = 0, kernel_drops = 0, truncated = 0;

@@ -206,16 +206,10 @@ PipelineStats Pipeline::Impl::collect_stats() const {
         {
             std::lock_guard<std::mutex> counters_lock(s.counters_mutex);
             const auto& c = s.counters;
-            ss.packets = c.packets;
-            ss.lidar_packets = c.lidar_packets;
-            ss.imu_packets = c.imu_packets;
+            for (const auto& counter : kSensorCounters) {
+                if (counter.from) ss.*counter.member = c.*counter.from;
+            }
             ss.bad_packets = c.bad_size + c.bad_profile;
-            ss.late_packets = c.late_packets;
-            ss.duplicate_packets = c.duplicate_packets;
-            ss.crc_errors = c.crc_errors;
-            ss.resets = c.resets;
-            ss.mode_mismatch_frames = c.mode_mismatch_frames;
-            ss.mode_mismatches = c.mode_mismatches;
             ss.mode_seen = s.mode_seen;
             ss.metadata = s.metadata_status;
         }

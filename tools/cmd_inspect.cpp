@@ -115,28 +115,25 @@ void export_scan(ExportRequest& request, const SensorState& s, const ouster::Lid
     request.sensor_label = s.label;
 }
 
+// The summary's lines are a format scripts read; the mode check's counters are not among them.
+bool in_summary(const ouster::AssemblyCounterField& field) {
+    return field.member != &ouster::AssemblyCounters::mode_mismatch_frames &&
+           field.member != &ouster::AssemblyCounters::mode_mismatches;
+}
+
 void print_summary(const SensorState& s) {
     const auto& c = s.assembler->counters();
     const char* n = s.label.c_str();
     std::printf("inspect_%s_profile %s name\n", n, ouster::to_string(s.info.udp_profile_lidar));
     std::printf("inspect_%s_shape %dx%d pixels\n", n, s.info.pixels_per_column,
                 s.info.columns_per_frame);
-    std::printf("inspect_%s_packets %" PRIu64 " packets\n", n, c.packets);
-    std::printf("inspect_%s_lidar_packets %" PRIu64 " packets\n", n, c.lidar_packets);
-    std::printf("inspect_%s_imu_packets %" PRIu64 " packets\n", n, c.imu_packets);
-    std::printf("inspect_%s_bad_size_packets %" PRIu64 " packets\n", n, c.bad_size);
-    std::printf("inspect_%s_bad_profile_packets %" PRIu64 " packets\n", n, c.bad_profile);
-    std::printf("inspect_%s_crc_valid_packets %" PRIu64 " packets\n", n, c.crc_valid);
-    std::printf("inspect_%s_crc_error_packets %" PRIu64 " packets\n", n, c.crc_errors);
-    std::printf("inspect_%s_late_packets %" PRIu64 " packets\n", n, c.late_packets);
-    std::printf("inspect_%s_duplicate_packets %" PRIu64 " packets\n", n, c.duplicate_packets);
-    std::printf("inspect_%s_duplicate_columns %" PRIu64 " columns\n", n, c.duplicate_columns);
-    std::printf("inspect_%s_bad_columns %" PRIu64 " columns\n", n, c.bad_columns);
-    std::printf("inspect_%s_frames %" PRIu64 " frames\n", n, s.frames);
-    std::printf("inspect_%s_frames_complete %" PRIu64 " frames\n", n, c.frames_complete);
-    std::printf("inspect_%s_frames_incomplete %" PRIu64 " frames\n", n, c.frames_incomplete);
-    std::printf("inspect_%s_missing_columns %" PRIu64 " columns\n", n, c.missing_columns);
-    std::printf("inspect_%s_resets %" PRIu64 " resets\n", n, c.resets);
+    for (const auto& field : ouster::kAssemblyCounterFields) {
+        // Frames assembled by inspect itself, just before the assembler's frame counts.
+        if (field.member == &ouster::AssemblyCounters::frames_complete)
+            std::printf("inspect_%s_frames %" PRIu64 " frames\n", n, s.frames);
+        if (!in_summary(field)) continue;
+        std::printf("inspect_%s_%s %" PRIu64 " %s\n", n, field.name, c.*field.member, field.unit);
+    }
     const double mean = s.frames ? s.completeness_sum / static_cast<double>(s.frames) : 0.0;
     std::printf("inspect_%s_completeness_mean %.6f ratio\n", n, mean);
     std::printf("inspect_%s_completeness_min %.6f ratio\n", n, s.frames ? s.completeness_min : 0.0);

@@ -60,7 +60,7 @@ bool polish_one(const SensorFeatures& source, const SensorFeatures& target,
 
 EdgePolishSummary polish_edges(const std::vector<SensorFeatures>& features,
                                const std::vector<bool>& edge_ok, const EdgePolishParams& params,
-                               std::vector<PairResult>* pairs) {
+                               std::vector<PairResult>* pairs, int num_threads) {
     EdgePolishSummary summary;
     if (params.max_correspondence_m.empty()) return summary;
     std::vector<std::size_t> edges;
@@ -69,7 +69,7 @@ EdgePolishSummary polish_edges(const std::vector<SensorFeatures>& features,
     }
     std::vector<char> polished(edges.size(), 0);
     const auto count = static_cast<std::int64_t>(edges.size());
-#pragma omp parallel for num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1) \
+#pragma omp parallel for num_threads(std::max(1, num_threads)) if (num_threads > 1) \
     schedule(dynamic, 1)
     for (std::int64_t k = 0; k < count; ++k) {
         PairResult& pair = (*pairs)[edges[k]];

@@ -35,7 +35,7 @@ struct EdgePolishParams {
     // One G-ICP run per bound (m), each starting at the previous result; empty: no polish.
     std::vector<double> max_correspondence_m{0.4};
     // Everything else of the runs (iterations, thresholds, kernel); register_initial sets
-    // it to the pair registration's. Its bound and thread count are overridden.
+    // it to the pair registration's. Its bound is overridden, its thread count set to 1.
     GicpParams gicp{};
     // The polished transform may move this far from the chosen one (m at the source
     // origin, degrees); farther means the tight bound found something else.
@@ -46,7 +46,6 @@ struct EdgePolishParams {
     // r_c of the p2p error recomputed at the polished transform (register_initial sets it
     // to the pair registration's).
     double p2p_cutoff_m = 1.0;
-    int num_threads = 1;
 };
 
 struct EdgePolishSummary {
@@ -54,9 +53,10 @@ struct EdgePolishSummary {
     std::size_t kept = 0;      // edges that kept their register_pair result
 };
 
-// Polishes pairs[e] for every e with edge_ok[e]; `features` indexed by sensor.
+// Polishes pairs[e] for every e with edge_ok[e]; `features` indexed by sensor. The edges run
+// in parallel on `num_threads` OpenMP threads, each edge's G-ICP on one.
 EdgePolishSummary polish_edges(const std::vector<SensorFeatures>& features,
                                const std::vector<bool>& edge_ok, const EdgePolishParams& params,
-                               std::vector<PairResult>* pairs);
+                               std::vector<PairResult>* pairs, int num_threads = 1);
 
 }  // namespace lidarfuse::core

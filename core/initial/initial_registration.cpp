@@ -58,9 +58,8 @@ void close_loops(const std::vector<SensorFeatures>& features, const std::vector<
         const Eigen::Isometry3d T_start = poses[t].inverse() * poses[s];
         PairRegistrationParams pair_params = params.pair;
         pair_params.start_T_target_source = &T_start;
-        pair_params.num_threads = threads;
         PairResult closed =
-            register_pair(features[s], features[t], p.source, p.target, pair_params);
+            register_pair(features[s], features[t], p.source, p.target, pair_params, threads);
         if (closed.status != PairStatus::kOk ||
             translation_error_m(closed.T_target_source, T_start) > params.max_edge_translation_m ||
             rotation_error_deg(closed.T_target_source, T_start) > params.max_edge_rotation_deg) {
@@ -212,14 +211,13 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
         const auto n_pairs = static_cast<std::int64_t>(result.pairs.size());
         const int outer =
             static_cast<int>(std::max<std::int64_t>(1, std::min<std::int64_t>(threads, n_pairs)));
-        PairRegistrationParams pair_params = params.pair;
-        pair_params.num_threads = std::max(1, threads / outer);
+        const int inner = std::max(1, threads / outer);
 #pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
         for (std::int64_t e = 0; e < n_pairs; ++e) {
             if (cancelled()) continue;
             const int i = result.pairs[e].source;
             const int j = result.pairs[e].target;
-            result.pairs[e] = register_pair(features[i], features[j], i, j, pair_params);
+            result.pairs[e] = register_pair(features[i], features[j], i, j, params.pair, inner);
             report("pairs", ++done, result.pairs.size());
         }
     }
@@ -251,8 +249,7 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
     EdgePolishParams polish = params.polish;
     polish.gicp = params.pair.gicp;
     polish.p2p_cutoff_m = params.pair.p2p_cutoff_m;
-    polish.num_threads = threads;
-    result.polish = polish_edges(features, edge_ok, polish, &result.pairs);
+    result.polish = polish_edges(features, edge_ok, polish, &result.pairs, threads);
     result.timings.polish_s = stage.seconds();
 
     stage.restart();

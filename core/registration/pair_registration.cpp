@@ -19,7 +19,7 @@ struct PairInputs {
     const SensorFeatures& source;
     const SensorFeatures& target;
     const PairRegistrationParams& params;
-    int threads = 1;  // params.num_threads, at least 1
+    int threads = 1;  // register_pair's num_threads, at least 1
 };
 
 // A candidate transform to refine and check, and the coarse free-space bound of its origin
@@ -372,14 +372,15 @@ PairStatus chosen_status(const Candidate& best, const PairRegistrationParams& pa
 }  // namespace
 
 PairResult register_pair(const SensorFeatures& source, const SensorFeatures& target,
-                         int source_index, int target_index, const PairRegistrationParams& params) {
+                         int source_index, int target_index, const PairRegistrationParams& params,
+                         int num_threads) {
     PairResult result;
     result.source = source_index;
     result.target = target_index;
     if (source.status != SensorFeatureStatus::kOk || target.status != SensorFeatureStatus::kOk) {
         return result;
     }
-    const PairInputs pair{source, target, params, std::max(1, params.num_threads)};
+    const PairInputs pair{source, target, params, std::max(1, num_threads)};
 
     Correspondences matches = match_descriptors(pair, result);
     if (matches.size() < 3) {

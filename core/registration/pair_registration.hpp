@@ -14,7 +14,7 @@
 // free space (`max_free_space_violation_share`, free_space_check.hpp).
 //
 // Deterministic: RANSAC is seeded (params.ransac.seed, plus the round number).
-// Single-threaded unless `num_threads` > 1 (G-ICP, p2p).
+// Single-threaded unless register_pair's `num_threads` > 1 (G-ICP, p2p).
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -87,7 +87,6 @@ struct PairRegistrationParams {
     // registration's loop closure: a pair whose sensors the consensus placed, started from
     // the placement). Must outlive the call.
     const Eigen::Isometry3d* start_T_target_source = nullptr;
-    int num_threads = 1;
 };
 
 enum class PairStatus {
@@ -212,8 +211,9 @@ struct PairResult {
     void choose(const PairAlternative& alternative);
 };
 
+// `num_threads`: OpenMP threads of the G-ICP and p2p runs.
 PairResult register_pair(const SensorFeatures& source, const SensorFeatures& target,
                          int source_index, int target_index,
-                         const PairRegistrationParams& params = {});
+                         const PairRegistrationParams& params = {}, int num_threads = 1);
 
 }  // namespace lidarfuse::core

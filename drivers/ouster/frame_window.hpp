@@ -30,6 +30,7 @@
 #include <functional>
 #include <vector>
 
+#include "drivers/ouster/assembly_counters.hpp"
 #include "drivers/ouster/lidar_scan.hpp"
 
 namespace lidarfuse::ouster {
@@ -38,52 +39,6 @@ struct FrameWindowParams {
     std::size_t frames_in_flight = 2;       // reorder window, in frames (>= 1)
     unsigned frame_id_bits = 16;            // 16 (LEGACY, STANDARD headers) or 32 (FUSA)
     std::uint32_t restart_gap_frames = 64;  // further back than this = sensor restart
-};
-
-// Every counter of one sensor's assembly. Packet-level counts are filled by the
-// ScanAssembler, frame-level ones by the FrameWindow.
-struct AssemblyCounters {
-    std::uint64_t packets = 0;            // everything offered to the assembler
-    std::uint64_t lidar_packets = 0;      // accepted as lidar packets of this profile
-    std::uint64_t imu_packets = 0;        // recognised IMU packets (skipped)
-    std::uint64_t bad_size = 0;           // neither lidar nor IMU size for this sensor
-    std::uint64_t bad_profile = 0;        // right size, header does not fit the metadata
-    std::uint64_t crc_valid = 0;          // CRC-64 footer present and right
-    std::uint64_t crc_errors = 0;         // CRC-64 footer present and wrong (dropped)
-    std::uint64_t late_packets = 0;       // frame already emitted or outside the window
-    std::uint64_t duplicate_packets = 0;  // every column of the packet already arrived
-    std::uint64_t duplicate_columns = 0;  // columns dropped because they already arrived
-    std::uint64_t bad_columns = 0;        // measurement_id >= columns_per_frame
-    std::uint64_t frames_complete = 0;
-    std::uint64_t frames_incomplete = 0;
-    std::uint64_t resets = 0;           // init_id / serial change or restart detected
-    std::uint64_t missing_columns = 0;  // expected columns absent from emitted frames
-    // Filled by the ScanAssembler's ModeCheck (mode_check.hpp): frames whose columns
-    // disagree with the metadata's lidar_mode, and times the sensor was flagged for it.
-    std::uint64_t mode_mismatch_frames = 0;
-    std::uint64_t mode_mismatches = 0;
-
-    // Sums (a sensor's counters across the assemblers of its metadata versions).
-    AssemblyCounters& operator+=(const AssemblyCounters& o) {
-        packets += o.packets;
-        lidar_packets += o.lidar_packets;
-        imu_packets += o.imu_packets;
-        bad_size += o.bad_size;
-        bad_profile += o.bad_profile;
-        crc_valid += o.crc_valid;
-        crc_errors += o.crc_errors;
-        late_packets += o.late_packets;
-        duplicate_packets += o.duplicate_packets;
-        duplicate_columns += o.duplicate_columns;
-        bad_columns += o.bad_columns;
-        frames_complete += o.frames_complete;
-        frames_incomplete += o.frames_incomplete;
-        resets += o.resets;
-        missing_columns += o.missing_columns;
-        mode_mismatch_frames += o.mode_mismatch_frames;
-        mode_mismatches += o.mode_mismatches;
-        return *this;
-    }
 };
 
 class FrameWindow {

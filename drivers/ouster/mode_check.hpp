@@ -95,7 +95,6 @@ public:
     bool mismatch() const { return mismatch_; }
     // The last frame disagreed, or the sensor is flagged: do not use that frame.
     bool reject_last_frame() const { return mismatch_ || last_verdict_ == Verdict::kDisagrees; }
-    Verdict last_verdict() const { return last_verdict_; }
     const ModeObservation& last_disagreement() const { return last_disagreement_; }
     const ModeExpectation& expected() const { return expected_; }
     std::uint64_t frames_disagreeing() const { return frames_disagreeing_; }

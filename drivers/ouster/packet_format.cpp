@@ -65,16 +65,70 @@ constexpr ProfileLayout kLayouts[] = {
 };
 
 constexpr std::size_t kMaxUdpPayload = 65507;
-constexpr std::size_t kStandardHeaderSize = 32;
-constexpr std::size_t kStandardFooterSize = 32;
-constexpr std::size_t kLegacyColumnHeaderSize = 16;
-constexpr std::size_t kLegacyColumnFooterSize = 4;
-constexpr std::size_t kColumnHeaderSize = 12;
 
-// Header field offsets: STANDARD / FUSA.
-constexpr std::size_t kInitIdOffset[] = {4, 1};
-constexpr std::size_t kProdSnOffset[] = {7, 11};
-constexpr std::size_t kAlertFlagsOffset[] = {12, 8};
+// Field order follows the HeaderField enum. {offset, bytes, mask, in_column_footer}.
+constexpr HeaderFieldSpec kNone{0, 0, 0, false};
+constexpr HeaderFieldSpec kTimestamp{0, 8, ~0ULL, false};
+constexpr HeaderFieldSpec kMeasurementId{8, 2, 0xFFFF, false};
+constexpr HeaderLayout kHeaderLayouts[] = {
+    {HeaderType::kLegacy,
+     0,
+     16,
+     4,
+     0,
+     {kNone,
+      kNone,
+      kNone,
+      kNone,
+      kNone,
+      kNone,
+      kNone,
+      kNone,
+      kNone,
+      kTimestamp,
+      kMeasurementId,
+      {0, 4, 0xFFFFFFFF, true},
+      {10, 2, 0xFFFF, false},
+      {12, 4, 0xFFFFFFFF, false}}},
+    {HeaderType::kStandard,
+     32,
+     12,
+     0,
+     32,
+     {{0, 2, 0xFFFF, false},
+      {2, 2, 0xFFFF, false},
+      {4, 3, 0xFFFFFF, false},
+      {7, 5, 0xFFFFFFFFFF, false},
+      {12, 1, 0xFF, false},
+      {16, 1, 0xFF, false},
+      {17, 1, 0xFF, false},
+      {18, 1, 0x0F, false},
+      {19, 1, 0x0F, false},
+      kTimestamp,
+      kMeasurementId,
+      {10, 2, 0xFFFF, false},
+      kNone,
+      kNone}},
+    {HeaderType::kFusa,
+     32,
+     12,
+     0,
+     32,
+     {{0, 1, 0xFF, false},
+      {4, 4, 0xFFFFFFFF, false},
+      {1, 3, 0xFFFFFF, false},
+      {11, 5, 0xFFFFFFFFFF, false},
+      {8, 1, 0xFF, false},
+      {16, 1, 0xFF, false},
+      {17, 1, 0xFF, false},
+      {18, 1, 0x0F, false},
+      {19, 1, 0x0F, false},
+      kTimestamp,
+      kMeasurementId,
+      {10, 2, 0xFFFF, false},
+      kNone,
+      kNone}},
+};
 
 void store(std::uint8_t* p, std::uint64_t value, std::size_t bytes) {
     std::memcpy(p, &value, bytes);  // little-endian host
@@ -84,6 +138,11 @@ std::uint64_t fetch(const std::uint8_t* p, std::size_t bytes) {
     std::uint64_t v = 0;
     std::memcpy(&v, p, bytes);
     return v;
+}
+
+// Replaces the field's bits, keeping those of neighbouring fields in the same bytes.
+void store_masked(std::uint8_t* p, const HeaderFieldSpec& s, std::uint64_t value) {
+    store(p, (fetch(p, s.bytes) & ~s.mask) | (value & s.mask), s.bytes);
 }
 
 // Reflected CRC-64/XZ tables for slicing-by-8 (table[0] is the classic byte table;
@@ -175,6 +234,13 @@ const char* to_string(CrcStatus status) {
     return "unknown";
 }
 
+const HeaderLayout& header_layout(HeaderType type) {
+    for (const HeaderLayout& l : kHeaderLayouts) {
+        if (l.type == type) return l;
+    }
+    return kHeaderLayouts[0];
+}
+
 const ProfileLayout& profile_layout(UdpProfileLidar profile) {
     for (const ProfileLayout& l : kLayouts) {
         if (l.profile == profile) return l;
@@ -200,6 +266,7 @@ std::uint64_t crc64(const std::uint8_t* data, std::size_t size) {
 
 PacketFormat::PacketFormat(UdpProfileLidar profile, int pixels_per_column, int columns_per_packet)
     : layout_(&profile_layout(profile)),
+      header_(&header_layout(layout_->header_type)),
       pixels_per_column_(pixels_per_column),
       columns_per_packet_(columns_per_packet) {
     if (pixels_per_column < 1 || pixels_per_column > 256) {
@@ -210,13 +277,12 @@ PacketFormat::PacketFormat(UdpProfileLidar profile, int pixels_per_column, int c
         throw std::invalid_argument("columns_per_packet must be in 1..256, got " +
                                     std::to_string(columns_per_packet));
     }
-    const bool legacy = layout_->header_type == HeaderType::kLegacy;
-    packet_header_size_ = legacy ? 0 : kStandardHeaderSize;
-    column_header_size_ = legacy ? kLegacyColumnHeaderSize : kColumnHeaderSize;
-    packet_footer_size_ = legacy ? 0 : kStandardFooterSize;
+    packet_header_size_ = header_->packet_header_bytes;
+    column_header_size_ = header_->column_header_bytes;
+    packet_footer_size_ = header_->packet_footer_bytes;
     column_size_ = column_header_size_ +
                    static_cast<std::size_t>(pixels_per_column) * layout_->pixel_size_bytes +
-                   (legacy ? kLegacyColumnFooterSize : 0);
+                   header_->column_footer_bytes;
     packet_size_ = packet_header_size_ +
                    static_cast<std::size_t>(columns_per_packet) * column_size_ +
                    packet_footer_size_;
@@ -255,75 +321,60 @@ PacketKind PacketFormat::classify(const std::uint8_t* data, std::size_t size) co
     return PacketKind::kWrongProfile;
 }
 
+std::uint64_t PacketFormat::header_value(const std::uint8_t* pkt, HeaderField f) const {
+    const HeaderFieldSpec& s = header_->fields[static_cast<int>(f)];
+    return s.present() ? fetch(pkt + s.offset, s.bytes) & s.mask : 0;
+}
+
+std::uint64_t PacketFormat::column_value(const std::uint8_t* col, HeaderField f) const {
+    const HeaderFieldSpec& s = header_->fields[static_cast<int>(f)];
+    return s.present() ? fetch(col + column_offset(s), s.bytes) & s.mask : 0;
+}
+
 std::uint16_t PacketFormat::packet_type(const std::uint8_t* pkt) const {
-    switch (header_type()) {
-        case HeaderType::kLegacy:
-            return 0;
-        case HeaderType::kStandard:
-            return static_cast<std::uint16_t>(fetch(pkt, 2));
-        case HeaderType::kFusa:
-            return pkt[0];
-    }
-    return 0;
+    return static_cast<std::uint16_t>(header_value(pkt, HeaderField::kPacketType));
 }
 
 std::uint32_t PacketFormat::frame_id(const std::uint8_t* pkt) const {
-    switch (header_type()) {
-        case HeaderType::kLegacy:
-            return column_frame_id(column(pkt, 0));
-        case HeaderType::kStandard:
-            return static_cast<std::uint32_t>(fetch(pkt + 2, 2));
-        case HeaderType::kFusa:
-            return static_cast<std::uint32_t>(fetch(pkt + 4, 4));
-    }
-    return 0;
+    if (header_type() == HeaderType::kLegacy) return column_frame_id(column(pkt, 0));
+    return static_cast<std::uint32_t>(header_value(pkt, HeaderField::kFrameId));
 }
 
 std::uint32_t PacketFormat::init_id(const std::uint8_t* pkt) const {
-    if (header_type() == HeaderType::kLegacy) return 0;
-    const int k = header_type() == HeaderType::kFusa ? 1 : 0;
-    return static_cast<std::uint32_t>(fetch(pkt + kInitIdOffset[k], 3));
+    return static_cast<std::uint32_t>(header_value(pkt, HeaderField::kInitId));
 }
 
 std::uint64_t PacketFormat::prod_sn(const std::uint8_t* pkt) const {
-    if (header_type() == HeaderType::kLegacy) return 0;
-    const int k = header_type() == HeaderType::kFusa ? 1 : 0;
-    return fetch(pkt + kProdSnOffset[k], 5);
+    return header_value(pkt, HeaderField::kProdSn);
 }
 
 std::uint8_t PacketFormat::alert_flags(const std::uint8_t* pkt) const {
-    if (header_type() == HeaderType::kLegacy) return 0;
-    return pkt[kAlertFlagsOffset[header_type() == HeaderType::kFusa ? 1 : 0]];
+    return static_cast<std::uint8_t>(header_value(pkt, HeaderField::kAlertFlags));
 }
 
 std::uint8_t PacketFormat::countdown_thermal_shutdown(const std::uint8_t* pkt) const {
-    return header_type() == HeaderType::kLegacy ? 0 : pkt[16];
+    return static_cast<std::uint8_t>(header_value(pkt, HeaderField::kCountdownThermalShutdown));
 }
 std::uint8_t PacketFormat::countdown_shot_limiting(const std::uint8_t* pkt) const {
-    return header_type() == HeaderType::kLegacy ? 0 : pkt[17];
+    return static_cast<std::uint8_t>(header_value(pkt, HeaderField::kCountdownShotLimiting));
 }
 std::uint8_t PacketFormat::thermal_shutdown(const std::uint8_t* pkt) const {
-    return header_type() == HeaderType::kLegacy ? 0 : static_cast<std::uint8_t>(pkt[18] & 0x0F);
+    return static_cast<std::uint8_t>(header_value(pkt, HeaderField::kThermalShutdown));
 }
 std::uint8_t PacketFormat::shot_limiting(const std::uint8_t* pkt) const {
-    return header_type() == HeaderType::kLegacy ? 0 : static_cast<std::uint8_t>(pkt[19] & 0x0F);
+    return static_cast<std::uint8_t>(header_value(pkt, HeaderField::kShotLimiting));
 }
 
 std::uint32_t PacketFormat::column_status(const std::uint8_t* col) const {
-    if (header_type() == HeaderType::kLegacy) {
-        return static_cast<std::uint32_t>(fetch(col + column_size_ - kLegacyColumnFooterSize, 4));
-    }
-    return static_cast<std::uint32_t>(fetch(col + 10, 2));
+    return static_cast<std::uint32_t>(column_value(col, HeaderField::kColumnStatus));
 }
 
 std::uint16_t PacketFormat::column_frame_id(const std::uint8_t* col) const {
-    return header_type() == HeaderType::kLegacy ? static_cast<std::uint16_t>(fetch(col + 10, 2))
-                                                : 0;
+    return static_cast<std::uint16_t>(column_value(col, HeaderField::kColumnFrameId));
 }
 
 std::uint32_t PacketFormat::column_encoder_count(const std::uint8_t* col) const {
-    return header_type() == HeaderType::kLegacy ? static_cast<std::uint32_t>(fetch(col + 12, 4))
-                                                : 0;
+    return static_cast<std::uint32_t>(column_value(col, HeaderField::kColumnEncoderCount));
 }
 
 void PacketFormat::read_column(const std::uint8_t* col, Field f, std::uint32_t* dst,
@@ -358,79 +409,68 @@ CrcStatus PacketFormat::check_crc(const std::uint8_t* pkt) const {
 
 // --- writing ---
 
+void PacketFormat::set_header_value(std::uint8_t* pkt, HeaderField f, std::uint64_t value) const {
+    const HeaderFieldSpec& s = header_->fields[static_cast<int>(f)];
+    if (s.present()) store_masked(pkt + s.offset, s, value);
+}
+
+void PacketFormat::set_column_value(std::uint8_t* col, HeaderField f, std::uint64_t value) const {
+    const HeaderFieldSpec& s = header_->fields[static_cast<int>(f)];
+    if (s.present()) store_masked(col + column_offset(s), s, value);
+}
+
 void PacketFormat::set_packet_type(std::uint8_t* pkt, std::uint16_t value) const {
-    if (header_type() == HeaderType::kStandard) store(pkt, value, 2);
-    if (header_type() == HeaderType::kFusa) pkt[0] = static_cast<std::uint8_t>(value);
+    set_header_value(pkt, HeaderField::kPacketType, value);
 }
 
 void PacketFormat::set_frame_id(std::uint8_t* pkt, std::uint32_t value) const {
-    switch (header_type()) {
-        case HeaderType::kLegacy:
-            for (int c = 0; c < columns_per_packet_; ++c) {
-                set_column_frame_id(column(pkt, c), static_cast<std::uint16_t>(value));
-            }
-            break;
-        case HeaderType::kStandard:
-            store(pkt + 2, value & 0xFFFFU, 2);
-            break;
-        case HeaderType::kFusa:
-            store(pkt + 4, value, 4);
-            break;
+    if (header_type() != HeaderType::kLegacy) {
+        set_header_value(pkt, HeaderField::kFrameId, value);
+        return;
     }
+    for (int c = 0; c < columns_per_packet_; ++c)
+        set_column_frame_id(column(pkt, c), static_cast<std::uint16_t>(value));
 }
 
 void PacketFormat::set_init_id(std::uint8_t* pkt, std::uint32_t value) const {
-    if (header_type() == HeaderType::kLegacy) return;
-    const int k = header_type() == HeaderType::kFusa ? 1 : 0;
-    store(pkt + kInitIdOffset[k], value & 0xFFFFFFU, 3);
+    set_header_value(pkt, HeaderField::kInitId, value);
 }
 
 void PacketFormat::set_prod_sn(std::uint8_t* pkt, std::uint64_t value) const {
-    if (header_type() == HeaderType::kLegacy) return;
-    const int k = header_type() == HeaderType::kFusa ? 1 : 0;
-    store(pkt + kProdSnOffset[k], value & 0xFFFFFFFFFFULL, 5);
+    set_header_value(pkt, HeaderField::kProdSn, value);
 }
 
 void PacketFormat::set_alert_flags(std::uint8_t* pkt, std::uint8_t value) const {
-    if (header_type() == HeaderType::kLegacy) return;
-    pkt[kAlertFlagsOffset[header_type() == HeaderType::kFusa ? 1 : 0]] = value;
+    set_header_value(pkt, HeaderField::kAlertFlags, value);
 }
 
 void PacketFormat::set_countdown_thermal_shutdown(std::uint8_t* pkt, std::uint8_t value) const {
-    if (header_type() != HeaderType::kLegacy) pkt[16] = value;
+    set_header_value(pkt, HeaderField::kCountdownThermalShutdown, value);
 }
 void PacketFormat::set_countdown_shot_limiting(std::uint8_t* pkt, std::uint8_t value) const {
-    if (header_type() != HeaderType::kLegacy) pkt[17] = value;
+    set_header_value(pkt, HeaderField::kCountdownShotLimiting, value);
 }
 void PacketFormat::set_thermal_shutdown(std::uint8_t* pkt, std::uint8_t value) const {
-    if (header_type() != HeaderType::kLegacy) {
-        pkt[18] = static_cast<std::uint8_t>((pkt[18] & 0xF0) | (value & 0x0F));
-    }
+    set_header_value(pkt, HeaderField::kThermalShutdown, value);
 }
 void PacketFormat::set_shot_limiting(std::uint8_t* pkt, std::uint8_t value) const {
-    if (header_type() != HeaderType::kLegacy) {
-        pkt[19] = static_cast<std::uint8_t>((pkt[19] & 0xF0) | (value & 0x0F));
-    }
+    set_header_value(pkt, HeaderField::kShotLimiting, value);
 }
 
 void PacketFormat::set_column_timestamp_ns(std::uint8_t* col, std::uint64_t value) const {
-    store(col, value, 8);
+    set_column_value(col, HeaderField::kColumnTimestamp, value);
 }
 void PacketFormat::set_column_measurement_id(std::uint8_t* col, std::uint16_t value) const {
-    store(col + 8, value, 2);
+    set_column_value(col, HeaderField::kColumnMeasurementId, value);
 }
 void PacketFormat::set_column_status(std::uint8_t* col, std::uint32_t value) const {
-    if (header_type() == HeaderType::kLegacy) {
-        store(col + column_size_ - kLegacyColumnFooterSize, value, 4);
-    } else {
-        store(col + 10, value & 0xFFFFU, 2);
-    }
+    set_column_value(col, HeaderField::kColumnStatus, value);
 }
 void PacketFormat::set_column_frame_id(std::uint8_t* col, std::uint16_t value) const {
-    if (header_type() == HeaderType::kLegacy) store(col + 10, value, 2);
+    set_column_value(col, HeaderField::kColumnFrameId, value);
 }
 void PacketFormat::set_column_encoder_count(std::uint8_t* col, std::uint32_t value) const {
-    if (header_type() == HeaderType::kLegacy) store(col + 12, value, 4);
+    set_column_value(col, HeaderField::kColumnEncoderCount, value);
 }
 
 bool PacketFormat::set_field(std::uint8_t* px, Field f, std::uint32_t value) const {

@@ -1,9 +1,9 @@
 #pragma once
-// Ouster UDP lidar packet layout, driven by a table of pixel-field offsets per profile.
-// Reads and writes work on raw `uint8_t*` buffers with memcpy (little endian on the wire,
-// no alignment assumptions); nothing here allocates or throws after construction, so the
-// per-packet path is safe for the real-time ingest threads. A PacketFormat is immutable
-// and may be shared between threads.
+// Ouster UDP lidar packet layout, driven by two tables: header fields per header type and
+// pixel fields per profile, each used for reading and for writing. Reads and writes work on raw
+// `uint8_t*` buffers with memcpy (little endian on the wire, no alignment assumptions); nothing
+// here allocates or throws after construction, so the per-packet path is safe for the real-time
+// ingest threads. A PacketFormat is immutable and may be shared between threads.
 //
 // Packet = [packet header] + columns_per_packet x column + [packet footer]
 //   LEGACY header type:   no packet header; column = 16 B header (timestamp u64,
@@ -75,6 +75,49 @@ struct ProfileLayout {
 // The table entry of a profile (static storage, never null).
 const ProfileLayout& profile_layout(UdpProfileLidar profile);
 
+// Fields of the packet header, then of each column's header (or footer).
+enum class HeaderField : std::uint8_t {
+    kPacketType,
+    kFrameId,  // LEGACY: in every column header (kColumnFrameId)
+    kInitId,
+    kProdSn,
+    kAlertFlags,
+    kCountdownThermalShutdown,
+    kCountdownShotLimiting,
+    kThermalShutdown,
+    kShotLimiting,
+    kColumnTimestamp,  // ns
+    kColumnMeasurementId,
+    kColumnStatus,
+    kColumnFrameId,       // LEGACY
+    kColumnEncoderCount,  // LEGACY, 90112 ticks per turn
+};
+constexpr int kHeaderFieldCount = 14;
+
+// Where one header field sits: `bytes` (0 = absent) at `offset` from the packet's start
+// (column fields: from the column's start, or from the column footer's start when
+// `in_column_footer`); its value is the bits of `mask`. Writing keeps the other bits.
+struct HeaderFieldSpec {
+    std::uint8_t offset = 0;
+    std::uint8_t bytes = 0;
+    std::uint64_t mask = 0;
+    bool in_column_footer = false;
+    bool present() const { return bytes != 0; }
+};
+
+// One row of the header table: the sizes around the pixels and every header field.
+struct HeaderLayout {
+    HeaderType type;
+    std::uint8_t packet_header_bytes;
+    std::uint8_t column_header_bytes;
+    std::uint8_t column_footer_bytes;
+    std::uint8_t packet_footer_bytes;  // its last 8 B hold the CRC-64
+    HeaderFieldSpec fields[kHeaderFieldCount];
+};
+
+// The table entry of a header type (static storage).
+const HeaderLayout& header_layout(HeaderType type);
+
 // What a datagram is, judged by its size and (non-legacy) header.
 enum class PacketKind : std::uint8_t {
     kLidar,         // lidar packet of this format
@@ -132,7 +175,6 @@ public:
     PacketKind classify(const std::uint8_t* data, std::size_t size) const;
     // 40-bit serial the header must carry for classify() to accept it; 0 = do not check.
     void set_expected_serial(std::uint64_t serial) { expected_serial_ = serial; }
-    std::uint64_t expected_serial() const { return expected_serial_; }
 
     // --- packet header (all need a full lidar packet) ---
     // LEGACY: 0 (no packet header).
@@ -157,9 +199,11 @@ public:
     std::uint8_t* column(std::uint8_t* pkt, int index) const {
         return pkt + packet_header_size_ + static_cast<std::size_t>(index) * column_size_;
     }
-    std::uint64_t column_timestamp_ns(const std::uint8_t* col) const { return load<8>(col); }
+    std::uint64_t column_timestamp_ns(const std::uint8_t* col) const {
+        return column_value(col, HeaderField::kColumnTimestamp);
+    }
     std::uint16_t column_measurement_id(const std::uint8_t* col) const {
-        return static_cast<std::uint16_t>(load<2>(col + 8));
+        return static_cast<std::uint16_t>(column_value(col, HeaderField::kColumnMeasurementId));
     }
     // LEGACY: the 32-bit footer word (0xFFFFFFFF valid). Others: the 16-bit status.
     std::uint32_t column_status(const std::uint8_t* col) const;
@@ -240,11 +284,16 @@ public:
     static constexpr std::uint16_t kLidarPacketType = 0x1;
 
 private:
-    template <int N>
-    static std::uint64_t load(const std::uint8_t* p) {
-        std::uint64_t v = 0;
-        std::memcpy(&v, p, N);  // little-endian host assumed (x86-64, aarch64)
-        return v;
+    // A header field's value; 0 where the header type has no such field.
+    std::uint64_t header_value(const std::uint8_t* pkt, HeaderField f) const;
+    std::uint64_t column_value(const std::uint8_t* col, HeaderField f) const;
+    // Stores the value's masked bits; no-op where the header type has no such field.
+    void set_header_value(std::uint8_t* pkt, HeaderField f, std::uint64_t value) const;
+    void set_column_value(std::uint8_t* col, HeaderField f, std::uint64_t value) const;
+    // Byte offset of a column field from the column's start.
+    std::size_t column_offset(const HeaderFieldSpec& s) const {
+        return s.in_column_footer ? column_size_ - header_->column_footer_bytes + s.offset
+                                  : s.offset;
     }
     static std::uint32_t read_bytes(const std::uint8_t* p, std::uint8_t bytes) {
         std::uint32_t v = 0;
@@ -268,6 +317,7 @@ private:
     }
 
     const ProfileLayout* layout_;
+    const HeaderLayout* header_;
     int pixels_per_column_;
     int columns_per_packet_;
     std::size_t packet_header_size_;

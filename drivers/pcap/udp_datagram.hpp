@@ -19,17 +19,4 @@ struct UdpDatagram {
     bool reassembled = false;            // true when built from IPv4 fragments
 };
 
-// Dotted-quad text of a host-byte-order IPv4 address ("169.254.92.158").
-inline void format_ipv4(std::uint32_t ip, char (&out)[16]) {
-    int n = 0;
-    for (int shift = 24; shift >= 0; shift -= 8) {
-        unsigned v = (ip >> shift) & 0xFFu;
-        if (v >= 100) out[n++] = static_cast<char>('0' + v / 100);
-        if (v >= 10) out[n++] = static_cast<char>('0' + (v / 10) % 10);
-        out[n++] = static_cast<char>('0' + v % 10);
-        if (shift > 0) out[n++] = '.';
-    }
-    out[n] = '\0';
-}
-
 }  // namespace lidarfuse::pcap
