@@ -99,10 +99,11 @@ int main(int argc, char** argv) {
             "pair %d->%d: %s matches %zu ransac_inliers %zu candidates %d chosen %d p2p %.3f m "
             "N %zu overlap %.2f minH %.3g err %.3f m %.3f deg\n",
             pair.source, pair.target, core::to_string(pair.status), pair.num_matches,
-            pair.ransac_inliers, pair.candidates, pair.chosen_candidate, pair.p2p_error_m,
-            pair.p2p_inliers, pair.overlap_share, pair.min_hessian_eigenvalue,
-            core::translation_error_m(pair.T_target_source, truth),
-            core::rotation_error_deg(pair.T_target_source, truth));
+            pair.chosen.ransac_inliers, pair.candidates, pair.chosen.candidate,
+            pair.chosen.p2p_error_m, pair.chosen.p2p_inliers, pair.chosen.overlap_share,
+            pair.chosen.min_hessian_eigenvalue,
+            core::translation_error_m(pair.chosen.T_target_source, truth),
+            core::rotation_error_deg(pair.chosen.T_target_source, truth));
     }
     std::printf("initial_registration_registered %zu sensors\n", result.num_registered());
     std::printf("initial_registration_max_translation_error_cm %.2f cm\n", 100.0 * worst_t);

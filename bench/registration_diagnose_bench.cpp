@@ -466,9 +466,10 @@ int main(int argc, char** argv) {
                          "  result %d->%d: %s ransac_inliers %zu cand %d alt %zu chosen %d err "
                          "%.3f m %.3f deg\n",
                          pair.source, pair.target, core::to_string(pair.status),
-                         pair.ransac_inliers, pair.candidates, pair.alternatives.size(),
-                         pair.chosen_candidate, core::translation_error_m(pair.T_target_source, T),
-                         core::rotation_error_deg(pair.T_target_source, T));
+                         pair.chosen.ransac_inliers, pair.candidates, pair.alternatives.size(),
+                         pair.chosen.candidate,
+                         core::translation_error_m(pair.chosen.T_target_source, T),
+                         core::rotation_error_deg(pair.chosen.T_target_source, T));
             // Every candidate that reached G-ICP: which check dropped it, against the truth.
             for (const core::CandidateRecord& r : pair.tried) {
                 if (!show_tried || r.gicp_inlier_ratio < 0.0) continue;

@@ -88,15 +88,15 @@ Outcome run(const core::PointCloud& target, const core::PointCloud& source,
                      "%.2f, alternatives %zu)\n",
                      core::translation_error_m(s.T_root_sensor, truth),
                      core::rotation_error_deg(s.T_root_sensor, truth),
-                     result.pairs[0].free_space_violation_share, result.pairs[0].overlap_share,
-                     result.pairs[0].alternatives.size());
+                     result.pairs[0].chosen.free_space_violation_share,
+                     result.pairs[0].chosen.overlap_share, result.pairs[0].alternatives.size());
     } else {
         std::fprintf(stderr, "  not registered: %s\n", core::to_string(s.status));
     }
     if (std::getenv("SWEEP_VERBOSE")) {
         const core::PairResult& p = result.pairs[0];
         std::fprintf(stderr, "    pair: %s, chosen candidate %d, %zu alternatives\n",
-                     core::to_string(p.status), p.chosen_candidate, p.alternatives.size());
+                     core::to_string(p.status), p.chosen.candidate, p.alternatives.size());
         for (const core::CandidateRecord& r : p.tried) {
             std::fprintf(stderr,
                          "    cand %2d %s support %3zu: %-20s init %6.2f m %6.1f deg -> %6.2f m "

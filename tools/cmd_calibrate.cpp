@@ -216,16 +216,17 @@ void report_pairs(const CalibrationInput& input, const core::InitialRegistration
         pair.source = input.names[static_cast<std::size_t>(p.source)];
         pair.target = input.names[static_cast<std::size_t>(p.target)];
         pair.status = core::to_string(p.status);
-        pair.figures["p2p_error_m"] = p.p2p_error_m;
-        pair.figures["inliers"] = static_cast<double>(p.gicp_inliers);
-        pair.figures["p2p_inliers"] = static_cast<double>(p.p2p_inliers);
-        pair.figures["overlap_share"] = p.overlap_share;
-        pair.figures["min_hessian_eigenvalue"] = p.min_hessian_eigenvalue;
-        pair.figures["free_space_violation_share"] = p.free_space_violation_share;
-        std::printf("%-16s %-16s %-28s %10.3f %8zu %8.2f %12.4g %10.3f\n", pair.source.c_str(),
-                    pair.target.c_str(), pair.status.c_str(), p.p2p_error_m, p.gicp_inliers,
-                    p.overlap_share, p.min_hessian_eigenvalue,
-                    std::max(p.free_space_violation_share, p.worst_rejected_violation_share));
+        pair.figures["p2p_error_m"] = p.chosen.p2p_error_m;
+        pair.figures["inliers"] = static_cast<double>(p.chosen.gicp_inliers);
+        pair.figures["p2p_inliers"] = static_cast<double>(p.chosen.p2p_inliers);
+        pair.figures["overlap_share"] = p.chosen.overlap_share;
+        pair.figures["min_hessian_eigenvalue"] = p.chosen.min_hessian_eigenvalue;
+        pair.figures["free_space_violation_share"] = p.chosen.free_space_violation_share;
+        std::printf(
+            "%-16s %-16s %-28s %10.3f %8zu %8.2f %12.4g %10.3f\n", pair.source.c_str(),
+            pair.target.c_str(), pair.status.c_str(), p.chosen.p2p_error_m, p.chosen.gicp_inliers,
+            p.chosen.overlap_share, p.chosen.min_hessian_eigenvalue,
+            std::max(p.chosen.free_space_violation_share, p.worst_rejected_violation_share));
         doc->pairs.push_back(std::move(pair));
     }
 }

@@ -111,7 +111,7 @@ EdgeConsensusResult select_consistent_edges(std::size_t n, std::vector<PairResul
     for (std::size_t e = 0; e < pairs->size(); ++e) {
         if (!(*edge_ok)[e]) continue;
         good.push_back(e);
-        options.push_back({e, (*pairs)[e].chosen()});
+        options.push_back({e, (*pairs)[e].chosen});
     }
     std::stable_sort(options.begin(), options.end(), [](const Option& a, const Option& b) {
         return a.estimate.p2p_inliers > b.estimate.p2p_inliers;
@@ -283,12 +283,12 @@ EdgeConsensusResult select_consistent_edges(std::size_t n, std::vector<PairResul
             continue;
         }
         const PairAlternative pick = options[k].estimate;
-        if (pick.candidate != p.chosen_candidate) {
-            std::vector<PairAlternative> others{p.chosen()};
+        if (pick.candidate != p.chosen.candidate) {
+            std::vector<PairAlternative> others{p.chosen};
             for (const PairAlternative& a : p.alternatives) {
                 if (a.candidate != pick.candidate) others.push_back(a);
             }
-            p.choose(pick);
+            p.chosen = pick;
             p.alternatives = std::move(others);
         }
     }

@@ -80,7 +80,7 @@ struct EdgeConsensusResult {
 };
 
 // `edge_ok[e]`: pair e may be used (status kOk). Pairs dropped here get their status set
-// and edge_ok false; kept pairs may have a different candidate chosen (PairResult::choose).
+// and edge_ok false; kept pairs may have a different candidate chosen (PairResult::chosen).
 EdgeConsensusResult select_consistent_edges(std::size_t num_sensors, std::vector<PairResult>* pairs,
                                             std::vector<bool>* edge_ok,
                                             const EdgeConsensusParams& params);

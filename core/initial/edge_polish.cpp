@@ -21,7 +21,7 @@ bool polish_one(const SensorFeatures& source, const SensorFeatures& target,
     GicpParams gicp_params = params.gicp;
     gicp_params.num_threads = 1;
     GicpRegistration gicp(gicp_params);
-    Eigen::Isometry3d T = pair->T_target_source;
+    Eigen::Isometry3d T = pair->chosen.T_target_source;
     GicpResult run;
     for (const double bound : params.max_correspondence_m) {
         gicp_params.max_correspondence_distance_m = bound;
@@ -33,8 +33,8 @@ bool polish_one(const SensorFeatures& source, const SensorFeatures& target,
     if (!keeps_up_vector(T, up_direction(source), up_direction(target)) ||
         run.inlier_ratio < params.min_overlap_share)
         return false;
-    if (translation_error_m(T, pair->T_target_source) > params.max_shift_m ||
-        rotation_error_deg(T, pair->T_target_source) > params.max_rotation_deg) {
+    if (translation_error_m(T, pair->chosen.T_target_source) > params.max_shift_m ||
+        rotation_error_deg(T, pair->chosen.T_target_source) > params.max_rotation_deg) {
         return false;
     }
     if (!usable_information(run.H)) return false;
@@ -44,14 +44,14 @@ bool polish_one(const SensorFeatures& source, const SensorFeatures& target,
         p2p_error(source.gicp.cloud().points, target.gicp.tree(), T, p2p_params);
     if (!p2p.valid) return false;
 
-    pair->T_target_source = T;
-    pair->information = run.H;
-    pair->gicp_inliers = run.num_inliers;
-    pair->min_hessian_eigenvalue = run.H_eigenvalues(0);
-    pair->min_translation_hessian_eigenvalue = run.H_translation_eigenvalues(0);
-    pair->p2p_error_m = p2p.error_m;
-    pair->p2p_inliers = p2p.num_within_cutoff;
-    pair->overlap_share = p2p.overlap_share;
+    pair->chosen.T_target_source = T;
+    pair->chosen.information = run.H;
+    pair->chosen.gicp_inliers = run.num_inliers;
+    pair->chosen.min_hessian_eigenvalue = run.H_eigenvalues(0);
+    pair->chosen.min_translation_hessian_eigenvalue = run.H_translation_eigenvalues(0);
+    pair->chosen.p2p_error_m = p2p.error_m;
+    pair->chosen.p2p_inliers = p2p.num_within_cutoff;
+    pair->chosen.overlap_share = p2p.overlap_share;
     pair->polished = true;
     return true;
 }

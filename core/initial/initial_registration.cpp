@@ -25,14 +25,15 @@ void spanning_tree_poses(std::size_t n, const std::vector<PairResult>& pairs,
         for (std::size_t e = 0; e < pairs.size(); ++e) {
             const PairResult& p = pairs[e];
             if (!edge_ok[e] || (*has)[p.source] == (*has)[p.target]) continue;
-            if (best == nullptr || p.p2p_inliers > best->p2p_inliers) best = &p;
+            if (best == nullptr || p.chosen.p2p_inliers > best->chosen.p2p_inliers) best = &p;
         }
         if (best == nullptr) return;
         if ((*has)[best->target]) {
-            (*poses)[best->source] = (*poses)[best->target] * best->T_target_source;
+            (*poses)[best->source] = (*poses)[best->target] * best->chosen.T_target_source;
             (*has)[best->source] = true;
         } else {
-            (*poses)[best->target] = (*poses)[best->source] * best->T_target_source.inverse();
+            (*poses)[best->target] =
+                (*poses)[best->source] * best->chosen.T_target_source.inverse();
             (*has)[best->target] = true;
         }
     }
@@ -61,8 +62,10 @@ void close_loops(const std::vector<SensorFeatures>& features, const std::vector<
         PairResult closed =
             register_pair(features[s], features[t], p.source, p.target, pair_params, threads);
         if (closed.status != PairStatus::kOk ||
-            translation_error_m(closed.T_target_source, T_start) > params.max_edge_translation_m ||
-            rotation_error_deg(closed.T_target_source, T_start) > params.max_edge_rotation_deg) {
+            translation_error_m(closed.chosen.T_target_source, T_start) >
+                params.max_edge_translation_m ||
+            rotation_error_deg(closed.chosen.T_target_source, T_start) >
+                params.max_edge_rotation_deg) {
             continue;
         }
         // Keep what the search tried, for the diagnostics, before the closing run.
@@ -268,7 +271,7 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
             const PairResult& p = result.pairs[e];
             if (!edge_ok[e] || !reached[p.source] || !reached[p.target]) continue;
             const PoseGraph::EdgeId id =
-                graph.add_edge(p.target, p.source, p.T_target_source, p.information);
+                graph.add_edge(p.target, p.source, p.chosen.T_target_source, p.chosen.information);
             if (id < 0) {
                 result.pairs[e].status = PairStatus::kDegenerate;
                 edge_ok[e] = false;

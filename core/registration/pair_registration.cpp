@@ -411,7 +411,7 @@ PairResult register_pair(const SensorFeatures& source, const SensorFeatures& tar
     }
 
     const Candidate& best = *lowest_p2p_error(set.kept, params.min_support_share);
-    result.choose(as_alternative(best));
+    result.chosen = as_alternative(best);
     result.alternatives = alternatives_to(best, set.kept, params.alternative_separation_m);
     result.status = chosen_status(best, params);
     return result;

@@ -118,21 +118,25 @@ struct PairTimings {
     double ground_search_s = 0.0;
 };
 
-// A candidate that passed every check but did not have the lowest p2p error. On a
+// A candidate that passed every check, with its figures: the one register_pair chose
+// (PairResult::chosen) or one that did not have the lowest p2p error (an alternative). On a
 // symmetric site the right transform can lose to a look-alike by p2p error alone; the
 // initial registration's consensus over all pairs may pick an alternative instead.
 struct PairAlternative {
     Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
-    Matrix6d information = Matrix6d::Zero();
-    std::size_t ransac_inliers = 0;
+    Matrix6d information = Matrix6d::Zero();  // G-ICP Hessian at T_target_source
+    std::size_t ransac_inliers = 0;           // support of its seed: peak or RANSAC inliers
+    // Position in the order tried: the ground-aligned peaks (strongest first), then the
+    // RANSAC rounds (0 = the first RANSAC majority when the ground-aligned search is off or
+    // found nothing).
     int candidate = -1;
     double p2p_error_m = 0.0;
-    std::size_t p2p_inliers = 0;
-    double overlap_share = 0.0;
+    std::size_t p2p_inliers = 0;  // N of the p2p metric
+    double overlap_share = 0.0;   // N / source points
     std::size_t gicp_inliers = 0;
-    double min_hessian_eigenvalue = 0.0;
-    double min_translation_hessian_eigenvalue = 0.0;
-    double free_space_violation_share = 0.0;
+    double min_hessian_eigenvalue = 0.0;              // of the full 6x6 H
+    double min_translation_hessian_eigenvalue = 0.0;  // of its translation block
+    double free_space_violation_share = 0.0;          // the worse of the two directions
 };
 
 // Smallest G-ICP Hessian eigenvalue per G-ICP inlier: how well a candidate constrains all
@@ -177,27 +181,15 @@ struct PairResult {
     int source = -1;  // sensor i
     int target = -1;  // sensor j < i
     PairStatus status = PairStatus::kSensorFailed;
-    Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
-    Matrix6d information = Matrix6d::Zero();  // G-ICP Hessian at the result
+    // The chosen candidate: its transform, information and figures (set when some
+    // candidate passed every check, whatever the status).
+    PairAlternative chosen;
     std::size_t num_matches = 0;
-    std::size_t ransac_inliers = 0;
-    int ground_candidates = 0;  // peaks of the ground-aligned search
-    int candidates = 0;         // candidates that passed every check
-    // Position of the chosen candidate in the order tried: the ground-aligned peaks
-    // (strongest first), then the RANSAC rounds (0 = the first RANSAC majority when the
-    // ground-aligned search is off or found nothing).
-    int chosen_candidate = -1;
-    // Quality figures of the chosen candidate.
-    double p2p_error_m = 0.0;
-    std::size_t p2p_inliers = 0;  // N of the p2p metric
-    double overlap_share = 0.0;   // N / source points
-    std::size_t gicp_inliers = 0;
-    double min_hessian_eigenvalue = 0.0;              // of the full 6x6 H
-    double min_translation_hessian_eigenvalue = 0.0;  // of its translation block
-    double free_space_violation_share = 0.0;          // the worse of the two directions
-    double worst_rejected_violation_share = 0.0;      // largest among dropped candidates
-    // True when edge_polish.hpp replaced the transform and the figures above with its
-    // tighter G-ICP run (after the consensus; alternatives keep register_pair's figures).
+    int ground_candidates = 0;                    // peaks of the ground-aligned search
+    int candidates = 0;                           // candidates that passed every check
+    double worst_rejected_violation_share = 0.0;  // largest among dropped candidates
+    // True when edge_polish.hpp replaced the chosen transform, information and figures with
+    // its tighter G-ICP run (after the consensus; alternatives keep register_pair's figures).
     bool polished = false;
     // The other candidates that passed every check (kOk pairs only), lowest p2p error
     // first.
@@ -205,10 +197,6 @@ struct PairResult {
     // Every candidate transform tried, in order, with the check that dropped it.
     std::vector<CandidateRecord> tried;
     PairTimings timings;
-
-    // The chosen candidate's figures as an alternative, and the other way round.
-    PairAlternative chosen() const;
-    void choose(const PairAlternative& alternative);
 };
 
 // `num_threads`: OpenMP threads of the G-ICP and p2p runs.

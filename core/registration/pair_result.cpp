@@ -1,5 +1,4 @@
-// The records of one pair's registration: the names of its statuses and candidate outcomes,
-// and the chosen candidate's figures as an alternative and back.
+// The records of one pair's registration: the names of its statuses and candidate outcomes.
 #include "core/registration/pair_registration.hpp"
 
 namespace lidarfuse::core {
@@ -54,36 +53,6 @@ const char* to_string(CandidateOutcome outcome) {
             return "free space";
     }
     return "unknown";
-}
-
-PairAlternative PairResult::chosen() const {
-    PairAlternative a;
-    a.T_target_source = T_target_source;
-    a.information = information;
-    a.ransac_inliers = ransac_inliers;
-    a.candidate = chosen_candidate;
-    a.p2p_error_m = p2p_error_m;
-    a.p2p_inliers = p2p_inliers;
-    a.overlap_share = overlap_share;
-    a.gicp_inliers = gicp_inliers;
-    a.min_hessian_eigenvalue = min_hessian_eigenvalue;
-    a.min_translation_hessian_eigenvalue = min_translation_hessian_eigenvalue;
-    a.free_space_violation_share = free_space_violation_share;
-    return a;
-}
-
-void PairResult::choose(const PairAlternative& a) {
-    T_target_source = a.T_target_source;
-    information = a.information;
-    ransac_inliers = a.ransac_inliers;
-    chosen_candidate = a.candidate;
-    p2p_error_m = a.p2p_error_m;
-    p2p_inliers = a.p2p_inliers;
-    overlap_share = a.overlap_share;
-    gicp_inliers = a.gicp_inliers;
-    min_hessian_eigenvalue = a.min_hessian_eigenvalue;
-    min_translation_hessian_eigenvalue = a.min_translation_hessian_eigenvalue;
-    free_space_violation_share = a.free_space_violation_share;
 }
 
 }  // namespace lidarfuse::core

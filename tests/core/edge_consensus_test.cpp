@@ -33,7 +33,7 @@ PairResult pair(int source, int target, const PairAlternative& chosen,
     p.source = source;
     p.target = target;
     p.status = PairStatus::kOk;
-    p.choose(chosen);
+    p.chosen = chosen;
     p.alternatives = alternatives;
     return p;
 }
@@ -85,7 +85,7 @@ TEST(EdgeConsensus, TwoSensorsWithEquallyGoodCandidatesAreAmbiguous) {
     off.ambiguity.enabled = false;
     select_consistent_edges(2, &guessed, &guessed_ok, off);
     EXPECT_TRUE(guessed_ok[0]);
-    EXPECT_EQ(guessed[0].chosen_candidate, 0);
+    EXPECT_EQ(guessed[0].chosen.candidate, 0);
 }
 
 // Two sensors, and the candidate with the most support is the look-alike: the right one
@@ -99,8 +99,8 @@ TEST(EdgeConsensus, ClearlyBetterCandidateWinsOverLargerSupport) {
     EXPECT_FALSE(r.ambiguous[1]);
     ASSERT_TRUE(edge_ok[0]);
     EXPECT_EQ(pairs[0].status, PairStatus::kOk);
-    EXPECT_EQ(pairs[0].chosen_candidate, 0);
-    EXPECT_TRUE(pairs[0].T_target_source.isApprox(right));
+    EXPECT_EQ(pairs[0].chosen.candidate, 0);
+    EXPECT_TRUE(pairs[0].chosen.T_target_source.isApprox(right));
     ASSERT_EQ(pairs[0].alternatives.size(), 1u);
     EXPECT_EQ(pairs[0].alternatives[0].candidate, 2);
 }
@@ -117,8 +117,8 @@ TEST(EdgeConsensus, CycleDecidesBetweenEquallyGoodCandidates) {
     const EdgeConsensusResult r = select_consistent_edges(3, &pairs, &edge_ok, {});
     for (std::size_t i = 0; i < 3; ++i) EXPECT_FALSE(r.ambiguous[i]) << "sensor " << i;
     for (std::size_t e = 0; e < 3; ++e) EXPECT_TRUE(edge_ok[e]) << "pair " << e;
-    EXPECT_EQ(pairs[0].chosen_candidate, 3);
-    EXPECT_TRUE(pairs[0].T_target_source.isApprox(P1));
+    EXPECT_EQ(pairs[0].chosen.candidate, 3);
+    EXPECT_TRUE(pairs[0].chosen.T_target_source.isApprox(P1));
 }
 
 // A sensor that overlaps only one other (no cycle through it) with two equally good

@@ -32,8 +32,8 @@ StreetPair street_pair(const Vector6d& nudge) {
     pair.source = 2;
     pair.target = 0;
     pair.status = PairStatus::kOk;
-    pair.T_target_source = s.truth * se3_exp(nudge);
-    pair.information = Matrix6d::Identity();
+    pair.chosen.T_target_source = s.truth * se3_exp(nudge);
+    pair.chosen.information = Matrix6d::Identity();
     s.pairs.push_back(pair);
     return s;
 }
@@ -44,8 +44,8 @@ TEST(EdgePolish, MovesAChosenPairTowardsTheTruth) {
     StreetPair s = street_pair(nudge);
     ASSERT_FALSE(s.features[0].polish.empty());
     ASSERT_FALSE(s.features[2].polish.empty());
-    const double before_m = translation_error_m(s.pairs[0].T_target_source, s.truth);
-    const double before_deg = rotation_error_deg(s.pairs[0].T_target_source, s.truth);
+    const double before_m = translation_error_m(s.pairs[0].chosen.T_target_source, s.truth);
+    const double before_deg = rotation_error_deg(s.pairs[0].chosen.T_target_source, s.truth);
 
     const EdgePolishSummary summary =
         polish_edges(s.features, {true}, EdgePolishParams{}, &s.pairs);
@@ -53,15 +53,15 @@ TEST(EdgePolish, MovesAChosenPairTowardsTheTruth) {
     EXPECT_EQ(summary.kept, 0u);
     const PairResult& p = s.pairs[0];
     EXPECT_TRUE(p.polished);
-    EXPECT_LT(translation_error_m(p.T_target_source, s.truth), 0.3 * before_m);
-    EXPECT_LT(rotation_error_deg(p.T_target_source, s.truth), 0.3 * before_deg);
+    EXPECT_LT(translation_error_m(p.chosen.T_target_source, s.truth), 0.3 * before_m);
+    EXPECT_LT(rotation_error_deg(p.chosen.T_target_source, s.truth), 0.3 * before_deg);
     // The edge now carries the polish run's information and figures.
-    EXPECT_FALSE(p.information.isApprox(Matrix6d::Identity()));
-    EXPECT_TRUE(p.information.isApprox(p.information.transpose()));
-    EXPECT_GT(p.min_hessian_eigenvalue, 0.0);
-    EXPECT_GT(p.gicp_inliers, 0u);
-    EXPECT_GT(p.p2p_inliers, 0u);
-    EXPECT_GT(p.overlap_share, 0.3);
+    EXPECT_FALSE(p.chosen.information.isApprox(Matrix6d::Identity()));
+    EXPECT_TRUE(p.chosen.information.isApprox(p.chosen.information.transpose()));
+    EXPECT_GT(p.chosen.min_hessian_eigenvalue, 0.0);
+    EXPECT_GT(p.chosen.gicp_inliers, 0u);
+    EXPECT_GT(p.chosen.p2p_inliers, 0u);
+    EXPECT_GT(p.chosen.overlap_share, 0.3);
 }
 
 // A pair farther off than the polish limits keeps its transform: the polish refines a
@@ -70,32 +70,32 @@ TEST(EdgePolish, KeepsAPairWhoseRunMovesBeyondTheLimits) {
     Vector6d nudge;
     nudge << 0.0, 0.0, 0.3 * kDeg, 0.04, -0.03, 0.0;
     StreetPair s = street_pair(nudge);
-    const Eigen::Isometry3d chosen = s.pairs[0].T_target_source;
+    const Eigen::Isometry3d chosen = s.pairs[0].chosen.T_target_source;
     EdgePolishParams params;
     params.max_shift_m = 0.005;  // the run moves ~5 cm
     const EdgePolishSummary summary = polish_edges(s.features, {true}, params, &s.pairs);
     EXPECT_EQ(summary.polished, 0u);
     EXPECT_EQ(summary.kept, 1u);
     EXPECT_FALSE(s.pairs[0].polished);
-    EXPECT_TRUE(s.pairs[0].T_target_source.isApprox(chosen, 0.0));
-    EXPECT_TRUE(s.pairs[0].information.isApprox(Matrix6d::Identity(), 0.0));
+    EXPECT_TRUE(s.pairs[0].chosen.T_target_source.isApprox(chosen, 0.0));
+    EXPECT_TRUE(s.pairs[0].chosen.information.isApprox(Matrix6d::Identity(), 0.0));
 }
 
 TEST(EdgePolish, LeavesPairsTheConsensusDroppedAndDoesNothingWithoutBounds) {
     Vector6d nudge;
     nudge << 0.0, 0.0, 0.3 * kDeg, 0.04, -0.03, 0.0;
     StreetPair s = street_pair(nudge);
-    const Eigen::Isometry3d chosen = s.pairs[0].T_target_source;
+    const Eigen::Isometry3d chosen = s.pairs[0].chosen.T_target_source;
     EdgePolishSummary summary = polish_edges(s.features, {false}, EdgePolishParams{}, &s.pairs);
     EXPECT_EQ(summary.polished + summary.kept, 0u);
-    EXPECT_TRUE(s.pairs[0].T_target_source.isApprox(chosen, 0.0));
+    EXPECT_TRUE(s.pairs[0].chosen.T_target_source.isApprox(chosen, 0.0));
 
     EdgePolishParams none;
     none.max_correspondence_m.clear();
     summary = polish_edges(s.features, {true}, none, &s.pairs);
     EXPECT_EQ(summary.polished + summary.kept, 0u);
     EXPECT_FALSE(s.pairs[0].polished);
-    EXPECT_TRUE(s.pairs[0].T_target_source.isApprox(chosen, 0.0));
+    EXPECT_TRUE(s.pairs[0].chosen.T_target_source.isApprox(chosen, 0.0));
 }
 
 // Without polish clouds (polish_voxel_size_m = 0) the runs use the G-ICP clouds.
@@ -104,11 +104,11 @@ TEST(EdgePolish, FallsBackToTheGicpCloudsWithoutPolishClouds) {
     nudge << 0.0, 0.0, 0.3 * kDeg, 0.04, -0.03, 0.0;
     StreetPair s = street_pair(nudge);
     for (SensorFeatures& f : s.features) f.polish = GicpTarget();
-    const double before_m = translation_error_m(s.pairs[0].T_target_source, s.truth);
+    const double before_m = translation_error_m(s.pairs[0].chosen.T_target_source, s.truth);
     const EdgePolishSummary summary =
         polish_edges(s.features, {true}, EdgePolishParams{}, &s.pairs);
     EXPECT_EQ(summary.polished, 1u);
-    EXPECT_LT(translation_error_m(s.pairs[0].T_target_source, s.truth), 0.5 * before_m);
+    EXPECT_LT(translation_error_m(s.pairs[0].chosen.T_target_source, s.truth), 0.5 * before_m);
 }
 
 }  // namespace

@@ -52,13 +52,13 @@ TEST(InitialRegistration, RegistersFourSensorsOfAStreet) {
     for (const PairResult& p : r.pairs) {
         if (p.status != PairStatus::kOk) continue;
         ++good;
-        EXPECT_GT(p.p2p_inliers, 0u);
-        EXPECT_GT(p.overlap_share, 0.15);
-        EXPECT_LT(p.p2p_error_m, 1.0);
-        EXPECT_GT(p.min_hessian_eigenvalue, 0.0);
+        EXPECT_GT(p.chosen.p2p_inliers, 0u);
+        EXPECT_GT(p.chosen.overlap_share, 0.15);
+        EXPECT_LT(p.chosen.p2p_error_m, 1.0);
+        EXPECT_GT(p.chosen.min_hessian_eigenvalue, 0.0);
         const Eigen::Isometry3d truth =
             T_world_sensor[p.target].inverse() * T_world_sensor[p.source];
-        EXPECT_LT(translation_error_m(p.T_target_source, truth), 0.05);
+        EXPECT_LT(translation_error_m(p.chosen.T_target_source, truth), 0.05);
     }
     EXPECT_GE(good, 3);
     EXPECT_TRUE(r.pose_graph.usable);
