@@ -115,7 +115,7 @@ struct KdTree::Impl {
 
 // Splits [begin, end) at the middle of its widest extent (points below the middle first);
 // returns the first index of the right half, or `begin` when the range stays a leaf: all
-// its points equal, or all on one side of the middle (rounding between two neighbours).
+// its points equal, or all on one side of the middle (rounding between two neighbors).
 std::uint32_t KdTree::Impl::split(std::uint32_t begin, std::uint32_t end, Node* node) {
     Eigen::Vector3d lo = points[begin], hi = points[begin];
     for (std::uint32_t i = begin + 1; i < end; ++i) {

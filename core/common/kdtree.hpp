@@ -25,24 +25,24 @@ public:
     KdTree& operator=(const KdTree&) = delete;
 
     std::size_t size() const;
-    // The caller's indices in the tree's leaf order: neighbours in space are neighbours
+    // The caller's indices in the tree's leaf order: neighbors in space are neighbors
     // here, so queries for every point of the cloud taken in this order share their paths
     // through the tree and its cached points (the same answers, found sooner).
     const std::vector<std::uint32_t>& leaf_order() const;
 
-    // Up to k nearest neighbours of `query`, nearest first. Writes indices and squared
+    // Up to k nearest neighbors of `query`, nearest first. Writes indices and squared
     // distances (m^2) into the caller's arrays (capacity >= k); returns how many.
     std::size_t knn(const Eigen::Vector3d& query, std::size_t k, std::uint32_t* indices,
                     double* squared_distances) const;
 
-    // The nearest neighbour; false when the tree is empty (nearest_within without a bound).
+    // The nearest neighbor; false when the tree is empty (nearest_within without a bound).
     bool nearest(const Eigen::Vector3d& query, std::uint32_t* index,
                  double* squared_distance) const;
 
-    // The nearest neighbour closer than sqrt(max_squared_distance); false when there is
+    // The nearest neighbor closer than sqrt(max_squared_distance); false when there is
     // none. Exact, and much faster than nearest() when the bound is tight: subtrees
     // farther than the bound are never visited (G-ICP passes its correspondence bound, or
-    // the distance to the previous iteration's neighbour when that is smaller).
+    // the distance to the previous iteration's neighbor when that is smaller).
     bool nearest_within(const Eigen::Vector3d& query, double max_squared_distance,
                         std::uint32_t* index, double* squared_distance) const;
 

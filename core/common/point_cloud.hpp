@@ -23,7 +23,7 @@ struct PointCloud {
     // is listed (infinity when all are). Empty when not computed. The covariances' k-NN
     // pass fills both for free (normals.hpp); G-ICP uses them to find a correspondence
     // without a k-d tree search (gicp.hpp). Filters do not copy them: a merged or
-    // re-sampled cloud has other neighbours.
+    // re-sampled cloud has other neighbors.
     static constexpr std::size_t kNeighborListSize = 8;
     std::vector<std::uint32_t> neighbor_list;
     std::vector<double> neighbor_reach_d2;

@@ -116,7 +116,7 @@ void BackgroundModel::update(const std::vector<Eigen::Vector3d>& current, Backgr
         if (changes_.removed[j]) raise(reference_keys_[j]);
     }
     mark_hot_voxels();
-    // Neighbouring points of a scan row mostly share a voxel: the last key's answer is kept.
+    // Neighboring points of a scan row mostly share a voxel: the last key's answer is kept.
     std::uint64_t last_key = kNoKey;
     bool last_above = false;
     const auto above_threshold = [&](std::uint64_t key) {

@@ -1,6 +1,6 @@
 #pragma once
 // Putative correspondences between two keypoint sets by descriptor matching (PAPER.md
-// step 5): nearest neighbours in descriptor space (nanoflann k-d tree over the 33-D FPFH
+// step 5): nearest neighbors in descriptor space (nanoflann k-d tree over the 33-D FPFH
 // histograms, L2), filtered by Lowe's ratio test and/or a mutual-nearest check.
 
 #include <cstddef>

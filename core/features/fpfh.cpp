@@ -88,14 +88,14 @@ std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud,
     const int threads = std::max(1, params.num_threads);
     const auto n_keypoints = static_cast<std::int64_t>(keypoints.size());
 
-    // 1. Radius neighbourhoods of the keypoints.
+    // 1. Radius neighborhoods of the keypoints.
     std::vector<Neighbours> keypoint_neighbours(keypoints.size());
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 16)
     for (std::int64_t k = 0; k < n_keypoints; ++k) {
         tree.radius(cloud.points[keypoints[k]], params.radius_m, &keypoint_neighbours[k]);
     }
 
-    // 2. Every point whose SPFH is needed: the keypoints and their neighbours.
+    // 2. Every point whose SPFH is needed: the keypoints and their neighbors.
     std::vector<std::int32_t> slot(cloud.size(), -1);
     std::vector<std::uint32_t> needed;
     auto require = [&](std::uint32_t i) {
@@ -122,7 +122,7 @@ std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud,
         }
     }
 
-    // 4. FPFH: own SPFH plus the 1/distance-weighted mean of the neighbours' SPFHs.
+    // 4. FPFH: own SPFH plus the 1/distance-weighted mean of the neighbors' SPFHs.
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (std::int64_t k = 0; k < n_keypoints; ++k) {
         FpfhDescriptor weighted = FpfhDescriptor::Zero();

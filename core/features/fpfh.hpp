@@ -4,10 +4,10 @@
 // d = p_t - p_s, the source is the one whose normal makes the smaller angle with the
 // connecting line, and the Darboux frame u = n_s, v = u x d/|d|, w = u x v gives
 //   alpha = v . n_t,  phi = u . d/|d|,  theta = atan2(w . n_t, u . n_t).
-// SPFH(p): the three angles between p and each neighbour within `radius_m`, each binned
+// SPFH(p): the three angles between p and each neighbor within `radius_m`, each binned
 // into 11 bins over its range and normalised to sum 100.
 // FPFH(p) = (SPFH(p) + sum_k w_k SPFH(p_k) / sum_k w_k) / 2 with w_k = 1 / |p - p_k|, so
-// every 11-bin block of the 33-D descriptor sums to 100 (a point without neighbours gets
+// every 11-bin block of the 33-D descriptor sums to 100 (a point without neighbors gets
 // an all-zero descriptor).
 //
 // Needs unit normals. The angles are invariant to rigid motions of the cloud, provided the
@@ -27,7 +27,7 @@ constexpr int kFpfhSize = 3 * kFpfhBinsPerAngle;
 using FpfhDescriptor = Eigen::Matrix<float, kFpfhSize, 1>;
 
 struct FpfhParams {
-    // Neighbourhood radius for both the SPFH and the weighting step (m). Rusu suggests a
+    // Neighborhood radius for both the SPFH and the weighting step (m). Rusu suggests a
     // radius a few times the sampling distance.
     double radius_m = 3.0;
     int num_threads = 1;

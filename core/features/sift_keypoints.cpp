@@ -11,8 +11,8 @@ namespace {
 
 // The Gaussian is truncated at this many sigma (weight e^-3.1 = 4 % at the edge).
 constexpr double kTruncationSigmas = 2.5;
-// Extremum neighbourhood radius in units of the octave's voxel size (about the 26
-// neighbouring voxels).
+// Extremum neighborhood radius in units of the octave's voxel size (about the 26
+// neighboring voxels).
 constexpr double kExtremumRadiusVoxels = 1.75;
 
 struct OctaveCloud {
@@ -91,7 +91,7 @@ SiftKeypointResult detect_sift_keypoints(const std::vector<Eigen::Vector3d>& poi
         const double extremum_m = kExtremumRadiusVoxels * base_m;
 
         // Gaussian scale space of curvature, L[i * n_scales + k], and each point's
-        // extremum neighbourhood.
+        // extremum neighborhood.
         std::vector<double> smoothed(static_cast<std::size_t>(n) * n_scales);
         std::vector<std::vector<std::uint32_t>> near(static_cast<std::size_t>(n));
 #pragma omp parallel num_threads(threads)

@@ -4,10 +4,10 @@
 // cloud is voxel-averaged at the octave's base scale s_o = min_scale_m * 2^o (points and
 // curvature). On that cloud, curvature is smoothed at scales
 //   sigma_{o,k} = s_o * 2^(k / scales_per_octave),  k = 0 .. scales_per_octave + 2,
-// by a Gaussian-weighted mean over the neighbours within 2.5 sigma, and differences of
+// by a Gaussian-weighted mean over the neighbors within 2.5 sigma, and differences of
 // adjacent scales (DoG_k = L_{k+1} - L_k) are formed. A point is a keypoint at
 // k = 1 .. scales_per_octave when its DoG_k is a strict maximum or minimum among its
-// neighbours within 1.75 s_o at DoG_{k-1}, DoG_k and DoG_{k+1} (itself included at k-1, k+1),
+// neighbors within 1.75 s_o at DoG_{k-1}, DoG_k and DoG_{k+1} (itself included at k-1, k+1),
 // and |DoG_k| >= min_contrast. Keypoints are reported as indices of the nearest input
 // point (deduplicated, ascending), so descriptors can be computed at them.
 //

@@ -6,7 +6,7 @@
 // checks (overlap share, p2p error, free space) are tuned on those results: a tighter
 // bound there drops right candidates for low overlap. Once a pair is
 // chosen, a tighter bound only has to sharpen it: the correspondences that a 0.5 m bound
-// admits across neighbouring surfaces (a pole next to a wall, the kerb next to the road)
+// admits across neighboring surfaces (a pole next to a wall, the kerb next to the road)
 // pull the two clouds' voxel centroids towards each other and leave a centimetre-level
 // bias (bench/BENCHMARK.md).
 //

@@ -52,7 +52,7 @@ GroundPlane estimate_ground_plane(const std::vector<Eigen::Vector3d>& points,
     std::int64_t best_bin = bins.begin()->first;
     std::size_t best_count = 0;
     for (const auto& [bin, count] : bins) {
-        // Neighbouring bins count too: a plane straddling a bin edge is not split.
+        // Neighboring bins count too: a plane straddling a bin edge is not split.
         const auto prev = bins.find(bin - 1);
         const auto next = bins.find(bin + 1);
         const std::size_t total = count + (prev != bins.end() ? prev->second : 0) +

@@ -69,7 +69,7 @@ void FusedCloudVoxels::downsample(const FusedCloud& in, double voxel_size_m, Fus
     reserve_slots(expected);
     recent_.assign(std::size_t{1} << kRecentBits, Slot{kEmptyKey, 0});
     const double inv_size = 1.0 / voxel_size_m;
-    // Neighbouring points of a sensor's scan row mostly share a voxel: the last key's voxel
+    // Neighboring points of a sensor's scan row mostly share a voxel: the last key's voxel
     // skips the probe.
     std::uint64_t last_key = kEmptyKey;
     std::uint32_t voxel = 0;

@@ -44,9 +44,9 @@ struct FusionParams {
     RangeFilterParams range{1.0, 120.0, Eigen::Vector3d::Zero()};
     // k of the G-ICP covariances (the point itself included); 0: from each cloud's voxel
     // size v, round(6 / sqrt(v)) clamped to 4..16 (v = 0.5 m: 8, 1 m: 6, 3 m: 4). Too many
-    // neighbours describe the street rather than the surface (10 voxels of 3 m span its
+    // neighbors describe the street rather than the surface (10 voxels of 3 m span its
     // width), too few a line rather than a plane (bench/BENCHMARK.md, "G-ICP covariance
-    // neighbours").
+    // neighbors").
     int covariance_neighbors = 0;
     // G-ICP per edge; max correspondence distance = this factor * voxel_size_m.
     GicpParams gicp{};

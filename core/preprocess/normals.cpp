@@ -61,7 +61,7 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
         cloud->covariance_axes.clear();
         cloud->covariance_epsilon = 0.0;
     }
-    // The neighbour lists come with the k-NN when the tree is over this cloud.
+    // The neighbor lists come with the k-NN when the tree is over this cloud.
     constexpr std::size_t kList = PointCloud::kNeighborListSize;
     const bool lists = params.compute_covariances && tree.size() == n;
     if (lists) {

@@ -1,9 +1,9 @@
 #pragma once
-// Per-point covariances, normals and curvature from the k nearest neighbours, computed once
+// Per-point covariances, normals and curvature from the k nearest neighbors, computed once
 // per cloud and stored in the PointCloud for every later stage (octree voting, SIFT, FPFH,
 // G-ICP).
 //
-// For point i with neighbours N_i (k nearest, the point itself included):
+// For point i with neighbors N_i (k nearest, the point itself included):
 //   C_i = 1/|N_i| * sum_{j in N_i} (p_j - mean)(p_j - mean)^T,  eigenvalues l0 <= l1 <= l2
 //   normal_i    = eigenvector of l0, oriented towards `viewpoint`
 //   curvature_i = l0 / (l0 + l1 + l2)   (surface variation, 0 on a plane, 1/3 isotropic)
@@ -19,7 +19,7 @@
 // G-ICP uses to skip searches (gicp.hpp). They cost nothing: the k-NN has them. Their reach
 // is limited by k: with k <= kNeighborListSize the list holds all k - 1 others found.
 //
-// Points with fewer than 3 neighbours (tiny clouds) get normal (0,0,0), curvature 1/3 and
+// Points with fewer than 3 neighbors (tiny clouds) get normal (0,0,0), curvature 1/3 and
 // the identity covariance (point-to-point behaviour in G-ICP).
 //
 // Threading: OpenMP with `num_threads` threads for this call only (never a global setting).
@@ -37,7 +37,7 @@ struct NormalParams {
     int k_neighbors = 15;
     bool compute_normals = true;
     bool compute_covariances = true;
-    // Covariance regularisation for G-ICP; false stores the raw neighbourhood covariance.
+    // Covariance regularisation for G-ICP; false stores the raw neighborhood covariance.
     bool regularize_covariances = true;
     double gicp_epsilon = 1e-3;
     // Normals are flipped to point towards this viewpoint (the sensor origin in the
@@ -49,7 +49,7 @@ struct NormalParams {
 
 struct NormalStats {
     std::size_t num_points = 0;
-    std::size_t num_degenerate = 0;  // fewer than 3 neighbours
+    std::size_t num_degenerate = 0;  // fewer than 3 neighbors
 };
 
 // Fills cloud->normals and/or cloud->covariances (as `params` asks) and, when `curvature`

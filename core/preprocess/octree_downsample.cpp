@@ -17,9 +17,9 @@ Eigen::Vector3d fold(const Eigen::Vector3d& n) { return n.z() < 0.0 ? Eigen::Vec
 
 // --- sphere voting ----------------------------------------------------------------------
 // Cells: polar rings of equal width on the upper hemisphere, each ring cut into azimuth
-// sectors of about the same arc length, so the cells have roughly equal area. Neighbours
+// sectors of about the same arc length, so the cells have roughly equal area. Neighbors
 // are the cells whose centre axes lie within 1.5 cell widths (the axis angle uses |dot|,
-// so cells on opposite sides of the equator are neighbours too, handling the fold).
+// so cells on opposite sides of the equator are neighbors too, handling the fold).
 
 NormalVoting::NormalVoting(double cell_deg, double agreement_angle_deg) {
     const double cell_rad = std::clamp(cell_deg, 1.0, 45.0) * kPi / 180.0;

@@ -3,7 +3,7 @@
 // The cloud is cut into cubes of `max_voxel_size_m` (the coarsest voxel, aligned to the
 // cloud's bounding box), each the root of an octree. A voxel becomes a leaf when its
 // normals agree: the dominant normal direction is voted on a discretised unit sphere (each
-// normal votes for its cell and the neighbouring cells; normals are folded to one
+// normal votes for its cell and the neighboring cells; normals are folded to one
 // hemisphere because their sign is ambiguous), refined as the mean of the agreeing normals,
 // and the share of normals within `agreement_angle_deg` of it is compared with
 // `min_agreement_share`. Otherwise the voxel is split into its 8 children, down to
@@ -56,7 +56,7 @@ OctreeDownsampleResult octree_downsample(const PointCloud& cloud,
                                          const OctreeDownsampleParams& params = {});
 
 // The sphere voting on its own: folds `normals` to a hemisphere, lets each vote for its
-// cell and the neighbouring cells and returns the refined dominant axis (unit; its sign is
+// cell and the neighboring cells and returns the refined dominant axis (unit; its sign is
 // meaningless) and the share of normals within `agreement_angle_deg` of it.
 class NormalVoting {
 public:

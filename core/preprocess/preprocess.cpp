@@ -67,7 +67,7 @@ std::size_t remove_statistical_outliers(const PointCloud& in,
     const std::size_t n = in.points.size();
     const std::size_t k = static_cast<std::size_t>(std::max(1, params.k_neighbors));
     if (n <= k) {
-        // Too few points for a neighbourhood statistic: keep everything.
+        // Too few points for a neighborhood statistic: keep everything.
         std::vector<char> keep(n, 1);
         return apply_mask(in, keep, out, kept_indices);
     }
@@ -76,7 +76,7 @@ std::size_t remove_statistical_outliers(const PointCloud& in,
     const long long count = static_cast<long long>(n);
 #pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1)
     {
-        // k + 1: the query point is its own nearest neighbour.
+        // k + 1: the query point is its own nearest neighbor.
         std::vector<std::uint32_t> idx(k + 1);
         std::vector<double> d2(k + 1);
 #pragma omp for schedule(static)
@@ -105,14 +105,14 @@ std::size_t remove_radius_outliers(const PointCloud& in, const RadiusOutlierPara
     std::vector<char> keep(n, 0);
     if (n > 0) {
         const KdTree tree(in.points, 10, params.num_threads);
-        // The query point itself is among its neighbours, hence + 1.
+        // The query point itself is among its neighbors, hence + 1.
         const std::size_t needed = static_cast<std::size_t>(std::max(0, params.min_neighbors)) + 1;
         const double r2 = params.radius_m * params.radius_m;
         const long long count = static_cast<long long>(n);
 #pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1)
         {
             // A knn query of `needed` points is cheaper than a full radius search: the point
-            // stays if its needed-th nearest neighbour lies within the radius.
+            // stays if its needed-th nearest neighbor lies within the radius.
             std::vector<std::uint32_t> idx(needed);
             std::vector<double> d2(needed);
 #pragma omp for schedule(static)

@@ -28,11 +28,11 @@ std::size_t filter_range(const PointCloud& in, const RangeFilterParams& params, 
                          std::vector<std::uint32_t>* kept_indices = nullptr);
 
 struct StatisticalOutlierParams {
-    // Each point's mean distance to its k nearest neighbours is compared with the
+    // Each point's mean distance to its k nearest neighbors is compared with the
     // distribution over the whole cloud; points beyond mean + std_ratio * stddev go.
     int k_neighbors = 16;
     double std_ratio = 2.0;
-    int num_threads = 1;  // OpenMP threads for the neighbour queries
+    int num_threads = 1;  // OpenMP threads for the neighbor queries
 };
 
 // Input points must be finite (run filter_range first). Returns the count kept.

@@ -83,7 +83,7 @@ void VoxelGrid::insert_points(const std::vector<Eigen::Vector3d>& points, double
     counts_.clear();
 
     const double inv_size = 1.0 / voxel_size_m;
-    // Neighbouring pixels of a scan row mostly share a voxel: the last key's voxel skips
+    // Neighboring pixels of a scan row mostly share a voxel: the last key's voxel skips
     // the probe (the same sums in the same order).
     std::uint64_t last_key = kEmptyKey;
     std::uint32_t last_voxel = 0;

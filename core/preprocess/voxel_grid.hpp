@@ -62,7 +62,7 @@ inline bool voxel_key(const Eigen::Vector3d& p, double inv_size, std::uint64_t* 
 
 // The slot of `key` in an open-addressing table of 2^(64 - shift) slots: Fibonacci hashing
 // (multiply by 2^64 / golden ratio), whose high bits mix all three packed coordinates and
-// keep neighbouring voxels in nearby slots, which the cache likes (a full mix, MurmurHash3's
+// keep neighboring voxels in nearby slots, which the cache likes (a full mix, MurmurHash3's
 // finaliser, made thinning a fused cloud at 0.2 m twice as slow: a cache miss per probe).
 inline std::size_t voxel_slot(std::uint64_t key, int shift) {
     return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> shift);

@@ -169,8 +169,8 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
         for (long long i = 0; i < count; ++i) {
             const Eigen::Vector3d& a = source.points[i];
             const Eigen::Vector3d Ta = R * a + t;
-            // Search bound: the correspondence limit, tightened to the previous neighbour's
-            // distance (slightly inflated so that neighbour itself is still found).
+            // Search bound: the correspondence limit, tightened to the previous neighbor's
+            // distance (slightly inflated so that neighbor itself is still found).
             double bound = max_d2;
             std::uint32_t j = 0;
             double d2 = 0.0;
@@ -182,7 +182,7 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
                 j = static_cast<std::uint32_t>(prev);
                 d2 = d2_prev;
                 if (lists) {
-                    // The nearest of the previous neighbour and its listed neighbours is
+                    // The nearest of the previous neighbor and its listed neighbors is
                     // the nearest of all when it is closer than reach - |Ta - prev|: every
                     // unlisted point is at least that far (triangle inequality). The
                     // factor keeps rounding on the safe side.

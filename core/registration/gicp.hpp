@@ -2,7 +2,7 @@
 // Generalized-ICP (Segal, Haehnel, Thrun 2009), written on our KdTree.
 //
 // Finds T = T_target_source minimising, over correspondences (a_i in source, b_i its
-// nearest neighbour in the target within max_correspondence_distance_m),
+// nearest neighbor in the target within max_correspondence_distance_m),
 //   E(T) = sum_i rho( d_i^T M_i d_i ),   d_i = b_i - T a_i,
 //   M_i = (C^B_i + R C^A_i R^T)^-1        (Segal eq. 2; C from normals.hpp, regularised)
 // with rho a robust kernel (identity by default).
@@ -23,8 +23,8 @@
 // at most one sub-threshold step before it, which saves a k-d tree pass per call.
 //
 // Correspondence search, exact and cheaper than a fresh k-d tree search per point: from the
-// second linearisation on, a source point looks at its previous neighbour j and j's listed
-// neighbours (PointCloud::neighbor_list, filled by the covariances' k-NN). The nearest of
+// second linearisation on, a source point looks at its previous neighbor j and j's listed
+// neighbors (PointCloud::neighbor_list, filled by the covariances' k-NN). The nearest of
 // them is the nearest of all when it is closer than reach(j) - |Ta - j|, since every
 // unlisted point is at least that far (triangle inequality); otherwise the k-d tree is
 // searched, bounded by that candidate's distance. What it saves, and why the list holds 8:
@@ -128,7 +128,7 @@ public:
     GicpTarget();
     // Takes the cloud (move it in to avoid a copy). Needs covariances for registration.
     explicit GicpTarget(PointCloud cloud, int leaf_max_size = 10);
-    // Takes the cloud and computes its covariances (and neighbour lists) as `covariances`
+    // Takes the cloud and computes its covariances (and neighbor lists) as `covariances`
     // asks, on this target's own k-d tree: the same numbers as estimate_normals_covariances
     // followed by the constructor above, with one tree per cloud instead of two.
     GicpTarget(PointCloud cloud, const NormalParams& covariances, int leaf_max_size = 10);
@@ -178,9 +178,9 @@ private:
         void add(const Linearization& o);
     };
     // Correspondence search + H, b, error at T (correspondences kept in the buffers).
-    // reuse_correspondences: target_index_ holds this source's neighbours from the
+    // reuse_correspondences: target_index_ holds this source's neighbors from the
     // previous iteration of the same align() (or the caller's guess); the distance to that
-    // neighbour bounds the search (exact: the nearest can only be closer), which prunes
+    // neighbor bounds the search (exact: the nearest can only be closer), which prunes
     // most of the k-d tree.
     void linearize(const GicpTarget& target, const PointCloud& source, const Eigen::Isometry3d& T,
                    bool reuse_correspondences, Linearization* lin);

@@ -31,7 +31,7 @@ P2pErrorResult p2p_error(const std::vector<Eigen::Vector3d>& source_points,
             const Eigen::Vector3d u = T_target_source * source_points[i];
             std::uint32_t j = 0;
             double d2 = 0.0;
-            // Only neighbours within the cutoff count, so the search needs to look no
+            // Only neighbors within the cutoff count, so the search needs to look no
             // farther (bounded: much faster for the points a wrong candidate throws away).
             if (!u.allFinite() || !target_tree.nearest_within(u, bound, &j, &d2)) continue;
             sum += d2;  // d2 <= rc2: w_i = 1

@@ -2,7 +2,7 @@
 // The point-to-point error metric the paper scores candidate transforms with (PAPER.md,
 // initial registration step 8; Lehtola et al. 2017 with p = 2):
 //   E = sqrt( (1/N) * sum_i w_i |u_i - v_i|^2 ),
-// u_i = T_target_source * (source point i), v_i its nearest neighbour in the target,
+// u_i = T_target_source * (source point i), v_i its nearest neighbor in the target,
 // w_i = 1 if |u_i - v_i| <= r_c else 0, N = number of source points with w_i = 1.
 // Also reports N and the overlap share N / |source|. Units: metres.
 

@@ -140,7 +140,7 @@ std::uint64_t fetch(const std::uint8_t* p, std::size_t bytes) {
     return v;
 }
 
-// Replaces the field's bits, keeping those of neighbouring fields in the same bytes.
+// Replaces the field's bits, keeping those of neighboring fields in the same bytes.
 void store_masked(std::uint8_t* p, const HeaderFieldSpec& s, std::uint64_t value) {
     store(p, (fetch(p, s.bytes) & ~s.mask) | (value & s.mask), s.bytes);
 }

@@ -274,7 +274,7 @@ public:
     void set_column_frame_id(std::uint8_t* col, std::uint16_t value) const;       // LEGACY
     void set_column_encoder_count(std::uint8_t* col, std::uint32_t value) const;  // LEGACY
     // Stores `value` (in the reader's units) with the profile's downshift and mask; bits of
-    // neighbouring fields sharing the bytes are preserved. Values that do not fit are
+    // neighboring fields sharing the bytes are preserved. Values that do not fit are
     // truncated to the field width (range 0x7FFF x8 mm for RNG15). Returns false (and
     // writes nothing) for a field the profile does not have.
     bool set_field(std::uint8_t* px, Field f, std::uint32_t value) const;

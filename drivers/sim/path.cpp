@@ -43,7 +43,7 @@ Path Path::offset(double lateral_m, double step_m) const {
     const int n = std::max(1, static_cast<int>(std::ceil(length() / step_m)));
     for (int k = 0; k <= n; ++k) {
         const double s = length() * k / n;
-        // Average the neighbouring tangents at vertices so offsets stay smooth on arcs.
+        // Average the neighboring tangents at vertices so offsets stay smooth on arcs.
         const double eps = std::min(0.25 * step_m, 0.1);
         const Eigen::Vector2d t =
             (tangent(std::max(0.0, s - eps)) + tangent(std::min(length(), s + eps))).normalized();

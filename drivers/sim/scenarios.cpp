@@ -1,6 +1,6 @@
 // The three scenes of PAPER.md ("Experiments to reproduce"): curve, straight (zig-zag
 // sensors) and a four-arm intersection whose corner buildings block the direct line of
-// sight between sensors on neighbouring arms.
+// sight between sensors on neighboring arms.
 #include <cmath>
 #include <stdexcept>
 

@@ -172,7 +172,7 @@ TEST_F(GicpScene, NestedInAParallelRegionGivesTheSameResult) {
     EXPECT_LT((outside.H - inside.H).norm(), 1e-6 * outside.H.norm());
 }
 
-// The search shortcut (the previous neighbour and its listed neighbours, certified by the
+// The search shortcut (the previous neighbor and its listed neighbors, certified by the
 // list's reach) is exact: without the lists every correspondence is searched, and the
 // result is the same.
 // Both solvers register `source` onto `target` and `other_source` onto `other_target` alike:

@@ -120,7 +120,7 @@ TEST(InitialRegistration, EmptyCloudsAndNoOverlap) {
     for (int i = 2; i < 5; ++i) {
         EXPECT_TRUE(r.sensors[i].T_root_sensor.isApprox(Eigen::Isometry3d::Identity()));
     }
-    // Sensor 1 (a real neighbour of the root) is unaffected by the bad ones.
+    // Sensor 1 (a real neighbor of the root) is unaffected by the bad ones.
     ASSERT_TRUE(r.sensors[1].registered) << to_string(r.sensors[1].status);
     const Eigen::Isometry3d truth = T_world_sensor[0].inverse() * T_world_sensor[2];
     EXPECT_LT(translation_error_m(r.sensors[1].T_root_sensor, truth), 0.03);

@@ -57,7 +57,7 @@ TEST(Normals, IsotropicBlobHasHighCurvatureAndRawCovarianceOption) {
     mean /= static_cast<double>(curvature.size());
     EXPECT_GT(mean, 0.1);  // far from a plane's 0 (max 1/3)
     EXPECT_LE(*std::max_element(curvature.begin(), curvature.end()), 1.0 / 3.0 + 1e-12);
-    // Raw covariances are neighbourhood scatter: small, not the (eps, 1, 1) shape.
+    // Raw covariances are neighborhood scatter: small, not the (eps, 1, 1) shape.
     EXPECT_LT(cloud.covariances[0].trace(), 0.1);
 }
 

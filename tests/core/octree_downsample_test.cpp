@@ -31,7 +31,7 @@ TEST(NormalVoting, PicksTheDominantAxisAndFoldsSigns) {
     EXPECT_NEAR(vote.direction.norm(), 1.0, 1e-12);
     EXPECT_GE(vote.agreeing_share, 0.7);
     EXPECT_LT(vote.agreeing_share, 0.85);
-    // Equator: a normal and its opposite (both z = 0) land in neighbouring cells.
+    // Equator: a normal and its opposite (both z = 0) land in neighboring cells.
     const Eigen::Vector3d e(1, 0, 0);
     std::vector<Eigen::Vector3d> equator{e, -e, e, -e};
     std::vector<std::uint32_t> four{0, 1, 2, 3};

@@ -43,7 +43,7 @@ Scene box_scene(bool with_box) {
         testing::sample_box(Eigen::Vector3d(-1, -1.5, 0), Eigen::Vector3d(3, 2.5, 2), 0.1,
                             &s.cloud);
     }
-    // A millimetre of noise, as a scanner has: on an exact lattice most neighbours are tied,
+    // A millimetre of noise, as a scanner has: on an exact lattice most neighbors are tied,
     // and which of them a k-d tree lists first would decide the curvature.
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> jitter(-0.001, 0.001);

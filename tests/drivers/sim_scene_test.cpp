@@ -1,6 +1,6 @@
-// Scene layout: sensors where PAPER.md puts them, neighbouring sensors share a large part
+// Scene layout: sensors where PAPER.md puts them, neighboring sensors share a large part
 // of their view (registration needs overlap), the intersection's corner buildings block
-// the direct line of sight between neighbouring sensors, and road users of every class
+// the direct line of sight between neighboring sensors, and road users of every class
 // move along their tracks at plausible speeds.
 #include <gtest/gtest.h>
 
@@ -70,7 +70,7 @@ TEST_P(SimScenes, SensorsStandOnSixMetrePolesAndNeighboursOverlap) {
         // x (forward) pitched 17 degrees down.
         EXPECT_NEAR(std::asin(-(T.linear() * Eigen::Vector3d::UnitX()).z()), 17 * M_PI / 180, 1e-9);
     }
-    // Neighbours along the station: 0-1, 1-2, 2-3 (and 3-0 around the intersection).
+    // Neighbors along the station: 0-1, 1-2, 2-3 (and 3-0 around the intersection).
     const int pairs = GetParam() == Scenario::kIntersection ? 4 : 3;
     for (int k = 0; k < pairs; ++k) {
         const auto& a = rigs[static_cast<std::size_t>(k)];
