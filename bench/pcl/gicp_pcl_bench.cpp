@@ -53,7 +53,7 @@ namespace fs = std::filesystem;
 using lidarfuse::core::PointCloud;
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
-constexpr int kCovarianceNeighbours = 20;  // PCL's default k_correspondences
+constexpr int kCovarianceNeighbors = 20;  // PCL's default k_correspondences
 constexpr int kMaxIterations = 30;
 constexpr double kTranslationEpsM = 1e-4;
 constexpr double kRotationEpsRad = 1e-4;
@@ -94,7 +94,7 @@ PointCloud downsample(const std::vector<Eigen::Vector3d>& points, double voxel_m
 
 lidarfuse::core::NormalParams covariance_params() {
     lidarfuse::core::NormalParams np;
-    np.k_neighbors = kCovarianceNeighbours;
+    np.k_neighbors = kCovarianceNeighbors;
     np.compute_normals = false;
     np.num_threads = 1;
     return np;
@@ -172,10 +172,10 @@ CovarianceCost covariance_cost(const PointCloud& cloud) {
     const auto pcl_cloud = to_pcl(cloud);
     CovarianceCost c;
     c.ours_knn_us = fastest_us_per_point([&] {
-        std::uint32_t idx[kCovarianceNeighbours];
-        double d2[kCovarianceNeighbours];
+        std::uint32_t idx[kCovarianceNeighbors];
+        double d2[kCovarianceNeighbors];
         const lidarfuse::core::KdTree tree(cloud.points);
-        for (const Eigen::Vector3d& p : cloud.points) tree.knn(p, kCovarianceNeighbours, idx, d2);
+        for (const Eigen::Vector3d& p : cloud.points) tree.knn(p, kCovarianceNeighbors, idx, d2);
     });
     std::vector<PointCloud> copies(kRepetitions, cloud);  // a fresh cloud for every run
     std::size_t run = 0;
@@ -188,10 +188,10 @@ CovarianceCost covariance_cost(const PointCloud& cloud) {
         auto tree = pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>();
         tree->setInputCloud(pcl_cloud);
         for (const pcl::PointXYZ& p : pcl_cloud->points)
-            tree->nearestKSearch(p, kCovarianceNeighbours, idx, d2);
+            tree->nearestKSearch(p, kCovarianceNeighbors, idx, d2);
     });
     CountingGicp gicp;
-    gicp.setCorrespondenceRandomness(kCovarianceNeighbours);
+    gicp.setCorrespondenceRandomness(kCovarianceNeighbors);
     CountingGicp::MatricesVector covariances;
     c.pcl_us = fastest_us_per_point([&] {
         auto tree = pcl::make_shared<pcl::search::KdTree<pcl::PointXYZ>>();
@@ -217,7 +217,7 @@ Outcome run_pcl(const PointCloud& target_in, const PointCloud& source_in, const 
         source_cov = to_pcl_covariances(source_in);
     }
     CountingGicp gicp;
-    gicp.setCorrespondenceRandomness(kCovarianceNeighbours);
+    gicp.setCorrespondenceRandomness(kCovarianceNeighbors);
     gicp.setMaxCorrespondenceDistance(max_corr_m);
     gicp.setMaximumIterations(kMaxIterations);
     // GICP compares these with the change of each matrix element per outer iteration:

@@ -10,7 +10,7 @@ namespace lidarfuse::core {
 
 namespace {
 
-using Neighbours = std::vector<std::pair<std::uint32_t, double>>;
+using Neighbors = std::vector<std::pair<std::uint32_t, double>>;
 
 int bin_of(double value, double lo, double hi) {
     const int bin = static_cast<int>(std::floor((value - lo) / (hi - lo) * kFpfhBinsPerAngle));
@@ -26,10 +26,10 @@ void normalise_blocks(FpfhDescriptor* h) {
     }
 }
 
-// Simplified point feature histogram of point `i` against `neighbours` (its radius set).
-FpfhDescriptor spfh(const PointCloud& cloud, std::uint32_t i, const Neighbours& neighbours) {
+// Simplified point feature histogram of point `i` against `neighbors` (its radius set).
+FpfhDescriptor spfh(const PointCloud& cloud, std::uint32_t i, const Neighbors& neighbors) {
     FpfhDescriptor h = FpfhDescriptor::Zero();
-    for (const auto& [j, d2] : neighbours) {
+    for (const auto& [j, d2] : neighbors) {
         if (j == i) continue;
         double alpha = 0.0;
         double phi = 0.0;
@@ -89,10 +89,10 @@ std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud,
     const auto n_keypoints = static_cast<std::int64_t>(keypoints.size());
 
     // 1. Radius neighborhoods of the keypoints.
-    std::vector<Neighbours> keypoint_neighbours(keypoints.size());
+    std::vector<Neighbors> keypoint_neighbors(keypoints.size());
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 16)
     for (std::int64_t k = 0; k < n_keypoints; ++k) {
-        tree.radius(cloud.points[keypoints[k]], params.radius_m, &keypoint_neighbours[k]);
+        tree.radius(cloud.points[keypoints[k]], params.radius_m, &keypoint_neighbors[k]);
     }
 
     // 2. Every point whose SPFH is needed: the keypoints and their neighbors.
@@ -106,7 +106,7 @@ std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud,
     };
     for (std::size_t k = 0; k < keypoints.size(); ++k) {
         require(keypoints[k]);
-        for (const auto& neighbour : keypoint_neighbours[k]) require(neighbour.first);
+        for (const auto& neighbor : keypoint_neighbors[k]) require(neighbor.first);
     }
 
     // 3. SPFH of every needed point.
@@ -114,11 +114,11 @@ std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud,
     const auto n_needed = static_cast<std::int64_t>(needed.size());
 #pragma omp parallel num_threads(threads)
     {
-        Neighbours neighbours;
+        Neighbors neighbors;
 #pragma omp for schedule(dynamic, 32)
         for (std::int64_t s = 0; s < n_needed; ++s) {
-            tree.radius(cloud.points[needed[s]], params.radius_m, &neighbours);
-            spfhs[s] = spfh(cloud, needed[s], neighbours);
+            tree.radius(cloud.points[needed[s]], params.radius_m, &neighbors);
+            spfhs[s] = spfh(cloud, needed[s], neighbors);
         }
     }
 
@@ -127,7 +127,7 @@ std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud,
     for (std::int64_t k = 0; k < n_keypoints; ++k) {
         FpfhDescriptor weighted = FpfhDescriptor::Zero();
         double weight_sum = 0.0;
-        for (const auto& [j, d2] : keypoint_neighbours[k]) {
+        for (const auto& [j, d2] : keypoint_neighbors[k]) {
             if (j == keypoints[k] || !(d2 > 0.0)) continue;
             const double weight = 1.0 / std::sqrt(d2);
             weighted += static_cast<float>(weight) * spfhs[slot[j]];

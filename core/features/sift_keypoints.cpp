@@ -96,15 +96,15 @@ SiftKeypointResult detect_sift_keypoints(const std::vector<Eigen::Vector3d>& poi
         std::vector<std::vector<std::uint32_t>> near(static_cast<std::size_t>(n));
 #pragma omp parallel num_threads(threads)
         {
-            std::vector<std::pair<std::uint32_t, double>> neighbours;
+            std::vector<std::pair<std::uint32_t, double>> neighbors;
             std::vector<double> weight_sum(n_scales);
             std::vector<double> value_sum(n_scales);
 #pragma omp for schedule(dynamic, 64)
             for (std::int64_t i = 0; i < n; ++i) {
-                tree.radius(cloud.points[i], search_m, &neighbours);
+                tree.radius(cloud.points[i], search_m, &neighbors);
                 std::fill(weight_sum.begin(), weight_sum.end(), 0.0);
                 std::fill(value_sum.begin(), value_sum.end(), 0.0);
-                for (const auto& [j, d2] : neighbours) {
+                for (const auto& [j, d2] : neighbors) {
                     for (int k = 0; k < n_scales; ++k) {
                         const double reach = kTruncationSigmas * sigma[k];
                         if (d2 > reach * reach) continue;

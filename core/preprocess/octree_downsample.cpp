@@ -38,12 +38,12 @@ NormalVoting::NormalVoting(double cell_deg, double agreement_angle_deg) {
         }
         ring_offset_.push_back(static_cast<int>(centres_.size()));
     }
-    const double cos_neighbour = std::cos(1.5 * ring_width_rad_);
-    neighbours_.resize(centres_.size());
+    const double cos_neighbor = std::cos(1.5 * ring_width_rad_);
+    neighbors_.resize(centres_.size());
     for (std::size_t i = 0; i < centres_.size(); ++i) {
         for (std::size_t j = 0; j < centres_.size(); ++j) {
-            if (std::abs(centres_[i].dot(centres_[j])) >= cos_neighbour) {
-                neighbours_[i].push_back(static_cast<int>(j));
+            if (std::abs(centres_[i].dot(centres_[j])) >= cos_neighbor) {
+                neighbors_[i].push_back(static_cast<int>(j));
             }
         }
     }
@@ -68,7 +68,7 @@ NormalVoting::Vote NormalVoting::dominant(const std::vector<Eigen::Vector3d>& no
     if (count == 0) return vote;
     std::fill(votes_.begin(), votes_.end(), 0);
     for (std::size_t i = 0; i < count; ++i) {
-        for (int cell : neighbours_[cell_of(normals[indices[i]])]) ++votes_[cell];
+        for (int cell : neighbors_[cell_of(normals[indices[i]])]) ++votes_[cell];
     }
     const auto best = std::max_element(votes_.begin(), votes_.end()) - votes_.begin();
     Eigen::Vector3d direction = centres_[best];

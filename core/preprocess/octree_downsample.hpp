@@ -77,7 +77,7 @@ private:
     double cos_agreement_;
     std::vector<int> ring_offset_;  // first cell of each polar ring, plus the total
     std::vector<Eigen::Vector3d> centres_;
-    std::vector<std::vector<int>> neighbours_;  // per cell, itself included
+    std::vector<std::vector<int>> neighbors_;  // per cell, itself included
     std::vector<int> votes_;
 };
 

@@ -342,7 +342,7 @@ TEST(FusionEngine, LateRegisteredSensorsAreAsAccurateAsInline) {
     EXPECT_LT(handed_out.rot_deg, 1.5 * inline_registration.rot_deg + 0.005);
 }
 
-TEST(FusionParams, CovarianceNeighboursFollowTheVoxelSizeUnlessSet) {
+TEST(FusionParams, CovarianceNeighborsFollowTheVoxelSizeUnlessSet) {
     FusionParams params;
     EXPECT_EQ(covariance_neighbors_for(params, 0.5), 8);
     EXPECT_EQ(covariance_neighbors_for(params, 1.0), 6);

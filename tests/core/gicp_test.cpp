@@ -198,7 +198,7 @@ void expect_same_registrations(const GicpTarget& target, const PointCloud& sourc
     }
 }
 
-TEST_F(GicpScene, NeighbourListsChangeNothingButTheSearches) {
+TEST_F(GicpScene, NeighborListsChangeNothingButTheSearches) {
     std::mt19937 rng(13);
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
     const PointCloud source = noisy_resampled_source(rng, T_true);

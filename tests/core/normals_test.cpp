@@ -81,7 +81,7 @@ TEST(Normals, ThreadCountDoesNotChangeTheResult) {
 // the brute-force order, duplicates included, every unlisted point at least `reach` away,
 // the whole cloud listed (reach infinite) when it is that small; absent without
 // covariances.
-TEST(Normals, NeighbourListsComeWithTheCovariances) {
+TEST(Normals, NeighborListsComeWithTheCovariances) {
     constexpr std::size_t kList = PointCloud::kNeighborListSize;
     std::mt19937 rng(11);
     PointCloud cloud;

@@ -58,7 +58,7 @@ double view_overlap(const StaticScene& caster, const SensorRig& a, const SensorR
 
 class SimScenes : public ::testing::TestWithParam<Scenario> {};
 
-TEST_P(SimScenes, SensorsStandOnSixMetrePolesAndNeighboursOverlap) {
+TEST_P(SimScenes, SensorsStandOnSixMetrePolesAndNeighborsOverlap) {
     const Scene scene = build_scene({GetParam(), 4, 1});
     ASSERT_EQ(scene.mounts.size(), 4u);
     const RayDevice device;
@@ -87,7 +87,7 @@ INSTANTIATE_TEST_SUITE_P(All, SimScenes,
                          ::testing::Values(Scenario::kCurve, Scenario::kStraight,
                                            Scenario::kIntersection));
 
-TEST(SimScene, IntersectionCornerBuildingsBlockNeighbouringSensors) {
+TEST(SimScene, IntersectionCornerBuildingsBlockNeighboringSensors) {
     const Scene scene = build_scene({Scenario::kIntersection, 4, 1});
     const RayDevice device;
     const StaticScene caster(device, scene.mesh);
