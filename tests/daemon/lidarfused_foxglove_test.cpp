@@ -68,6 +68,13 @@ struct Station {
     std::string replay;
 };
 
+// The live view's run also serves the thinned cloud (/lidarfuse/points_voxel), except under
+// TSan: there the output thread, many times slower, can fall behind with the second cloud
+// and its queue drop frames (seen once: 21 of 28 published), which the check that the
+// stalled client costs nothing would take for the client's fault. The thinning runs on the
+// output thread alone; the release and ASan runs check it end to end.
+bool thinned_cloud(bool foxglove) { return foxglove && !kThreadSanitizer; }
+
 void write_station(Station* s, bool foxglove) {
     const int domain = test::unique_domain_id();
     s->config = s->dir / "sim" / (foxglove ? "fox.yaml" : "plain.yaml");
@@ -84,7 +91,7 @@ void write_station(Station* s, bool foxglove) {
         << "network: {bind_address: 127.0.0.1}\nworld: {frame: sensor}\noutput:\n  directory: "
         << (s->dir / (foxglove ? "out" : "out-plain")).string() << "\n"
         << "  dds: {domain_id: " << domain << ", diagnostics_period_ms: 200"
-        << (foxglove ? ", points_voxel_size_m: 0.5" : "") << "}\n"
+        << (thinned_cloud(foxglove) ? ", points_voxel_size_m: 0.5" : "") << "}\n"
         << "  foxglove: {enabled: " << (foxglove ? "true" : "false") << ", port: "
         << s->ws_port
         // 2 MiB per client: two or three clouds of this station (0.5-0.8 MB each), so a
@@ -213,8 +220,10 @@ TEST(LidarfusedFoxglove, ANodeClientDecodesCloudsAndTfOfAReplayWhileAStalledOneO
     EXPECT_TRUE(seen["decodeErrors"].empty()) << seen["decodeErrors"];
     EXPECT_EQ(seen["encapsulations"], Json::array({1})) << "CDR_LE only";
     EXPECT_EQ(seen["serverName"], "lidarfused fox");
-    EXPECT_EQ(seen["topics"], Json::array({"/lidarfuse/points", "/tf", "/tf_static", "/diagnostics",
-                                           "/lidarfuse/poses", "/lidarfuse/points_voxel"}));
+    Json topics =
+        Json::array({"/lidarfuse/points", "/tf", "/tf_static", "/diagnostics", "/lidarfuse/poses"});
+    if (thinned_cloud(true)) topics.push_back("/lidarfuse/points_voxel");
+    EXPECT_EQ(seen["topics"], topics);
     EXPECT_EQ(seen["cloudFrame"], "lidarfuse/fused");
     EXPECT_EQ(seen["cloudFields"], Json::array({"x:0:7", "y:4:7", "z:8:7", "intensity:12:7",
                                                 "sensor_id:16:2", "dynamic:17:2"}));
@@ -241,7 +250,9 @@ TEST(LidarfusedFoxglove, ANodeClientDecodesCloudsAndTfOfAReplayWhileAStalledOneO
     EXPECT_GE(clouds, poses / 2);
     // The thinned cloud (0.5 m voxels) beside it, far smaller than the full one.
     const long voxel_clouds = seen["voxelClouds"].get<long>();
-    EXPECT_GE(voxel_clouds, poses / 2);
+    if (thinned_cloud(true)) {
+        EXPECT_GE(voxel_clouds, poses / 2);
+    }
     if (voxel_clouds > 0 && clouds > 0) {
         const double full = seen["cloudPoints"].get<double>() / static_cast<double>(clouds);
         const double thin = seen["voxelPoints"].get<double>() / static_cast<double>(voxel_clouds);
