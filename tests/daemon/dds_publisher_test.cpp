@@ -58,6 +58,22 @@ core::FrameOutput frame(std::int64_t index, std::size_t points) {
     return f;
 }
 
+// Point i of a PointCloud2 in the daemon's layout (dds_messages.hpp).
+struct CloudPoint {
+    float xyz[3];
+    float intensity;
+    std::uint8_t sensor, dynamic;
+};
+CloudPoint point_at(const sensor_msgs_msg_dds__PointCloud2_& m, std::size_t i) {
+    const std::uint8_t* p = m.data._buffer + i * kPointStep;
+    CloudPoint out{};
+    std::memcpy(out.xyz, p + kOffsetX, sizeof(out.xyz));
+    std::memcpy(&out.intensity, p + kOffsetIntensity, sizeof(float));
+    out.sensor = p[kOffsetSensorId];
+    out.dynamic = p[kOffsetDynamic];
+    return out;
+}
+
 // USER_DATA of the one writer matched with `reader`, and its type's name.
 std::pair<std::string, std::string> matched_writer_user_data(dds_entity_t reader) {
     dds_instance_handle_t writer = 0;
@@ -205,16 +221,13 @@ TEST_F(DdsPublisherTest, MessagesRoundTripWithRosQos) {
             }
             ASSERT_EQ(m.data._length, 1000u * kPointStep);
             for (std::size_t i = 0; i < 1000; ++i) {
-                const std::uint8_t* p = m.data._buffer + i * kPointStep;
-                float xyz[3], intensity;
-                std::memcpy(xyz, p, sizeof(xyz));
-                std::memcpy(&intensity, p + 12, sizeof(float));
-                ASSERT_EQ(xyz[0], f.cloud.points[i].x());
-                ASSERT_EQ(xyz[1], f.cloud.points[i].y());
-                ASSERT_EQ(xyz[2], f.cloud.points[i].z());
-                ASSERT_EQ(intensity, f.cloud.intensity[i]);
-                ASSERT_EQ(p[16], f.cloud.sensor[i]);
-                ASSERT_EQ(p[17], f.cloud.dynamic[i]);
+                const CloudPoint p = point_at(m, i);
+                ASSERT_EQ(p.xyz[0], f.cloud.points[i].x());
+                ASSERT_EQ(p.xyz[1], f.cloud.points[i].y());
+                ASSERT_EQ(p.xyz[2], f.cloud.points[i].z());
+                ASSERT_EQ(p.intensity, f.cloud.intensity[i]);
+                ASSERT_EQ(p.sensor, f.cloud.sensor[i]);
+                ASSERT_EQ(p.dynamic, f.cloud.dynamic[i]);
             }
         });
         return clouds >= 1;
@@ -433,15 +446,12 @@ TEST_F(DdsPublisherTest, TheThinnedCloudGoesOutOnlyWhenConfiguredAndWanted) {
             ASSERT_EQ(m.fields._length, 6u);
             ASSERT_EQ(m.data._length, 100u * kPointStep);
             for (std::size_t v = 0; v < 100; ++v) {
-                const std::uint8_t* p = m.data._buffer + v * kPointStep;
-                float xyz[3], intensity;
-                std::memcpy(xyz, p, sizeof(xyz));
-                std::memcpy(&intensity, p + 12, sizeof(float));
-                EXPECT_FLOAT_EQ(xyz[0], static_cast<float>(v) + 0.5f);  // the centroid
-                EXPECT_FLOAT_EQ(xyz[1], 0.5f);
-                EXPECT_FLOAT_EQ(intensity, 1.5f);                          // the mean
-                EXPECT_EQ(p[16], static_cast<std::uint8_t>((4 * v) % 3));  // the first point's
-                EXPECT_EQ(p[17], v % 5 == 0 ? 1 : 0);
+                const CloudPoint p = point_at(m, v);
+                EXPECT_FLOAT_EQ(p.xyz[0], static_cast<float>(v) + 0.5f);  // the centroid
+                EXPECT_FLOAT_EQ(p.xyz[1], 0.5f);
+                EXPECT_FLOAT_EQ(p.intensity, 1.5f);                           // the mean
+                EXPECT_EQ(p.sensor, static_cast<std::uint8_t>((4 * v) % 3));  // the first point's
+                EXPECT_EQ(p.dynamic, v % 5 == 0 ? 1 : 0);
             }
         });
         return received >= 1;
