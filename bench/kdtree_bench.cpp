@@ -52,17 +52,18 @@ struct Adaptor {
 using Nanoflann = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Adaptor>,
                                                       Adaptor, 3, std::uint32_t>;
 
-// nanoflann's 1-nearest with a start bound (the same result set core/ used with it).
+// nanoflann's 1-nearest with a start bound (the same result set core/ used with it); the
+// method names are the ones nanoflann's result-set interface calls.
 class BoundedNearest {
 public:
     explicit BoundedNearest(double bound) : best_(bound) {}
     std::size_t size() const { return found_ ? 1 : 0; }
     bool full() const { return true; }
-    bool addPoint(double d2, std::uint32_t i) {
+    bool addPoint(double d2, std::uint32_t i) {  // NOLINT(readability-identifier-naming)
         if (d2 < best_) best_ = d2, index_ = i, found_ = true;
         return true;
     }
-    double worstDist() const { return best_; }
+    double worstDist() const { return best_; }  // NOLINT(readability-identifier-naming)
     std::uint32_t index_ = 0;
     double best_;
     bool found_ = false;

@@ -25,7 +25,7 @@ namespace {
 
 using namespace lidarfuse;
 
-constexpr double kOs1_64LineRatePacketsPerS = 1280.0;
+constexpr double kOs1LineRatePacketsPerS = 1280.0;
 
 struct Case {
     const char* name;  // profile (and sensor) in the output
@@ -95,7 +95,7 @@ void run_case(const std::filesystem::path& dir, const Case& c, int frames) {
     std::printf("ouster_assemble_%s_points_per_s %.0f points/s\n", c.name,
                 static_cast<double>(points) / cpu_s);
     std::printf("ouster_assemble_%s_vs_os1_64_2048x10_line_rate %.1f ratio\n", c.name,
-                rate / kOs1_64LineRatePacketsPerS);
+                rate / kOs1LineRatePacketsPerS);
     std::printf("ouster_assemble_%s_frames %llu frames\n", c.name,
                 static_cast<unsigned long long>(frames_out));
     if (k.frames_incomplete + k.late_packets + k.bad_profile + k.crc_errors != 0) {
@@ -125,6 +125,6 @@ int main(int argc, char** argv) {
     };
     for (const auto& c : cases) run_case(dir, c, frames);
     std::printf("ouster_assemble_os1_64_2048x10_line_rate %.0f packets/s\n",
-                kOs1_64LineRatePacketsPerS);
+                kOs1LineRatePacketsPerS);
     return 0;
 }

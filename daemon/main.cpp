@@ -27,7 +27,7 @@
 
 namespace {
 
-const char* kUsage =
+const char* const kUsage =
     "usage: lidarfused --config STATION.yaml [--check] [--output-dir DIR]\n"
     "  --check        validate the config (and metadata files) and exit\n"
     "  --output-dir   override output.directory\n";

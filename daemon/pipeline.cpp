@@ -166,7 +166,7 @@ void Pipeline::start() {
     Impl& m = *impl_;
     for (auto& r : m.receivers) {
         const std::string name = "lf-recv-" + std::to_string(r->socket->sockets().front().port);
-        r->thread = std::thread([&m, rp = r.get(), name] {
+        r->thread = std::thread([rp = r.get(), name] {
             ::pthread_setname_np(::pthread_self(), name.c_str());
             run_receiver(rp);
         });

@@ -117,8 +117,8 @@ const RosTypeDescription& find_type(const std::map<std::string, const RosTypeDes
 }  // namespace
 
 const std::vector<RosTypeDescription>& published_ros_types() {
-    static const std::vector<RosTypeDescription> types = make_published_types();
-    return types;
+    static const std::vector<RosTypeDescription> kTypes = make_published_types();
+    return kTypes;
 }
 
 std::string ros_type_description_json(const std::string& type_name,

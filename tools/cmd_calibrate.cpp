@@ -37,7 +37,7 @@ namespace lidarfuse::tools {
 
 namespace {
 
-const char* kUsage =
+const char* const kUsage =
     "usage: lidarfuse calibrate CAPTURE.pcap --config station.yaml --out extrinsics.yaml\n"
     "                           [--frame N] [--threads N] [--quiet]\n"
     "       lidarfuse calibrate --cloud NAME=FILE --cloud NAME=FILE [--cloud NAME=FILE ...]\n"

@@ -40,7 +40,7 @@ double process_cpu_ms() {
     return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
 }
 
-const char* kUsage =
+const char* const kUsage =
     "usage: lidarfuse fuse CAPTURE.pcap|RECORDING --config station.yaml --out DIR\n"
     "                      [--voxel-size M] [--window K] [--threads N] [--save-cloud FRAME ...]\n"
     "                      [--max-frames N]\n"

@@ -12,8 +12,8 @@ namespace {
 
 constexpr double kWidth = 900, kHeight = 420;
 constexpr double kLeft = 80, kRight = 170, kTop = 40, kBottom = 60;
-const char* kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
-                          "#9467bd", "#8c564b", "#e377c2", "#17becf"};
+const char* const kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
+                                "#9467bd", "#8c564b", "#e377c2", "#17becf"};
 
 std::string escape(const std::string& text) {
     std::string out;

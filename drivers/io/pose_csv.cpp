@@ -61,8 +61,8 @@ std::vector<PoseRecord> parse_pose_csv(std::istream& in, const std::string& sour
         fail(source_name, number,
              std::string("expected the header \"") + kPoseCsvHeader + "\", got \"" + line + "\"");
     }
-    static const char* kColumns[] = {"frame", "sensor", "t_ns", "x",  "y",
-                                     "z",     "qw",     "qx",   "qy", "qz"};
+    static const char* const kColumns[] = {"frame", "sensor", "t_ns", "x",  "y",
+                                           "z",     "qw",     "qx",   "qy", "qz"};
     while (std::getline(in, line)) {
         ++number;
         if (!line.empty() && line.back() == '\r') line.pop_back();

@@ -30,11 +30,11 @@ TEST(KdTree, KnnAndRadiusMatchBruteForce) {
         }
         std::sort(brute.begin(), brute.end());
 
-        constexpr std::size_t k = 8;
-        std::uint32_t idx[k];
-        double d2[k];
-        ASSERT_EQ(tree.knn(q, k, idx, d2), k);
-        for (std::size_t j = 0; j < k; ++j) {
+        constexpr std::size_t kNeighbors = 8;
+        std::uint32_t idx[kNeighbors];
+        double d2[kNeighbors];
+        ASSERT_EQ(tree.knn(q, kNeighbors, idx, d2), kNeighbors);
+        for (std::size_t j = 0; j < kNeighbors; ++j) {
             EXPECT_EQ(idx[j], brute[j].second);
             EXPECT_DOUBLE_EQ(d2[j], brute[j].first);
         }
@@ -119,13 +119,13 @@ TEST(KdTree, ParallelBuildAnswersAsTheSerialOne) {
     const KdTree serial(points, 10, 1);
     const KdTree parallel(points, 10, 2);
     ASSERT_EQ(parallel.size(), points.size());
-    constexpr std::size_t k = 12;
+    constexpr std::size_t kNeighbors = 12;
     for (const auto& q : queries) {
-        std::uint32_t ia[k], ib[k];
-        double da[k], db[k];
-        ASSERT_EQ(serial.knn(q, k, ia, da), k);
-        ASSERT_EQ(parallel.knn(q, k, ib, db), k);
-        for (std::size_t j = 0; j < k; ++j) {
+        std::uint32_t ia[kNeighbors], ib[kNeighbors];
+        double da[kNeighbors], db[kNeighbors];
+        ASSERT_EQ(serial.knn(q, kNeighbors, ia, da), kNeighbors);
+        ASSERT_EQ(parallel.knn(q, kNeighbors, ib, db), kNeighbors);
+        for (std::size_t j = 0; j < kNeighbors; ++j) {
             EXPECT_EQ(ia[j], ib[j]);
             EXPECT_EQ(da[j], db[j]);
         }

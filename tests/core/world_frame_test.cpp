@@ -263,7 +263,7 @@ TEST(WorldFrame, GeoTrackerFitsTheAnchorsMeanPositionsOverTheWindow) {
         for (std::int64_t f = 0;; ++f) {
             out.frame_index = f;
             if (f == 5) {  // the registration applied: counted from here on
-                out.applied_registration.emplace();
+                out.applied_registration = FrameOutput::AppliedRegistration{};
                 out.initial_registration_pending = false;
             } else {
                 out.applied_registration.reset();

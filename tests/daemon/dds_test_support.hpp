@@ -20,7 +20,7 @@ namespace lidarfuse::test {
 // Cyclone on the loopback interface only (it falls back to unicast discovery there), with
 // room for the participants of parallel tests, large datagrams, and quiet logs. Must run
 // before the first participant of the process; also inherited by child processes.
-inline const char* kLoopbackDdsConfig =
+inline const char* const kLoopbackDdsConfig =
     "<General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
     "<MaxMessageSize>65500B</MaxMessageSize><FragmentSize>64000B</FragmentSize></General>"
     "<Discovery><ParticipantIndex>auto</ParticipantIndex>"

@@ -17,7 +17,7 @@
 namespace lidarfuse::daemon {
 namespace {
 
-const char* kPackage = "lidarfuse_msgs";
+const char* const kPackage = "lidarfuse_msgs";
 
 std::string read_text(const std::filesystem::path& file) {
     std::ifstream in(file);
@@ -56,7 +56,7 @@ struct Primitive {
     int type_id;
 };
 const std::map<std::string, Primitive>& primitives() {
-    static const std::map<std::string, Primitive> p = {
+    static const std::map<std::string, Primitive> kPrimitives = {
         {"bool", {"boolean", kRosBool}},      {"byte", {"octet", kRosByte}},
         {"char", {"uint8", kRosUint8}},       {"float32", {"float", kRosFloat32}},
         {"float64", {"double", kRosFloat64}}, {"int8", {"int8", kRosInt8}},
@@ -64,7 +64,7 @@ const std::map<std::string, Primitive>& primitives() {
         {"uint16", {"uint16", kRosUint16}},   {"int32", {"int32", kRosInt32}},
         {"uint32", {"uint32", kRosUint32}},   {"int64", {"int64", kRosInt64}},
         {"uint64", {"uint64", kRosUint64}},   {"string", {"string", kRosString}}};
-    return p;
+    return kPrimitives;
 }
 
 // "pkg/Type" or "Type" (this package) -> "pkg/msg/Type".

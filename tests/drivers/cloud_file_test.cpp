@@ -37,7 +37,10 @@ const Encoding kEncodings[] = {
     {"ply_binary_big_endian", false, {}, PlyEncoding::kBinaryBigEndian},
 };
 
-void PrintTo(const Encoding& e, std::ostream* out) { *out << e.name; }
+// GoogleTest finds a parameter's printer by this name.
+void PrintTo(const Encoding& e, std::ostream* out) {  // NOLINT(readability-identifier-naming)
+    *out << e.name;
+}
 
 CloudFile write_and_read(const Encoding& e, const CloudFile& cloud, const fs::path& dir) {
     const fs::path file = dir / (std::string("cloud.") + (e.pcd ? "pcd" : "ply"));
@@ -176,7 +179,10 @@ const Golden kGolden[] = {
      {-7.75295877f, -1.37878072f, -5.06705952f, 13.0f}},
 };
 
-void PrintTo(const Golden& g, std::ostream* out) { *out << g.file; }
+// GoogleTest finds a parameter's printer by this name.
+void PrintTo(const Golden& g, std::ostream* out) {  // NOLINT(readability-identifier-naming)
+    *out << g.file;
+}
 
 class CloudFileGolden : public ::testing::TestWithParam<Golden> {};
 

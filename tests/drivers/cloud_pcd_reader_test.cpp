@@ -34,7 +34,7 @@ const Record kRecords[] = {
     {123456.789, 7.0, -8.0, 0, 4},
 };
 
-const char* kMixedHeader =
+const char* const kMixedHeader =
     "# .PCD v0.7 - hand made\nVERSION 0.7\nFIELDS intensity _ normal z y x ring\n"
     "SIZE 2 1 4 8 4 8 2\nTYPE U U F F F F I\nCOUNT 1 3 3 1 1 1 1\nWIDTH 2\nHEIGHT 2\n"
     "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 4\nDATA ";

@@ -527,7 +527,7 @@ TEST(OusterMetadata, RandomMutationsNeverCrash) {
     }
     if (corpus.empty()) GTEST_SKIP() << "sample data not found";
     std::mt19937_64 rng(20261121);
-    const json kWeird[] = {
+    static const json kWeird[] = {
         json(),         json(-1),   json(1e308),        json("x"), json::array(),
         json::object(), json(true), json(4294967296LL), json(0.5), json::array({1, "a"})};
     int parsed = 0;

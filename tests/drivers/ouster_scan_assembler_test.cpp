@@ -314,7 +314,7 @@ TEST(ScanAssembler, ImuWrongSizeWrongSerialAndBadCrcAreSkippedAndCounted) {
     EXPECT_EQ(rig.assembler.add_packet(unfilled.data(), unfilled.size()),
               PacketOutcome::kAssembled);
     auto marker = rig.writer.packet(3, 16);
-    const std::uint8_t kMarker[8] = {0xde, 0xc0, 0x00, 0x00, 0xef, 0xbe, 0xad, 0xde};
+    constexpr std::uint8_t kMarker[8] = {0xde, 0xc0, 0x00, 0x00, 0xef, 0xbe, 0xad, 0xde};
     std::copy(kMarker, kMarker + 8, marker.begin() + static_cast<std::ptrdiff_t>(crc_at));
     EXPECT_EQ(rig.assembler.add_packet(marker.data(), marker.size()), PacketOutcome::kAssembled);
 

@@ -295,7 +295,7 @@ TEST(IngestFaults, ColumnTimestampsAnywhereInTheRangeGiveFinitePointTimes) {
     const SensorInfo info = sensor(kRng19, 512, kSerial, 7502);
     const PacketFormat format(info);
     const ouster::XyzLut lut = ouster::make_xyz_lut(info);
-    const std::uint64_t kMax = std::numeric_limits<std::uint64_t>::max();
+    constexpr std::uint64_t kMax = std::numeric_limits<std::uint64_t>::max();
     for (const auto& [t0, step] : std::vector<std::pair<std::uint64_t, std::uint64_t>>{
              {0, kMax / 600}, {kMax - 512, 1}, {1ull << 63, 1ull << 50}, {5, 0}}) {
         std::vector<std::vector<float>> times;

@@ -55,7 +55,7 @@ std::string md5_hex(const void* data, std::size_t size) {
     if (EVP_Digest(data, size, digest.data(), &length, EVP_md5(), nullptr) != 1) {
         throw std::runtime_error("EVP_Digest(md5) failed");
     }
-    static const char* kHex = "0123456789abcdef";
+    static const char* const kHex = "0123456789abcdef";
     std::string out;
     for (unsigned int i = 0; i < length; ++i) {
         out += kHex[digest[i] >> 4];
@@ -138,8 +138,8 @@ std::uint16_t reserve_port_block() {
 }  // namespace
 
 std::uint16_t port_block() {
-    static const std::uint16_t base = reserve_port_block();
-    return base;
+    static const std::uint16_t kBase = reserve_port_block();
+    return kBase;
 }
 
 int port_block_index() { return (port_block() - kFirstBlockPort) / kPortBlockSize; }

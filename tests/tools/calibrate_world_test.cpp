@@ -22,7 +22,7 @@ protected:
         std::string out;
         ASSERT_EQ(
             test::run_command(
-                tool_ + " sim --scenario curve --seed 1 --seconds 1 --out " + d() + "/sim", &out),
+                kTool + " sim --scenario curve --seed 1 --seconds 1 --out " + d() + "/sim", &out),
             0)
             << out;
         std::ifstream in(dir_->path() / "sim" / "station.yaml");
@@ -48,14 +48,14 @@ protected:
                                             std::string* out) {
         std::ofstream(dir_->path() / "sim" / (name + ".yaml")) << station_yaml_ << world_yaml;
         const int status = test::run_command(
-            tool_ + " calibrate " + d() + "/sim/capture.pcap --config " + d() + "/sim/" + name +
+            kTool + " calibrate " + d() + "/sim/capture.pcap --config " + d() + "/sim/" + name +
                 ".yaml --out " + d() + "/" + name + ".extrinsics.yaml",
             out);
         EXPECT_EQ(status, 0) << *out;
         return io::read_extrinsics_document(dir_->path() / (name + ".extrinsics.yaml"));
     }
     static inline test::TempDir* dir_ = nullptr;
-    static inline const std::string tool_ = test::tool_path();
+    static inline const std::string kTool = test::tool_path();
     static inline std::string station_yaml_;
     static inline std::map<std::string, Eigen::Vector3d> truth_;  // simulator world (road z = 0)
 };

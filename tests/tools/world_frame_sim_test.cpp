@@ -31,10 +31,10 @@ protected:
         std::string out;
         ASSERT_EQ(
             test::run_command(
-                tool_ + " sim --scenario curve --seed 1 --seconds 2 --out " + d + "/sim", &out),
+                kTool + " sim --scenario curve --seed 1 --seconds 2 --out " + d + "/sim", &out),
             0)
             << out;
-        ASSERT_EQ(test::run_command(tool_ + " fuse " + d + "/sim/capture.pcap --config " + d +
+        ASSERT_EQ(test::run_command(kTool + " fuse " + d + "/sim/capture.pcap --config " + d +
                                         "/sim/station.yaml --out " + d + "/road --save-cloud 20",
                                     &road_output_),
                   0)
@@ -45,7 +45,7 @@ protected:
         dir_ = nullptr;
     }
     static inline test::TempDir* dir_ = nullptr;
-    static inline const std::string tool_ = test::tool_path();
+    static inline const std::string kTool = test::tool_path();
     static inline std::string road_output_;
 };
 
@@ -124,7 +124,7 @@ TEST_F(WorldFrameSim, SensorHeightsMatchGroundTruth) {
 TEST_F(WorldFrameSim, EvalGivesTheSameErrorsInTheRoadAndTheSensorFrame) {
     const std::string d = dir_->path().string();
     std::string out;
-    ASSERT_EQ(test::run_command(tool_ + " fuse " + d + "/sim/capture.pcap --config " + d +
+    ASSERT_EQ(test::run_command(kTool + " fuse " + d + "/sim/capture.pcap --config " + d +
                                     "/sim/station.yaml --out " + d + "/sensor --world sensor",
                                 &out),
               0)
@@ -133,11 +133,11 @@ TEST_F(WorldFrameSim, EvalGivesTheSameErrorsInTheRoadAndTheSensorFrame) {
     ASSERT_FALSE(sensor_poses.empty());
     EXPECT_TRUE(sensor_poses.front().pose.isApprox(Eigen::Isometry3d::Identity(), 1e-9));
     std::string road_eval, sensor_eval;
-    ASSERT_EQ(test::run_command(tool_ + " eval --gt " + d + "/sim/ground_truth.csv --poses " + d +
+    ASSERT_EQ(test::run_command(kTool + " eval --gt " + d + "/sim/ground_truth.csv --poses " + d +
                                     "/road/poses.csv",
                                 &road_eval),
               0);
-    ASSERT_EQ(test::run_command(tool_ + " eval --gt " + d + "/sim/ground_truth.csv --poses " + d +
+    ASSERT_EQ(test::run_command(kTool + " eval --gt " + d + "/sim/ground_truth.csv --poses " + d +
                                     "/sensor/poses.csv",
                                 &sensor_eval),
               0);
