@@ -19,7 +19,7 @@ packages=(
 )
 # Tests, sanitizers, fuzzers and benchmarks on top.
 test_packages=(
-    git clang libclang-rt-dev clang-format cyclonedds-tools systemd
+    git clang libclang-rt-dev clang-format clang-tidy cyclonedds-tools systemd
     libgtest-dev libgmock-dev libbenchmark-dev iproute2 lintian
     nodejs npm
 )

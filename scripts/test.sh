@@ -30,6 +30,10 @@ stage "release build (RelWithDebInfo at -O2 -g1, -Werror)"
 "$top/scripts/build.sh" "$top/build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
     "${unity[@]}" "${data_args[@]}"
+# The house naming rules (.clang-tidy) on every unit of that tree, which includes the
+# generated message headers its units need.
+stage "naming (clang-tidy, .clang-tidy)"
+"$top/scripts/check_naming.sh" "$top/build"
 # The live view's test client (Foxglove's npm packages, exactly package-lock.json's
 # versions) into the build folder; lidarfused_foxglove_test skips without it.
 stage "foxglove test client (npm ci)"
