@@ -336,28 +336,85 @@ double GicpRegistration::evaluate(const GicpTarget& target, const PointCloud& so
     return sum;
 }
 
+namespace {
+
+// kEmptyInput or kMissingCovariances when the pair cannot be registered, else
+// kMaxIterations: the status of a run that no other condition ends.
+GicpStatus input_status(const GicpTarget& target, const PointCloud& source) {
+    if (source.empty() || target.empty()) return GicpStatus::kEmptyInput;
+    if (!source.has_covariances() || !target.cloud().has_covariances()) {
+        return GicpStatus::kMissingCovariances;
+    }
+    return GicpStatus::kMaxIterations;
+}
+
+bool is_small_update(const Vector6d& delta, const GicpParams& params) {
+    return delta.head<3>().norm() < params.rotation_eps_rad &&
+           delta.tail<3>().norm() < params.translation_eps_m;
+}
+
+// The error figures of the result from the sums over its inlier correspondences.
+void report_error(double error, double sum_sq_dist_m2, std::size_t num_inliers,
+                  GicpResult* result) {
+    result->num_inliers = num_inliers;
+    result->inlier_ratio =
+        static_cast<double>(num_inliers) / static_cast<double>(result->num_source);
+    result->error = error;
+    if (num_inliers > 0) {
+        result->mean_error = error / static_cast<double>(num_inliers);
+        result->rmse_m = std::sqrt(sum_sq_dist_m2 / static_cast<double>(num_inliers));
+        const double dof = 3.0 * static_cast<double>(num_inliers) - 6.0;
+        result->reduced_chi2 = dof > 0.0 ? error / dof : 0.0;
+    }
+}
+
+// H (symmetrised), b and H's spectra (ascending) into the result.
+void report_information(const Matrix6d& H, const Vector6d& b, GicpResult* result) {
+    result->H = 0.5 * (H + H.transpose());  // remove summation asymmetry
+    result->b = b;
+    if (result->H.allFinite()) {
+        Eigen::SelfAdjointEigenSolver<Matrix6d> eig(result->H, Eigen::EigenvaluesOnly);
+        result->H_eigenvalues = eig.eigenvalues();
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig_t(result->H.bottomRightCorner<3, 3>(),
+                                                             Eigen::EigenvaluesOnly);
+        result->H_translation_eigenvalues = eig_t.eigenvalues();
+    }
+}
+
+}  // namespace
+
+bool GicpRegistration::levenberg_marquardt_step(const GicpTarget& target, const PointCloud& source,
+                                                const Linearization& lin, double* lambda,
+                                                Eigen::Isometry3d* T, Vector6d* delta) {
+    for (int inner = 0; inner < params_.lm_max_inner_iterations; ++inner) {
+        const Matrix6d A = lin.H + *lambda * Matrix6d::Identity();
+        *delta = A.ldlt().solve(-lin.b);
+        if (!delta->allFinite()) return false;
+        const Eigen::Isometry3d T_new = *T * se3_exp(*delta);
+        if (evaluate(target, source, T_new) <= lin.error) {
+            *T = T_new;
+            *lambda = std::max(*lambda * 0.1, 1e-12);
+            return true;
+        }
+        *lambda *= 10.0;
+    }
+    return false;
+}
+
 GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& source,
                                    const Eigen::Isometry3d& T_init,
                                    const std::vector<std::int32_t>* guess) {
     GicpResult result;
     result.T_target_source = T_init;
     result.num_source = source.size();
-    if (source.empty() || target.empty()) {
-        result.status = GicpStatus::kEmptyInput;
-        return result;
-    }
-    if (!source.has_covariances() || !target.cloud().has_covariances()) {
-        result.status = GicpStatus::kMissingCovariances;
-        return result;
-    }
+    result.status = input_status(target, source);
+    if (result.status != GicpStatus::kMaxIterations) return result;
 
     const bool has_guess = guess && guess->size() == source.size();
     Eigen::Isometry3d T = T_init;
     Linearization lin;
     double lambda = params_.lm_initial_lambda;
     bool last_linearization_current = false;  // lin was computed at T
-    result.status = GicpStatus::kMaxIterations;
-
     for (int iteration = 0; iteration < params_.max_iterations; ++iteration) {
         if (iteration == 0 && has_guess) target_index_ = *guess;
         linearize(target, source, T, /*reuse_correspondences=*/iteration > 0 || has_guess, &lin);
@@ -370,42 +427,19 @@ GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& s
         bool stop = false;
         if (params_.solver == GicpSolver::kGaussNewton) {
             delta = lin.H.ldlt().solve(-lin.b);
-            if (!delta.allFinite()) {
-                result.status = GicpStatus::kSingular;
-                break;
-            }
-            T = T * se3_exp(delta);
-            last_linearization_current = false;
+            if (delta.allFinite()) T = T * se3_exp(delta);
         } else {
-            // Levenberg-Marquardt: accept the damped step only if the robust error over
-            // the current correspondences decreases.
-            bool accepted = false;
-            for (int inner = 0; inner < params_.lm_max_inner_iterations; ++inner) {
-                const Matrix6d A = lin.H + lambda * Matrix6d::Identity();
-                delta = A.ldlt().solve(-lin.b);
-                if (!delta.allFinite()) break;
-                const Eigen::Isometry3d T_new = T * se3_exp(delta);
-                if (evaluate(target, source, T_new) <= lin.error) {
-                    T = T_new;
-                    last_linearization_current = false;
-                    lambda = std::max(lambda * 0.1, 1e-12);
-                    accepted = true;
-                    break;
-                }
-                lambda *= 10.0;
-            }
-            if (!delta.allFinite()) {
-                result.status = GicpStatus::kSingular;
-                break;
-            }
             // No step lowers the error even with heavy damping: T is a local minimum for
             // these correspondences, which do not change when T does not.
-            if (!accepted) stop = true;
+            stop = !levenberg_marquardt_step(target, source, lin, &lambda, &T, &delta);
         }
+        if (!delta.allFinite()) {
+            result.status = GicpStatus::kSingular;
+            break;
+        }
+        last_linearization_current = stop;  // T has moved unless the LM step found none
         result.iterations = iteration + 1;
-        const bool small_update = delta.head<3>().norm() < params_.rotation_eps_rad &&
-                                  delta.tail<3>().norm() < params_.translation_eps_m;
-        if (stop || small_update) {
+        if (stop || is_small_update(delta, params_)) {
             result.status = GicpStatus::kConverged;
             break;
         }
@@ -419,25 +453,8 @@ GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& s
     }
     result.converged = result.status == GicpStatus::kConverged;
     result.T_target_source = T;
-    result.num_inliers = lin.num_inliers;
-    result.inlier_ratio =
-        static_cast<double>(lin.num_inliers) / static_cast<double>(result.num_source);
-    result.error = lin.error;
-    if (lin.num_inliers > 0) {
-        result.mean_error = lin.error / static_cast<double>(lin.num_inliers);
-        result.rmse_m = std::sqrt(lin.sum_sq_dist_m2 / static_cast<double>(lin.num_inliers));
-        const double dof = 3.0 * static_cast<double>(lin.num_inliers) - 6.0;
-        result.reduced_chi2 = dof > 0.0 ? lin.error / dof : 0.0;
-    }
-    result.H = 0.5 * (lin.H + lin.H.transpose());  // remove summation asymmetry
-    result.b = lin.b;
-    if (result.H.allFinite()) {
-        Eigen::SelfAdjointEigenSolver<Matrix6d> eig(result.H, Eigen::EigenvaluesOnly);
-        result.H_eigenvalues = eig.eigenvalues();
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig_t(result.H.bottomRightCorner<3, 3>(),
-                                                             Eigen::EigenvaluesOnly);
-        result.H_translation_eigenvalues = eig_t.eigenvalues();
-    }
+    report_error(lin.error, lin.sum_sq_dist_m2, lin.num_inliers, &result);
+    report_information(lin.H, lin.b, &result);
     return result;
 }
 
