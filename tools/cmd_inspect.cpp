@@ -147,49 +147,62 @@ void print_summary(const SensorState& s) {
     }
 }
 
-int run_inspect(int argc, char** argv) {
-    const Args args(argc, argv, {"--meta", "--export", "--out", "--sensor"},
-                    {"--digest", "--frames"});
-    if (args.help() || args.positionals().size() != 1) {
-        std::printf(
-            "usage: lidarfuse inspect CAPTURE.pcap --meta M.json[@SRC_IP] [--meta ...]\n"
-            "                         [--frames] [--digest]\n"
-            "                         [--export FRAME_ID --out scan.ply [--sensor INDEX]]\n"
-            "Assembles the Ouster packets of a capture per sensor and prints a summary as\n"
-            "`inspect_<sensor>_<name> value unit` lines (<sensor> = serial number, or the\n"
-            "--meta index when the metadata has none).\n"
-            "  --frames   one `scan frame <id> sensor <s> ...` line per assembled frame\n"
-            "  --digest   per frame and field `frame <id> <FIELD> <md5> sensor <s>` (md5 of the\n"
-            "             staggered array in Ouster's digest convention)\n"
-            "  --export   writes the xyz (sensor frame, metres; one vertex per pixel with a\n"
-            "             return) of the frame with that frame_id as a binary PLY; --sensor\n"
-            "             picks the --meta index when several sensors have that frame id\n"
-            "Sensors sharing a port are told apart by header serial, packet size, and source\n"
-            "address (learnt, or pinned with M.json@A.B.C.D; two LEGACY sensors of the same\n"
-            "model need it).\n");
-        return args.help() ? 0 : 2;
-    }
-    const auto metas = args.values("--meta");
-    if (metas.empty()) throw UsageError("missing required option --meta");
+const char* kUsage =
+    "usage: lidarfuse inspect CAPTURE.pcap --meta M.json[@SRC_IP] [--meta ...]\n"
+    "                         [--frames] [--digest]\n"
+    "                         [--export FRAME_ID --out scan.ply [--sensor INDEX]]\n"
+    "Assembles the Ouster packets of a capture per sensor and prints a summary as\n"
+    "`inspect_<sensor>_<name> value unit` lines (<sensor> = serial number, or the\n"
+    "--meta index when the metadata has none).\n"
+    "  --frames   one `scan frame <id> sensor <s> ...` line per assembled frame\n"
+    "  --digest   per frame and field `frame <id> <FIELD> <md5> sensor <s>` (md5 of the\n"
+    "             staggered array in Ouster's digest convention)\n"
+    "  --export   writes the xyz (sensor frame, metres; one vertex per pixel with a\n"
+    "             return) of the frame with that frame_id as a binary PLY; --sensor\n"
+    "             picks the --meta index when several sensors have that frame id\n"
+    "Sensors sharing a port are told apart by header serial, packet size, and source\n"
+    "address (learnt, or pinned with M.json@A.B.C.D; two LEGACY sensors of the same\n"
+    "model need it).\n";
 
+ExportRequest export_request(const Args& args, std::size_t num_metas) {
     ExportRequest request;
     if (const auto id = args.value("--export")) {
         request.wanted = true;
         request.frame_id = static_cast<std::uint32_t>(args.integer("--export", 0));
         request.out = args.required("--out");
         request.sensor = static_cast<int>(args.integer("--sensor", -1));
-        if (request.sensor >= static_cast<int>(metas.size())) {
+        if (request.sensor >= static_cast<int>(num_metas)) {
             throw UsageError("--sensor " + std::to_string(request.sensor) + ": only " +
-                             std::to_string(metas.size()) + " --meta given");
+                             std::to_string(num_metas) + " --meta given");
         }
     }
-    const bool digest = args.flag("--digest");
-    const bool frames = args.flag("--frames");
+    return request;
+}
 
-    std::vector<ouster::RoutedSensor> routed;
-    for (const auto& m : metas) routed.push_back(parse_meta_option(m));
-    ouster::SensorRouter router(routed);
+// What inspect does with each frame a sensor's assembler emits. The request is shared by all
+// sensors' handlers: the first matching frame is exported. Single-threaded (the read loop).
+struct ScanHandler {
+    SensorState* self;
+    int index;  // --meta index
+    ExportRequest* request;
+    bool digest;
+    bool frames;
 
+    void operator()(const ouster::LidarScan& scan) const {
+        record_frame(*self, scan);
+        if (frames || digest) print_scan_line(*self, scan);
+        if (digest) print_digest(*self, scan);
+        if (request->wanted && !request->done && scan.frame_id == request->frame_id &&
+            (request->sensor < 0 || request->sensor == index)) {
+            export_scan(*request, *self, scan);
+        }
+    }
+};
+
+// One state per --meta, labelled by serial number (made unique), each with its assembler.
+std::vector<std::unique_ptr<SensorState>> make_sensors(
+    const std::vector<ouster::RoutedSensor>& routed, ExportRequest* request, bool digest,
+    bool frames) {
     std::vector<std::unique_ptr<SensorState>> sensors;
     for (std::size_t i = 0; i < routed.size(); ++i) {
         auto s = std::make_unique<SensorState>();
@@ -198,26 +211,20 @@ int run_inspect(int argc, char** argv) {
         for (std::size_t j = 0; j < i; ++j) {
             if (sensors[j]->label == s->label) s->label += "_" + std::to_string(i);
         }
-        SensorState* self = s.get();
-        const int index = static_cast<int>(i);
         s->assembler = std::make_unique<ouster::ScanAssembler>(
             s->info, ouster::ScanAssemblerParams{},
-            [self, index, &request, digest, frames](const ouster::LidarScan& scan) {
-                record_frame(*self, scan);
-                if (frames || digest) print_scan_line(*self, scan);
-                if (digest) print_digest(*self, scan);
-                if (request.wanted && !request.done && scan.frame_id == request.frame_id &&
-                    (request.sensor < 0 || request.sensor == index)) {
-                    export_scan(request, *self, scan);
-                }
-            });
+            ScanHandler{s.get(), static_cast<int>(i), request, digest, frames});
         sensors.push_back(std::move(s));
     }
+    return sensors;
+}
 
-    pcap::PcapReader reader(args.positionals()[0]);
+// Routes every datagram of the capture to its sensor's assembler (capture times in ns).
+void assemble_capture(pcap::PcapReader* reader, ouster::SensorRouter* router,
+                      const std::vector<std::unique_ptr<SensorState>>& sensors) {
     pcap::UdpDatagram d;
-    while (reader.next(&d)) {
-        const int i = router.route(d.src_ip, d.dst_port, d.data, d.size);
+    while (reader->next(&d)) {
+        const int i = router->route(d.src_ip, d.dst_port, d.data, d.size);
         if (i == ouster::SensorRouter::kUnassigned) continue;
         SensorState& s = *sensors[static_cast<std::size_t>(i)];
         if (!s.have_capture_time) s.first_capture_ns = d.timestamp_ns;
@@ -226,7 +233,9 @@ int run_inspect(int argc, char** argv) {
         s.assembler->add_packet(d.data, d.size);
     }
     for (auto& s : sensors) s->assembler->flush();
+}
 
+void print_capture_summary(const pcap::PcapReader& reader, const ouster::SensorRouter& router) {
     const auto& rs = reader.stats();
     std::printf("inspect_capture_records %" PRIu64 " records\n", rs.records);
     std::printf("inspect_capture_udp_datagrams %" PRIu64 " datagrams\n", rs.udp_datagrams);
@@ -234,25 +243,50 @@ int run_inspect(int argc, char** argv) {
     std::printf("inspect_capture_dropped_incomplete %" PRIu64 " datagrams\n",
                 rs.dropped_incomplete);
     std::printf("inspect_capture_unassigned %" PRIu64 " datagrams\n", router.counters().unassigned);
+}
+
+// The export's lines, or why there is none (exit code 1).
+int report_export(const ExportRequest& request, const std::string& capture_file) {
+    if (!request.wanted) return 0;
+    if (!request.done) {
+        std::fprintf(
+            stderr, "lidarfuse inspect: no frame with frame_id %" PRIu32 "%s in %s\n",
+            request.frame_id,
+            request.sensor >= 0 ? (" from sensor " + std::to_string(request.sensor)).c_str() : "",
+            capture_file.c_str());
+        return 1;
+    }
+    std::printf("export_frame %" PRIu32 " frame_id\n", request.frame_id);
+    std::printf("export_sensor %s name\n", request.sensor_label.c_str());
+    std::printf("export_vertices %zu points\n", request.vertices);
+    std::fprintf(stderr, "wrote %s\n", request.out.c_str());
+    return 0;
+}
+
+int run_inspect(int argc, char** argv) {
+    const Args args(argc, argv, {"--meta", "--export", "--out", "--sensor"},
+                    {"--digest", "--frames"});
+    if (args.help() || args.positionals().size() != 1) {
+        std::printf("%s", kUsage);
+        return args.help() ? 0 : 2;
+    }
+    const auto metas = args.values("--meta");
+    if (metas.empty()) throw UsageError("missing required option --meta");
+    ExportRequest request = export_request(args, metas.size());
+    const bool digest = args.flag("--digest");
+    const bool frames = args.flag("--frames");
+
+    std::vector<ouster::RoutedSensor> routed;
+    for (const auto& m : metas) routed.push_back(parse_meta_option(m));
+    ouster::SensorRouter router(routed);
+    const auto sensors = make_sensors(routed, &request, digest, frames);
+
+    pcap::PcapReader reader(args.positionals()[0]);
+    assemble_capture(&reader, &router, sensors);
+    print_capture_summary(reader, router);
     for (const auto& s : sensors) print_summary(*s);
     if (!reader.warning().empty()) std::fprintf(stderr, "warning: %s\n", reader.warning().c_str());
-
-    if (request.wanted) {
-        if (!request.done) {
-            std::fprintf(stderr, "lidarfuse inspect: no frame with frame_id %" PRIu32 "%s in %s\n",
-                         request.frame_id,
-                         request.sensor >= 0
-                             ? (" from sensor " + std::to_string(request.sensor)).c_str()
-                             : "",
-                         args.positionals()[0].c_str());
-            return 1;
-        }
-        std::printf("export_frame %" PRIu32 " frame_id\n", request.frame_id);
-        std::printf("export_sensor %s name\n", request.sensor_label.c_str());
-        std::printf("export_vertices %zu points\n", request.vertices);
-        std::fprintf(stderr, "wrote %s\n", request.out.c_str());
-    }
-    return 0;
+    return report_export(request, args.positionals()[0]);
 }
 
 }  // namespace

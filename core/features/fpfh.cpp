@@ -46,6 +46,83 @@ FpfhDescriptor spfh(const PointCloud& cloud, std::uint32_t i, const Neighbors& n
     return h;
 }
 
+// Radius neighborhoods of the keypoints.
+std::vector<Neighbors> keypoint_neighborhoods(const PointCloud& cloud, const KdTree& tree,
+                                              const std::vector<std::uint32_t>& keypoints,
+                                              double radius_m, int threads) {
+    const auto n_keypoints = static_cast<std::int64_t>(keypoints.size());
+    std::vector<Neighbors> neighborhoods(keypoints.size());
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 16)
+    for (std::int64_t k = 0; k < n_keypoints; ++k) {
+        tree.radius(cloud.points[keypoints[k]], radius_m, &neighborhoods[k]);
+    }
+    return neighborhoods;
+}
+
+// The points whose SPFH is needed, in order of first use, and each cloud point's slot among
+// them (-1: not needed).
+struct SpfhSlots {
+    std::vector<std::uint32_t> needed;
+    std::vector<std::int32_t> slot;
+};
+
+void require(std::uint32_t i, SpfhSlots* slots) {
+    if (slots->slot[i] < 0) {
+        slots->slot[i] = static_cast<std::int32_t>(slots->needed.size());
+        slots->needed.push_back(i);
+    }
+}
+
+// Every point whose SPFH is needed: the keypoints and their neighbors.
+SpfhSlots needed_points(std::size_t cloud_size, const std::vector<std::uint32_t>& keypoints,
+                        const std::vector<Neighbors>& keypoint_neighbors) {
+    SpfhSlots slots;
+    slots.slot.assign(cloud_size, -1);
+    for (std::size_t k = 0; k < keypoints.size(); ++k) {
+        require(keypoints[k], &slots);
+        for (const auto& neighbor : keypoint_neighbors[k]) require(neighbor.first, &slots);
+    }
+    return slots;
+}
+
+// SPFH of every needed point, in the order of `needed`.
+std::vector<FpfhDescriptor> needed_spfhs(const PointCloud& cloud, const KdTree& tree,
+                                         const std::vector<std::uint32_t>& needed, double radius_m,
+                                         int threads) {
+    std::vector<FpfhDescriptor> spfhs(needed.size());
+    const auto n_needed = static_cast<std::int64_t>(needed.size());
+#pragma omp parallel num_threads(threads)
+    {
+        Neighbors neighbors;
+#pragma omp for schedule(dynamic, 32)
+        for (std::int64_t s = 0; s < n_needed; ++s) {
+            tree.radius(cloud.points[needed[s]], radius_m, &neighbors);
+            spfhs[s] = spfh(cloud, needed[s], neighbors);
+        }
+    }
+    return spfhs;
+}
+
+// FPFH of keypoint k: its own SPFH plus the 1/distance-weighted mean of its neighbors' SPFHs.
+FpfhDescriptor combine(std::uint32_t keypoint, const Neighbors& neighbors,
+                       const std::vector<FpfhDescriptor>& spfhs, const SpfhSlots& slots) {
+    FpfhDescriptor weighted = FpfhDescriptor::Zero();
+    double weight_sum = 0.0;
+    for (const auto& [j, d2] : neighbors) {
+        if (j == keypoint || !(d2 > 0.0)) continue;
+        const double weight = 1.0 / std::sqrt(d2);
+        weighted += static_cast<float>(weight) * spfhs[slots.slot[j]];
+        weight_sum += weight;
+    }
+    FpfhDescriptor out = spfhs[slots.slot[keypoint]];
+    if (weight_sum > 0.0) {
+        out = 0.5f * (out + weighted / static_cast<float>(weight_sum));
+    }
+    // Keep each block at sum 100 even when the point's own SPFH is empty.
+    normalise_blocks(&out);
+    return out;
+}
+
 }  // namespace
 
 bool pair_features(const Eigen::Vector3d& p1, const Eigen::Vector3d& n1, const Eigen::Vector3d& p2,
@@ -86,60 +163,15 @@ std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud,
     }
     const KdTree tree(cloud.points);
     const int threads = std::max(1, params.num_threads);
+    const std::vector<Neighbors> keypoint_neighbors =
+        keypoint_neighborhoods(cloud, tree, keypoints, params.radius_m, threads);
+    const SpfhSlots slots = needed_points(cloud.size(), keypoints, keypoint_neighbors);
+    const std::vector<FpfhDescriptor> spfhs =
+        needed_spfhs(cloud, tree, slots.needed, params.radius_m, threads);
     const auto n_keypoints = static_cast<std::int64_t>(keypoints.size());
-
-    // 1. Radius neighborhoods of the keypoints.
-    std::vector<Neighbors> keypoint_neighbors(keypoints.size());
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 16)
-    for (std::int64_t k = 0; k < n_keypoints; ++k) {
-        tree.radius(cloud.points[keypoints[k]], params.radius_m, &keypoint_neighbors[k]);
-    }
-
-    // 2. Every point whose SPFH is needed: the keypoints and their neighbors.
-    std::vector<std::int32_t> slot(cloud.size(), -1);
-    std::vector<std::uint32_t> needed;
-    auto require = [&](std::uint32_t i) {
-        if (slot[i] < 0) {
-            slot[i] = static_cast<std::int32_t>(needed.size());
-            needed.push_back(i);
-        }
-    };
-    for (std::size_t k = 0; k < keypoints.size(); ++k) {
-        require(keypoints[k]);
-        for (const auto& neighbor : keypoint_neighbors[k]) require(neighbor.first);
-    }
-
-    // 3. SPFH of every needed point.
-    std::vector<FpfhDescriptor> spfhs(needed.size());
-    const auto n_needed = static_cast<std::int64_t>(needed.size());
-#pragma omp parallel num_threads(threads)
-    {
-        Neighbors neighbors;
-#pragma omp for schedule(dynamic, 32)
-        for (std::int64_t s = 0; s < n_needed; ++s) {
-            tree.radius(cloud.points[needed[s]], params.radius_m, &neighbors);
-            spfhs[s] = spfh(cloud, needed[s], neighbors);
-        }
-    }
-
-    // 4. FPFH: own SPFH plus the 1/distance-weighted mean of the neighbors' SPFHs.
 #pragma omp parallel for num_threads(threads) schedule(static)
     for (std::int64_t k = 0; k < n_keypoints; ++k) {
-        FpfhDescriptor weighted = FpfhDescriptor::Zero();
-        double weight_sum = 0.0;
-        for (const auto& [j, d2] : keypoint_neighbors[k]) {
-            if (j == keypoints[k] || !(d2 > 0.0)) continue;
-            const double weight = 1.0 / std::sqrt(d2);
-            weighted += static_cast<float>(weight) * spfhs[slot[j]];
-            weight_sum += weight;
-        }
-        FpfhDescriptor& out = descriptors[k];
-        out = spfhs[slot[keypoints[k]]];
-        if (weight_sum > 0.0) {
-            out = 0.5f * (out + weighted / static_cast<float>(weight_sum));
-        }
-        // Keep each block at sum 100 even when the point's own SPFH is empty.
-        normalise_blocks(&out);
+        descriptors[k] = combine(keypoints[k], keypoint_neighbors[k], spfhs, slots);
     }
     return descriptors;
 }

@@ -19,6 +19,84 @@ double normal_spread(const std::vector<Eigen::Vector3d>& normals) {
     return solver.eigenvalues()(1);
 }
 
+// Step 2: pre-processing (range crop, optional voxel grid, statistical outliers). Only
+// positions are carried (normals are computed after).
+PointCloud preprocess(const PointCloud& cloud, const SensorFeatureParams& params, int threads) {
+    PointCloud positions;
+    positions.points = cloud.points;
+    PointCloud cropped;
+    filter_range(positions, params.range, &cropped);
+    if (params.pre_voxel_size_m > 0.0) {
+        // Near the pole the scan is far denser than any later stage uses.
+        VoxelGridParams pre;
+        pre.voxel_size_m = params.pre_voxel_size_m;
+        cropped = voxel_downsample(cropped.points, pre);
+    }
+    PointCloud clean;
+    if (params.remove_outliers &&
+        cropped.size() > static_cast<std::size_t>(params.outliers.k_neighbors)) {
+        StatisticalOutlierParams outliers = params.outliers;
+        outliers.num_threads = threads;
+        remove_statistical_outliers(cropped, outliers, &clean);
+    } else {
+        clean = std::move(cropped);
+    }
+    return clean;
+}
+
+// Normals (towards the sensor) into the cloud, and the curvature, once per cloud.
+std::vector<double> normals_and_curvature(const NormalParams& params, int threads,
+                                          PointCloud* cloud) {
+    NormalParams normal_params = params;
+    normal_params.compute_normals = true;
+    normal_params.compute_covariances = false;
+    normal_params.num_threads = threads;
+    std::vector<double> curvature;
+    estimate_normals_covariances(cloud, normal_params, &curvature);
+    return curvature;
+}
+
+// A G-ICP / p2p cloud: the points on a voxel grid (m), with covariances from k neighbors
+// when there are enough points for them.
+GicpTarget covariance_cloud(const std::vector<Eigen::Vector3d>& points, double voxel_size_m,
+                            int k_neighbors, int threads) {
+    VoxelGridParams voxel;
+    voxel.voxel_size_m = voxel_size_m;
+    PointCloud voxels = voxel_downsample(points, voxel);
+    NormalParams cov_params;
+    cov_params.k_neighbors = k_neighbors;
+    cov_params.compute_normals = false;
+    cov_params.compute_covariances = true;
+    cov_params.num_threads = threads;
+    if (voxels.size() < 3) return GicpTarget(std::move(voxels));
+    return GicpTarget(std::move(voxels), cov_params);
+}
+
+// The G-ICP cloud and the finer polish cloud (left empty when off).
+void build_registration_clouds(const std::vector<Eigen::Vector3d>& points,
+                               const SensorFeatureParams& params, int threads,
+                               SensorFeatures* out) {
+    out->gicp =
+        covariance_cloud(points, params.gicp_voxel_size_m, params.gicp_k_neighbors, threads);
+    if (params.polish_voxel_size_m > 0.0) {
+        out->polish =
+            covariance_cloud(points, params.polish_voxel_size_m, params.gicp_k_neighbors, threads);
+    }
+}
+
+// Step 4, second half: FPFH at the keypoints of the octree cloud, and their positions and
+// normals.
+void describe_keypoints(const FpfhParams& params, int threads, SensorFeatures* out) {
+    FpfhParams fpfh = params;
+    fpfh.num_threads = threads;
+    const PointCloud& cloud = out->octree.cloud;
+    out->descriptors = compute_fpfh(cloud, out->keypoints, fpfh);
+    for (std::uint32_t k : out->keypoints) {
+        out->keypoint_points.push_back(cloud.points[k]);
+        out->keypoint_normals.push_back(cloud.normals[k]);
+    }
+}
+
 }  // namespace
 
 const char* to_string(SensorFeatureStatus status) {
@@ -41,40 +119,15 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     out.num_input_points = cloud.size();
     const int threads = std::max(1, params.num_threads);
 
-    // Step 2: pre-processing. Only positions are carried (normals are computed after).
     Stopwatch stage;
-    PointCloud positions;
-    positions.points = cloud.points;
-    PointCloud cropped;
-    filter_range(positions, params.range, &cropped);
-    if (params.pre_voxel_size_m > 0.0) {
-        // Near the pole the scan is far denser than any later stage uses.
-        VoxelGridParams pre;
-        pre.voxel_size_m = params.pre_voxel_size_m;
-        cropped = voxel_downsample(cropped.points, pre);
-    }
-    PointCloud clean;
-    if (params.remove_outliers &&
-        cropped.size() > static_cast<std::size_t>(params.outliers.k_neighbors)) {
-        StatisticalOutlierParams outliers = params.outliers;
-        outliers.num_threads = threads;
-        remove_statistical_outliers(cropped, outliers, &clean);
-    } else {
-        clean = std::move(cropped);
-    }
+    PointCloud clean = preprocess(cloud, params, threads);
     out.num_preprocessed_points = clean.size();
     out.timings.preprocess_s = stage.seconds();
     if (clean.size() < static_cast<std::size_t>(std::max(params.normals.k_neighbors, 3)))
         return out;
 
-    // Normals (towards the sensor) and curvature, once per cloud.
     stage.restart();
-    NormalParams normal_params = params.normals;
-    normal_params.compute_normals = true;
-    normal_params.compute_covariances = false;
-    normal_params.num_threads = threads;
-    std::vector<double> curvature;
-    estimate_normals_covariances(&clean, normal_params, &curvature);
+    const std::vector<double> curvature = normals_and_curvature(params.normals, threads, &clean);
     out.timings.normals_s = stage.seconds();
 
     // Step 3: normal-adaptive octree.
@@ -83,23 +136,10 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
     out.normal_spread = normal_spread(out.octree.cloud.normals);
     out.timings.octree_s = stage.seconds();
 
-    // The G-ICP / p2p cloud (also built for failed sensors: cheap, and keeps the result
+    // The G-ICP / p2p clouds (also built for failed sensors: cheap, and keeps the result
     // uniform).
     stage.restart();
-    auto covariance_cloud = [&](double voxel_size_m) {
-        VoxelGridParams voxel;
-        voxel.voxel_size_m = voxel_size_m;
-        PointCloud voxels = voxel_downsample(clean.points, voxel);
-        NormalParams cov_params;
-        cov_params.k_neighbors = params.gicp_k_neighbors;
-        cov_params.compute_normals = false;
-        cov_params.compute_covariances = true;
-        cov_params.num_threads = threads;
-        if (voxels.size() < 3) return GicpTarget(std::move(voxels));
-        return GicpTarget(std::move(voxels), cov_params);
-    };
-    out.gicp = covariance_cloud(params.gicp_voxel_size_m);
-    if (params.polish_voxel_size_m > 0.0) out.polish = covariance_cloud(params.polish_voxel_size_m);
+    build_registration_clouds(clean.points, params, threads, &out);
     out.timings.gicp_cloud_s = stage.seconds();
 
     if (out.octree.cloud.size() < 3) return out;  // kEmptyCloud
@@ -120,14 +160,10 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
         return out;
     }
     stage.restart();
-    FpfhParams fpfh = params.fpfh;
-    fpfh.num_threads = threads;
-    out.descriptors = compute_fpfh(out.octree.cloud, out.keypoints, fpfh);
-    for (std::uint32_t k : out.keypoints) {
-        out.keypoint_points.push_back(out.octree.cloud.points[k]);
-        out.keypoint_normals.push_back(out.octree.cloud.normals[k]);
-    }
+    describe_keypoints(params.fpfh, threads, &out);
     out.timings.fpfh_s = stage.seconds();
+
+    // The road plane and the sensor's free space, from every pre-processed return.
     stage.restart();
     out.ground = estimate_ground_plane(clean.points, clean.normals, params.ground);
     out.free_space = FreeSpaceMap(clean.points, clean.normals, params.free_space);

@@ -80,6 +80,265 @@ int compare_larger_is_better(double a, double b, double share) {
     return 0;
 }
 
+// What a tree may use: per good pair (edge_ok) its chosen candidate, the most p2p support
+// first (the first tree sampled is the max-support one), then every good pair's
+// alternatives.
+struct Candidates {
+    std::vector<Option> options;
+    std::vector<std::size_t> good;  // pair indices
+};
+
+Candidates collect_candidates(const std::vector<PairResult>& pairs,
+                              const std::vector<bool>& edge_ok) {
+    Candidates c;
+    for (std::size_t e = 0; e < pairs.size(); ++e) {
+        if (!edge_ok[e]) continue;
+        c.good.push_back(e);
+        c.options.push_back({e, pairs[e].chosen});
+    }
+    std::stable_sort(c.options.begin(), c.options.end(), [](const Option& a, const Option& b) {
+        return a.estimate.p2p_inliers > b.estimate.p2p_inliers;
+    });
+    for (std::size_t e : c.good) {
+        for (const PairAlternative& a : pairs[e].alternatives) c.options.push_back({e, a});
+    }
+    return c;
+}
+
+// Index of the first option of pair e consistent with the tree's poses, or -1.
+int consistent_option(std::size_t e, const std::vector<PairResult>& pairs,
+                      const std::vector<Option>& options, const Tree& tree,
+                      const EdgeConsensusParams& params) {
+    const PairResult& p = pairs[e];
+    if (!tree.has[p.source] || !tree.has[p.target]) return -1;
+    const Eigen::Isometry3d implied = tree.poses[p.target].inverse() * tree.poses[p.source];
+    for (std::size_t k = 0; k < options.size(); ++k) {
+        if (options[k].pair != e) continue;
+        const Eigen::Isometry3d& T = options[k].estimate.T_target_source;
+        if (translation_error_m(implied, T) <= params.max_edge_translation_m &&
+            rotation_error_deg(implied, T) <= params.max_edge_rotation_deg) {
+            return static_cast<int>(k);
+        }
+    }
+    return -1;
+}
+
+// Sensors two trees place differently (or only one of them reaches).
+std::vector<bool> differing_sensors(const Tree& a, const Tree& b,
+                                    const EdgeConsensusParams& params) {
+    const std::size_t n = a.has.size();
+    std::vector<bool> differ(n, false);
+    for (std::size_t i = 0; i < n; ++i) {
+        if (a.has[i] != b.has[i]) {
+            differ[i] = true;
+        } else if (a.has[i]) {
+            differ[i] =
+                translation_error_m(a.poses[i], b.poses[i]) > params.max_edge_translation_m ||
+                rotation_error_deg(a.poses[i], b.poses[i]) > params.max_edge_rotation_deg;
+        }
+    }
+    return differ;
+}
+
+// The tree that repeatedly takes the first option (in `order`) that reaches a new sensor,
+// from the root (sensor 0).
+Tree grow_tree(std::size_t n, const std::vector<PairResult>& pairs,
+               const std::vector<Option>& options, const std::vector<std::size_t>& order) {
+    Tree tree;
+    tree.poses.assign(n, Eigen::Isometry3d::Identity());
+    tree.has.assign(n, false);
+    tree.has[0] = true;
+    for (bool grew = true; grew;) {
+        grew = false;
+        for (std::size_t k : order) {
+            const PairResult& p = pairs[options[k].pair];
+            const Eigen::Isometry3d& T = options[k].estimate.T_target_source;
+            if (tree.has[p.source] == tree.has[p.target]) continue;
+            if (tree.has[p.target]) {
+                tree.poses[p.source] = tree.poses[p.target] * T;
+                tree.has[p.source] = true;
+            } else {
+                tree.poses[p.target] = tree.poses[p.source] * T.inverse();
+                tree.has[p.target] = true;
+            }
+            grew = true;
+            break;
+        }
+    }
+    return tree;
+}
+
+// Invalid: the tree puts two sensors within min_sensor_separation_m of each other.
+bool places_sensors_too_close(const Tree& tree, const EdgeConsensusParams& params) {
+    const std::size_t n = tree.has.size();
+    for (std::size_t a = 0; a < n; ++a) {
+        for (std::size_t b = a + 1; b < n; ++b) {
+            if (tree.has[a] && tree.has[b] &&
+                (tree.poses[a].translation() - tree.poses[b].translation()).norm() <
+                    params.min_sensor_separation_m) {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+// The tree's score and, per good pair, its consistent option.
+void score_tree(const std::vector<PairResult>& pairs, const Candidates& candidates,
+                const EdgeConsensusParams& params, Tree* tree) {
+    tree->score.consistent = 0;
+    tree->pick.assign(pairs.size(), -1);
+    for (std::size_t i = 0; i < tree->has.size(); ++i) tree->score.reached += tree->has[i] ? 1 : 0;
+    for (std::size_t e : candidates.good) {
+        const int k = consistent_option(e, pairs, candidates.options, *tree, params);
+        tree->pick[e] = k;
+        if (k < 0) continue;
+        ++tree->score.consistent;
+        tree->score.support += candidates.options[k].estimate.p2p_inliers;
+    }
+}
+
+// A tree that places every sensor as one already kept does.
+bool duplicates_one_of(const std::vector<Tree>& trees, const Tree& tree,
+                       const EdgeConsensusParams& params) {
+    for (const Tree& t : trees) {
+        const std::vector<bool> differ = differing_sensors(t, tree, params);
+        if (std::none_of(differ.begin(), differ.end(), [](bool d) { return d; })) return true;
+    }
+    return false;
+}
+
+// The valid and distinct sampled trees, and the best of them by score.
+struct SampledTrees {
+    std::vector<Tree> trees;
+    std::size_t best = 0;
+};
+
+// Seeded: the first sample takes the options in their order, every later one shuffles the
+// previous sample's order.
+SampledTrees sample_trees(std::size_t n, const std::vector<PairResult>& pairs,
+                          const Candidates& candidates, const EdgeConsensusParams& params) {
+    SampledTrees sampled;
+    std::mt19937 rng(params.seed);
+    std::vector<std::size_t> order(candidates.options.size());
+    std::iota(order.begin(), order.end(), 0);
+    for (int sample = 0; sample < params.samples; ++sample) {
+        if (sample > 0) std::shuffle(order.begin(), order.end(), rng);
+        Tree tree = grow_tree(n, pairs, candidates.options, order);
+        if (places_sensors_too_close(tree, params)) continue;
+        score_tree(pairs, candidates, params, &tree);
+        if (duplicates_one_of(sampled.trees, tree, params)) continue;
+        std::vector<Tree>& trees = sampled.trees;
+        trees.push_back(std::move(tree));
+        if (trees.size() == 1 || trees.back().score > trees[sampled.best].score) {
+            sampled.best = trees.size() - 1;
+        }
+    }
+    return sampled;
+}
+
+// The figures of t's candidates on the pairs where t and `other` use different ones,
+// pooled: support summed, p2p error as the support-weighted RMS, free-space violation shares
+// summed (each pair is one more independent look at the same placements; with one
+// differing pair these are that pair's figures).
+PairAlternative pooled(const Tree& t, const Tree& other, const Candidates& candidates) {
+    PairAlternative sum;
+    double weighted_sq_error = 0.0;
+    for (std::size_t e : candidates.good) {
+        if (t.pick[e] == other.pick[e] || t.pick[e] < 0) continue;
+        const PairAlternative& o = candidates.options[t.pick[e]].estimate;
+        sum.p2p_inliers += o.p2p_inliers;
+        weighted_sq_error += static_cast<double>(o.p2p_inliers) * o.p2p_error_m * o.p2p_error_m;
+        sum.free_space_violation_share += o.free_space_violation_share;
+    }
+    if (sum.p2p_inliers > 0)
+        sum.p2p_error_m = std::sqrt(weighted_sq_error / static_cast<double>(sum.p2p_inliers));
+    return sum;
+}
+
+// `a` clearly beats `b` on the pairs where they use different candidates, figures pooled.
+bool tree_clearly_better(const Tree& a, const Tree& b, const Candidates& candidates,
+                         const AmbiguityParams& params) {
+    return clearly_better(pooled(a, b, candidates), pooled(b, a, candidates), params);
+}
+
+// Another tree that explains as many pairs and reaches as many sensors.
+bool rivals(const Tree& a, const Tree& b) {
+    return &a != &b && a.score.consistent == b.score.consistent &&
+           a.score.reached == b.score.reached;
+}
+
+// The winner after every rival clearly better than the winner took its place (bounded:
+// the relation has no cycles in practice, but the loop must end regardless).
+std::size_t clearly_better_rival(const SampledTrees& sampled, const Candidates& candidates,
+                                 const AmbiguityParams& params) {
+    const std::vector<Tree>& trees = sampled.trees;
+    std::size_t best = sampled.best;
+    for (std::size_t pass = 0; pass < trees.size(); ++pass) {
+        bool replaced = false;
+        for (std::size_t t = 0; t < trees.size() && !replaced; ++t) {
+            if (rivals(trees[t], trees[best]) &&
+                tree_clearly_better(trees[t], trees[best], candidates, params)) {
+                best = t;
+                replaced = true;
+            }
+        }
+        if (!replaced) break;
+    }
+    return best;
+}
+
+// The sensors a rival places differently from the winner, unless the winner clearly beats
+// it; counts the rivals.
+void mark_ambiguous(const SampledTrees& sampled, const Candidates& candidates,
+                    const EdgeConsensusParams& params, EdgeConsensusResult* result) {
+    const Tree& winner = sampled.trees[sampled.best];
+    for (const Tree& t : sampled.trees) {
+        if (!rivals(t, winner)) continue;
+        ++result->rival_trees;
+        if (tree_clearly_better(winner, t, candidates, params.ambiguity)) continue;
+        const std::vector<bool> differ = differing_sensors(winner, t, params);
+        for (std::size_t i = 0; i < differ.size(); ++i)
+            result->ambiguous[i] = result->ambiguous[i] || differ[i];
+    }
+}
+
+// Drops the good pairs that touch a refused sensor or have no candidate consistent with
+// the winner (no winner: every one), and makes each other pair's consistent candidate its
+// chosen one, the previous choice joining the alternatives.
+void keep_winner_candidates(const EdgeConsensusResult& result, const Tree* winner,
+                            const Candidates& candidates, std::vector<PairResult>* pairs,
+                            std::vector<bool>* edge_ok) {
+    for (std::size_t e : candidates.good) {
+        PairResult& p = (*pairs)[e];
+        if (result.ambiguous[p.source] || result.ambiguous[p.target]) {
+            p.status = PairStatus::kAmbiguous;
+            (*edge_ok)[e] = false;
+            continue;
+        }
+        if (result.unconfirmed[p.source] || result.unconfirmed[p.target]) {
+            p.status = PairStatus::kUnconfirmed;
+            (*edge_ok)[e] = false;
+            continue;
+        }
+        const int k = winner == nullptr ? -1 : winner->pick[e];
+        if (k < 0) {
+            p.status = PairStatus::kRejectedByPoseGraph;
+            (*edge_ok)[e] = false;
+            continue;
+        }
+        const PairAlternative pick = candidates.options[k].estimate;
+        if (pick.candidate != p.chosen.candidate) {
+            std::vector<PairAlternative> others{p.chosen};
+            for (const PairAlternative& a : p.alternatives) {
+                if (a.candidate != pick.candidate) others.push_back(a);
+            }
+            p.chosen = pick;
+            p.alternatives = std::move(others);
+        }
+    }
+}
+
 }  // namespace
 
 bool clearly_better(const PairAlternative& a, const PairAlternative& b,
@@ -106,192 +365,20 @@ EdgeConsensusResult select_consistent_edges(std::size_t n, std::vector<PairResul
     EdgeConsensusResult result;
     result.ambiguous.assign(n, false);
     result.unconfirmed.assign(n, false);
-    std::vector<Option> options;
-    std::vector<std::size_t> good;
-    for (std::size_t e = 0; e < pairs->size(); ++e) {
-        if (!(*edge_ok)[e]) continue;
-        good.push_back(e);
-        options.push_back({e, (*pairs)[e].chosen});
-    }
-    std::stable_sort(options.begin(), options.end(), [](const Option& a, const Option& b) {
-        return a.estimate.p2p_inliers > b.estimate.p2p_inliers;
-    });
-    for (std::size_t e : good) {
-        for (const PairAlternative& a : (*pairs)[e].alternatives) options.push_back({e, a});
-    }
-    if (good.empty() || n == 0) return result;
+    const Candidates candidates = collect_candidates(*pairs, *edge_ok);
+    if (candidates.good.empty() || n == 0) return result;
 
-    // Index of the first option of a pair consistent with `poses`, or -1.
-    auto consistent_option = [&](std::size_t e, const std::vector<Eigen::Isometry3d>& poses,
-                                 const std::vector<bool>& has) -> int {
-        const PairResult& p = (*pairs)[e];
-        if (!has[p.source] || !has[p.target]) return -1;
-        const Eigen::Isometry3d implied = poses[p.target].inverse() * poses[p.source];
-        for (std::size_t k = 0; k < options.size(); ++k) {
-            if (options[k].pair != e) continue;
-            const Eigen::Isometry3d& T = options[k].estimate.T_target_source;
-            if (translation_error_m(implied, T) <= params.max_edge_translation_m &&
-                rotation_error_deg(implied, T) <= params.max_edge_rotation_deg) {
-                return static_cast<int>(k);
-            }
-        }
-        return -1;
-    };
-    // Sensors two trees place differently (or only one of them reaches).
-    auto differing_sensors = [&](const Tree& a, const Tree& b) {
-        std::vector<bool> differ(n, false);
-        for (std::size_t i = 0; i < n; ++i) {
-            if (a.has[i] != b.has[i]) {
-                differ[i] = true;
-            } else if (a.has[i]) {
-                differ[i] =
-                    translation_error_m(a.poses[i], b.poses[i]) > params.max_edge_translation_m ||
-                    rotation_error_deg(a.poses[i], b.poses[i]) > params.max_edge_rotation_deg;
-            }
-        }
-        return differ;
-    };
-
-    std::mt19937 rng(params.seed);
-    std::vector<std::size_t> order(options.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::vector<Tree> trees;  // valid and distinct
-    std::size_t best = 0;
-    for (int sample = 0; sample < params.samples; ++sample) {
-        if (sample > 0) std::shuffle(order.begin(), order.end(), rng);
-        // Tree: repeatedly take the first option (in `order`) that reaches a new sensor.
-        Tree tree;
-        tree.poses.assign(n, Eigen::Isometry3d::Identity());
-        tree.has.assign(n, false);
-        tree.has[0] = true;
-        for (bool grew = true; grew;) {
-            grew = false;
-            for (std::size_t k : order) {
-                const PairResult& p = (*pairs)[options[k].pair];
-                const Eigen::Isometry3d& T = options[k].estimate.T_target_source;
-                if (tree.has[p.source] == tree.has[p.target]) continue;
-                if (tree.has[p.target]) {
-                    tree.poses[p.source] = tree.poses[p.target] * T;
-                    tree.has[p.source] = true;
-                } else {
-                    tree.poses[p.target] = tree.poses[p.source] * T.inverse();
-                    tree.has[p.target] = true;
-                }
-                grew = true;
-                break;
-            }
-        }
-        bool valid = true;
-        for (std::size_t a = 0; a < n && valid; ++a) {
-            for (std::size_t b = a + 1; b < n && valid; ++b) {
-                valid = !(tree.has[a] && tree.has[b] &&
-                          (tree.poses[a].translation() - tree.poses[b].translation()).norm() <
-                              params.min_sensor_separation_m);
-            }
-        }
-        if (!valid) continue;
-        tree.score.consistent = 0;
-        tree.pick.assign(pairs->size(), -1);
-        for (std::size_t i = 0; i < n; ++i) tree.score.reached += tree.has[i] ? 1 : 0;
-        for (std::size_t e : good) {
-            const int k = consistent_option(e, tree.poses, tree.has);
-            tree.pick[e] = k;
-            if (k < 0) continue;
-            ++tree.score.consistent;
-            tree.score.support += options[k].estimate.p2p_inliers;
-        }
-        bool duplicate = false;
-        for (const Tree& t : trees) {
-            const std::vector<bool> differ = differing_sensors(t, tree);
-            duplicate =
-                duplicate || std::none_of(differ.begin(), differ.end(), [](bool d) { return d; });
-        }
-        if (duplicate) continue;
-        trees.push_back(std::move(tree));
-        if (trees.size() == 1 || trees.back().score > trees[best].score) best = trees.size() - 1;
+    SampledTrees sampled = sample_trees(n, *pairs, candidates, params);
+    if (params.ambiguity.enabled && !sampled.trees.empty()) {
+        sampled.best = clearly_better_rival(sampled, candidates, params.ambiguity);
+        mark_ambiguous(sampled, candidates, params, &result);
     }
-
-    // `a` clearly beats `b` on the pairs where they use different candidates, their
-    // figures pooled: support summed, p2p error as the support-weighted RMS, free-space
-    // violation shares summed (each pair is one more independent look at the same
-    // placements; with one differing pair this is clearly_better on that pair).
-    auto pooled = [&](const Tree& t, const Tree& other) {
-        PairAlternative sum;
-        double weighted_sq_error = 0.0;
-        for (std::size_t e : good) {
-            if (t.pick[e] == other.pick[e] || t.pick[e] < 0) continue;
-            const PairAlternative& o = options[t.pick[e]].estimate;
-            sum.p2p_inliers += o.p2p_inliers;
-            weighted_sq_error += static_cast<double>(o.p2p_inliers) * o.p2p_error_m * o.p2p_error_m;
-            sum.free_space_violation_share += o.free_space_violation_share;
-        }
-        if (sum.p2p_inliers > 0)
-            sum.p2p_error_m = std::sqrt(weighted_sq_error / static_cast<double>(sum.p2p_inliers));
-        return sum;
-    };
-    auto tree_clearly_better = [&](const Tree& a, const Tree& b) {
-        return clearly_better(pooled(a, b), pooled(b, a), params.ambiguity);
-    };
-    auto rivals = [&](const Tree& a, const Tree& b) {
-        return &a != &b && a.score.consistent == b.score.consistent &&
-               a.score.reached == b.score.reached;
-    };
-    if (params.ambiguity.enabled && !trees.empty()) {
-        // A rival clearly better than the winner takes its place (bounded: the relation
-        // has no cycles in practice, but the loop must end regardless).
-        for (std::size_t pass = 0; pass < trees.size(); ++pass) {
-            bool replaced = false;
-            for (std::size_t t = 0; t < trees.size() && !replaced; ++t) {
-                if (rivals(trees[t], trees[best]) && tree_clearly_better(trees[t], trees[best])) {
-                    best = t;
-                    replaced = true;
-                }
-            }
-            if (!replaced) break;
-        }
-        for (const Tree& t : trees) {
-            if (!rivals(t, trees[best])) continue;
-            ++result.rival_trees;
-            if (tree_clearly_better(trees[best], t)) continue;
-            const std::vector<bool> differ = differing_sensors(trees[best], t);
-            for (std::size_t i = 0; i < n; ++i)
-                result.ambiguous[i] = result.ambiguous[i] || differ[i];
-        }
-    }
-
-    if (!trees.empty() && params.min_bridge_information_per_inlier > 0) {
-        mark_beyond_weak_bridges(n, *pairs, good, options, trees[best], params,
+    const Tree* winner = sampled.trees.empty() ? nullptr : &sampled.trees[sampled.best];
+    if (winner != nullptr && params.min_bridge_information_per_inlier > 0) {
+        mark_beyond_weak_bridges(n, *pairs, candidates.good, candidates.options, *winner, params,
                                  &result.unconfirmed);
     }
-
-    for (std::size_t e : good) {
-        PairResult& p = (*pairs)[e];
-        if (result.ambiguous[p.source] || result.ambiguous[p.target]) {
-            p.status = PairStatus::kAmbiguous;
-            (*edge_ok)[e] = false;
-            continue;
-        }
-        if (result.unconfirmed[p.source] || result.unconfirmed[p.target]) {
-            p.status = PairStatus::kUnconfirmed;
-            (*edge_ok)[e] = false;
-            continue;
-        }
-        const int k = trees.empty() ? -1 : trees[best].pick[e];
-        if (k < 0) {
-            p.status = PairStatus::kRejectedByPoseGraph;
-            (*edge_ok)[e] = false;
-            continue;
-        }
-        const PairAlternative pick = options[k].estimate;
-        if (pick.candidate != p.chosen.candidate) {
-            std::vector<PairAlternative> others{p.chosen};
-            for (const PairAlternative& a : p.alternatives) {
-                if (a.candidate != pick.candidate) others.push_back(a);
-            }
-            p.chosen = pick;
-            p.alternatives = std::move(others);
-        }
-    }
+    keep_winner_candidates(result, winner, candidates, pairs, edge_ok);
     return result;
 }
 

@@ -1,6 +1,10 @@
 #include "core/initial/initial_registration.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <utility>
+#include <vector>
 
 #include "core/common/se3.hpp"
 #include "core/common/stopwatch.hpp"
@@ -90,6 +94,254 @@ SensorRegistrationStatus from_features(SensorFeatureStatus status) {
     return SensorRegistrationStatus::kEmptyCloud;
 }
 
+bool cancel_requested(const InitialRegistrationParams& params) {
+    return params.cancel != nullptr && params.cancel->load(std::memory_order_acquire);
+}
+
+// One report at a time: the callback need not be thread-safe.
+void report_progress(const InitialRegistrationParams& params, const char* stage, std::size_t done,
+                     std::size_t total) {
+    if (!params.on_progress) return;
+#pragma omp critical(lidarfuse_initial_registration_progress)
+    params.on_progress(stage, done, total);
+}
+
+// A cancelled run registers nothing (never a half-checked pose).
+InitialRegistrationResult cancelled(InitialRegistrationResult result, const Stopwatch& whole) {
+    for (SensorRegistration& sr : result.sensors) {
+        sr.registered = false;
+        sr.status = SensorRegistrationStatus::kCancelled;
+        sr.T_root_sensor = Eigen::Isometry3d::Identity();
+    }
+    result.timings.total_s = whole.seconds();
+    return result;
+}
+
+// Steps 2-4 for every sensor, the sensors in parallel and the threads left over inside each.
+// A cancelled run leaves the remaining sensors' features empty.
+std::vector<SensorFeatures> compute_all_features(const std::vector<PointCloud>& clouds,
+                                                 const InitialRegistrationParams& params,
+                                                 int threads) {
+    const std::size_t n = clouds.size();
+    std::vector<SensorFeatures> features(n);
+    std::atomic<std::size_t> done{0};
+    report_progress(params, "features", 0, n);
+    const int outer = std::min<int>(threads, static_cast<int>(n));
+    SensorFeatureParams feature_params = params.features;
+    feature_params.num_threads = std::max(1, threads / outer);
+#pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
+    for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+        if (cancel_requested(params)) continue;
+        features[i] = compute_sensor_features(clouds[i], feature_params, params.min_keypoints);
+        report_progress(params, "features", ++done, n);
+    }
+    return features;
+}
+
+// Steps 5-8 for every pair i > j, in the order (1,0), (2,0), (2,1), ..., the pairs in
+// parallel. A cancelled run leaves the remaining pairs unregistered.
+std::vector<PairResult> register_all_pairs(const std::vector<SensorFeatures>& features,
+                                           const InitialRegistrationParams& params, int threads) {
+    std::vector<PairResult> pairs;
+    for (std::size_t i = 1; i < features.size(); ++i) {
+        for (std::size_t j = 0; j < i; ++j) {
+            PairResult pair;
+            pair.source = static_cast<int>(i);
+            pair.target = static_cast<int>(j);
+            pairs.push_back(pair);
+        }
+    }
+    std::atomic<std::size_t> done{0};
+    report_progress(params, "pairs", 0, pairs.size());
+    const auto n_pairs = static_cast<std::int64_t>(pairs.size());
+    const int outer =
+        static_cast<int>(std::max<std::int64_t>(1, std::min<std::int64_t>(threads, n_pairs)));
+    const int inner = std::max(1, threads / outer);
+#pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
+    for (std::int64_t e = 0; e < n_pairs; ++e) {
+        if (cancel_requested(params)) continue;
+        const int i = pairs[e].source;
+        const int j = pairs[e].target;
+        pairs[e] = register_pair(features[i], features[j], i, j, params.pair, inner);
+        report_progress(params, "pairs", ++done, pairs.size());
+    }
+    return pairs;
+}
+
+// Which pairs the pose graph may use, and the sensors the consensus refused a pose.
+struct EdgeSelection {
+    std::vector<bool> ok;           // per pair
+    std::vector<bool> ambiguous;    // per sensor (EdgeConsensusResult)
+    std::vector<bool> unconfirmed;  // per sensor (EdgeConsensusResult)
+};
+
+// The good pairs, narrowed by the consensus over spanning trees, then widened by the loop
+// closures between sensors it placed.
+EdgeSelection select_edges(const std::vector<SensorFeatures>& features,
+                           const InitialRegistrationParams& params, int threads,
+                           std::vector<PairResult>* pairs) {
+    const std::size_t n = features.size();
+    EdgeSelection selection;
+    selection.ok.resize(pairs->size());
+    for (std::size_t e = 0; e < pairs->size(); ++e) {
+        selection.ok[e] = (*pairs)[e].status == PairStatus::kOk;
+    }
+    EdgeConsensusParams consensus = params.consensus;
+    consensus.max_edge_translation_m = params.max_edge_translation_m;
+    consensus.max_edge_rotation_deg = params.max_edge_rotation_deg;
+    consensus.min_sensor_separation_m = params.pair.min_sensor_separation_m;
+    EdgeConsensusResult consensus_result =
+        select_consistent_edges(n, pairs, &selection.ok, consensus);
+    selection.ambiguous = std::move(consensus_result.ambiguous);
+    selection.unconfirmed = std::move(consensus_result.unconfirmed);
+    std::vector<bool> refused(n, false);
+    for (std::size_t i = 0; i < n; ++i) {
+        refused[i] = selection.ambiguous[i] || selection.unconfirmed[i];
+    }
+    close_loops(features, refused, params, threads, pairs, &selection.ok);
+    return selection;
+}
+
+// The last, tighter G-ICP run on the kept pairs, with the pair stage's G-ICP and r_c.
+EdgePolishSummary polish_kept_edges(const std::vector<SensorFeatures>& features,
+                                    const std::vector<bool>& edge_ok,
+                                    const InitialRegistrationParams& params, int threads,
+                                    std::vector<PairResult>* pairs) {
+    EdgePolishParams polish = params.polish;
+    polish.gicp = params.pair.gicp;
+    polish.p2p_cutoff_m = params.pair.p2p_cutoff_m;
+    return polish_edges(features, edge_ok, polish, pairs, threads);
+}
+
+// T_root_sensor per sensor and whether the root reaches it (has no pose otherwise).
+struct GraphPoses {
+    std::vector<Eigen::Isometry3d> poses;
+    std::vector<bool> reached;
+};
+
+// The pose graph's edges: (pair index, edge id).
+using GraphEdges = std::vector<std::pair<std::size_t, PoseGraph::EdgeId>>;
+
+// A node per reached sensor at its spanning-tree pose (the root fixed) and an edge per
+// usable pair between them. A pair whose information the graph refuses is dropped as
+// degenerate.
+GraphEdges build_pose_graph(const GraphPoses& tree, std::vector<PairResult>* pairs,
+                            std::vector<bool>* edge_ok, PoseGraph* graph) {
+    for (std::size_t i = 0; i < tree.reached.size(); ++i) {
+        if (tree.reached[i])
+            graph->add_node(static_cast<PoseGraph::NodeId>(i), tree.poses[i], i == 0);
+    }
+    GraphEdges edges;
+    for (std::size_t e = 0; e < pairs->size(); ++e) {
+        const PairResult& p = (*pairs)[e];
+        if (!(*edge_ok)[e] || !tree.reached[p.source] || !tree.reached[p.target]) continue;
+        const PoseGraph::EdgeId id =
+            graph->add_edge(p.target, p.source, p.chosen.T_target_source, p.chosen.information);
+        if (id < 0) {
+            (*pairs)[e].status = PairStatus::kDegenerate;
+            (*edge_ok)[e] = false;
+            continue;
+        }
+        edges.emplace_back(e, id);
+    }
+    return edges;
+}
+
+// The pair whose solved residual exceeds the edge tolerances the most, or num_pairs when
+// every edge is within them.
+std::size_t worst_edge(const PoseGraph& graph, const GraphEdges& edges, std::size_t num_pairs,
+                       const InitialRegistrationParams& params) {
+    std::size_t worst = num_pairs;
+    double worst_excess = 1.0;
+    for (const auto& [e, id] : edges) {
+        const auto residual = graph.edge_residual(id);
+        if (!residual) continue;
+        const double excess = std::max(residual->translation_m / params.max_edge_translation_m,
+                                       residual->rotation_deg / params.max_edge_rotation_deg);
+        if (excess > worst_excess) {
+            worst_excess = excess;
+            worst = e;
+        }
+    }
+    return worst;
+}
+
+// Solves the graph over the usable pairs and drops the worst edge beyond the tolerances
+// until none is left; the solved poses, or the spanning tree's when no solve is usable.
+GraphPoses solve_pose_graph(std::size_t n, const InitialRegistrationParams& params, int threads,
+                            std::vector<PairResult>* pairs, std::vector<bool>* edge_ok,
+                            PoseGraphSummary* summary) {
+    GraphPoses tree;
+    while (true) {
+        spanning_tree_poses(n, *pairs, *edge_ok, &tree.poses, &tree.reached);
+        PoseGraphParams graph_params = params.pose_graph;
+        graph_params.num_threads = threads;
+        PoseGraph graph(graph_params);
+        const GraphEdges edges = build_pose_graph(tree, pairs, edge_ok, &graph);
+        if (edges.empty()) break;
+        *summary = graph.optimize();
+        if (!summary->usable) break;  // keep the spanning-tree poses
+        const std::size_t worst = worst_edge(graph, edges, pairs->size(), params);
+        if (worst == pairs->size()) {
+            for (std::size_t i = 0; i < n; ++i) {
+                if (tree.reached[i]) {
+                    tree.poses[i] =
+                        orthonormalized(*graph.node_pose(static_cast<PoseGraph::NodeId>(i)));
+                }
+            }
+            break;
+        }
+        (*pairs)[worst].status = PairStatus::kRejectedByPoseGraph;
+        (*edge_ok)[worst] = false;
+    }
+    return tree;
+}
+
+// Why a sensor with good features got no pose.
+SensorRegistrationStatus unreached_status(std::size_t i, const std::vector<PairResult>& pairs,
+                                          const EdgeSelection& edges) {
+    // A pair that failed for weak constraints is a failed match too: the sensor's own
+    // degeneracy (plane only) was ruled out by its features.
+    bool any_ok = false;
+    for (std::size_t e = 0; e < pairs.size(); ++e) {
+        const PairResult& p = pairs[e];
+        if (p.source != static_cast<int>(i) && p.target != static_cast<int>(i)) continue;
+        any_ok = any_ok || edges.ok[e];
+    }
+    return edges.ambiguous[i]     ? SensorRegistrationStatus::kAmbiguous
+           : edges.unconfirmed[i] ? SensorRegistrationStatus::kUnconfirmed
+           : any_ok               ? SensorRegistrationStatus::kNotConnectedToRoot
+                                  : SensorRegistrationStatus::kNoConsistentCorrespondences;
+}
+
+// Per-sensor outcome: its feature figures, and its pose or the reason it has none.
+void set_sensor_outcomes(const std::vector<SensorFeatures>& features,
+                         const std::vector<PairResult>& pairs, const EdgeSelection& edges,
+                         const GraphPoses& graph, std::vector<SensorRegistration>* sensors) {
+    for (std::size_t i = 0; i < sensors->size(); ++i) {
+        SensorRegistration& s = (*sensors)[i];
+        const SensorFeatures& f = features[i];
+        s.num_input_points = f.num_input_points;
+        s.num_preprocessed_points = f.num_preprocessed_points;
+        s.num_downsampled_points = f.octree.cloud.size();
+        s.num_keypoints = f.keypoints.size();
+        s.timings = f.timings;
+        s.ground = f.ground;
+        if (i == 0 && f.status == SensorFeatureStatus::kOk) {
+            s.registered = true;  // the root defines the frame
+            s.status = SensorRegistrationStatus::kRegistered;
+        } else if (f.status != SensorFeatureStatus::kOk) {
+            s.status = from_features(f.status);
+        } else if (graph.reached[i]) {
+            s.registered = true;
+            s.status = SensorRegistrationStatus::kRegistered;
+            s.T_root_sensor = graph.poses[i];
+        } else {
+            s.status = unreached_status(i, pairs, edges);
+        }
+    }
+}
+
 }  // namespace
 
 const char* to_string(SensorRegistrationStatus status) {
@@ -159,191 +411,35 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
     result.sensors.resize(n);
     if (n == 0) return result;
 
-    const auto cancelled = [&] {
-        return params.cancel != nullptr && params.cancel->load(std::memory_order_acquire);
-    };
-    // One report at a time: the callback need not be thread-safe.
-    const auto report = [&](const char* stage, std::size_t done, std::size_t total) {
-        if (!params.on_progress) return;
-#pragma omp critical(lidarfuse_initial_registration_progress)
-        params.on_progress(stage, done, total);
-    };
-    // A cancelled run registers nothing (never a half-checked pose).
-    const auto give_up = [&] {
-        for (SensorRegistration& sr : result.sensors) {
-            sr.registered = false;
-            sr.status = SensorRegistrationStatus::kCancelled;
-            sr.T_root_sensor = Eigen::Isometry3d::Identity();
-        }
-        result.timings.total_s = whole.seconds();
-        return result;
-    };
-
     // Steps 2-4 per sensor, sensors in parallel.
     Stopwatch stage;
-    std::vector<SensorFeatures> features(n);
-    std::atomic<std::size_t> done{0};
-    report("features", 0, n);
-    {
-        const int outer = std::min<int>(threads, static_cast<int>(n));
-        SensorFeatureParams feature_params = params.features;
-        feature_params.num_threads = std::max(1, threads / outer);
-#pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
-        for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
-            if (cancelled()) continue;
-            features[i] = compute_sensor_features(clouds[i], feature_params, params.min_keypoints);
-            report("features", ++done, n);
-        }
-    }
+    const std::vector<SensorFeatures> features = compute_all_features(clouds, params, threads);
     result.timings.features_s = stage.seconds();
-    if (cancelled()) return give_up();
+    if (cancel_requested(params)) return cancelled(std::move(result), whole);
 
     // Steps 5-8 for every pair i > j, pairs in parallel.
     stage.restart();
-    for (std::size_t i = 1; i < n; ++i) {
-        for (std::size_t j = 0; j < i; ++j) {
-            PairResult pair;
-            pair.source = static_cast<int>(i);
-            pair.target = static_cast<int>(j);
-            result.pairs.push_back(pair);
-        }
-    }
-    done = 0;
-    report("pairs", 0, result.pairs.size());
-    {
-        const auto n_pairs = static_cast<std::int64_t>(result.pairs.size());
-        const int outer =
-            static_cast<int>(std::max<std::int64_t>(1, std::min<std::int64_t>(threads, n_pairs)));
-        const int inner = std::max(1, threads / outer);
-#pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
-        for (std::int64_t e = 0; e < n_pairs; ++e) {
-            if (cancelled()) continue;
-            const int i = result.pairs[e].source;
-            const int j = result.pairs[e].target;
-            result.pairs[e] = register_pair(features[i], features[j], i, j, params.pair, inner);
-            report("pairs", ++done, result.pairs.size());
-        }
-    }
+    result.pairs = register_all_pairs(features, params, threads);
     result.timings.pairs_s = stage.seconds();
-    if (cancelled()) return give_up();
+    if (cancel_requested(params)) return cancelled(std::move(result), whole);
 
     // Step 9: pose graph over the good pairs, root fixed; drop edges that break cycle
     // consistency, one at a time (the worst first), and solve again.
-    report("pose graph", 0, 1);
+    report_progress(params, "pose graph", 0, 1);
     stage.restart();
-    std::vector<bool> edge_ok(result.pairs.size());
-    for (std::size_t e = 0; e < result.pairs.size(); ++e) {
-        edge_ok[e] = result.pairs[e].status == PairStatus::kOk;
-    }
-    EdgeConsensusParams consensus = params.consensus;
-    consensus.max_edge_translation_m = params.max_edge_translation_m;
-    consensus.max_edge_rotation_deg = params.max_edge_rotation_deg;
-    consensus.min_sensor_separation_m = params.pair.min_sensor_separation_m;
-    const EdgeConsensusResult consensus_result =
-        select_consistent_edges(n, &result.pairs, &edge_ok, consensus);
-    const std::vector<bool>& ambiguous = consensus_result.ambiguous;
-    const std::vector<bool>& unconfirmed = consensus_result.unconfirmed;
-    std::vector<bool> refused(n, false);
-    for (std::size_t i = 0; i < n; ++i) refused[i] = ambiguous[i] || unconfirmed[i];
-    close_loops(features, refused, params, threads, &result.pairs, &edge_ok);
+    EdgeSelection edges = select_edges(features, params, threads, &result.pairs);
     result.timings.pose_graph_s = stage.seconds();
 
     stage.restart();
-    EdgePolishParams polish = params.polish;
-    polish.gicp = params.pair.gicp;
-    polish.p2p_cutoff_m = params.pair.p2p_cutoff_m;
-    result.polish = polish_edges(features, edge_ok, polish, &result.pairs, threads);
+    result.polish = polish_kept_edges(features, edges.ok, params, threads, &result.pairs);
     result.timings.polish_s = stage.seconds();
 
     stage.restart();
-    std::vector<Eigen::Isometry3d> poses;
-    std::vector<bool> reached;
-    while (true) {
-        spanning_tree_poses(n, result.pairs, edge_ok, &poses, &reached);
-        PoseGraphParams graph_params = params.pose_graph;
-        graph_params.num_threads = threads;
-        PoseGraph graph(graph_params);
-        for (std::size_t i = 0; i < n; ++i) {
-            if (reached[i]) graph.add_node(static_cast<PoseGraph::NodeId>(i), poses[i], i == 0);
-        }
-        std::vector<std::pair<std::size_t, PoseGraph::EdgeId>> edges;
-        for (std::size_t e = 0; e < result.pairs.size(); ++e) {
-            const PairResult& p = result.pairs[e];
-            if (!edge_ok[e] || !reached[p.source] || !reached[p.target]) continue;
-            const PoseGraph::EdgeId id =
-                graph.add_edge(p.target, p.source, p.chosen.T_target_source, p.chosen.information);
-            if (id < 0) {
-                result.pairs[e].status = PairStatus::kDegenerate;
-                edge_ok[e] = false;
-                continue;
-            }
-            edges.emplace_back(e, id);
-        }
-        if (edges.empty()) break;
-        result.pose_graph = graph.optimize();
-        if (!result.pose_graph.usable) break;  // keep the spanning-tree poses
-        std::size_t worst = result.pairs.size();
-        double worst_excess = 1.0;
-        for (const auto& [e, id] : edges) {
-            const auto residual = graph.edge_residual(id);
-            if (!residual) continue;
-            const double excess = std::max(residual->translation_m / params.max_edge_translation_m,
-                                           residual->rotation_deg / params.max_edge_rotation_deg);
-            if (excess > worst_excess) {
-                worst_excess = excess;
-                worst = e;
-            }
-        }
-        if (worst == result.pairs.size()) {
-            for (std::size_t i = 0; i < n; ++i) {
-                if (reached[i])
-                    poses[i] = orthonormalized(*graph.node_pose(static_cast<PoseGraph::NodeId>(i)));
-            }
-            break;
-        }
-        result.pairs[worst].status = PairStatus::kRejectedByPoseGraph;
-        edge_ok[worst] = false;
-    }
+    const GraphPoses graph =
+        solve_pose_graph(n, params, threads, &result.pairs, &edges.ok, &result.pose_graph);
     result.timings.pose_graph_s += stage.seconds();
 
-    // Per-sensor outcome, with the reason when unregistered.
-    for (std::size_t i = 0; i < n; ++i) {
-        SensorRegistration& s = result.sensors[i];
-        const SensorFeatures& f = features[i];
-        s.num_input_points = f.num_input_points;
-        s.num_preprocessed_points = f.num_preprocessed_points;
-        s.num_downsampled_points = f.octree.cloud.size();
-        s.num_keypoints = f.keypoints.size();
-        s.timings = f.timings;
-        s.ground = f.ground;
-        if (i == 0 && f.status == SensorFeatureStatus::kOk) {
-            s.registered = true;  // the root defines the frame
-            s.status = SensorRegistrationStatus::kRegistered;
-            continue;
-        }
-        if (f.status != SensorFeatureStatus::kOk) {
-            s.status = from_features(f.status);
-            continue;
-        }
-        if (reached[i]) {
-            s.registered = true;
-            s.status = SensorRegistrationStatus::kRegistered;
-            s.T_root_sensor = poses[i];
-            continue;
-        }
-        // A pair that failed for weak constraints is a failed match too: the sensor's own
-        // degeneracy (plane only) was ruled out by its features.
-        bool any_ok = false;
-        for (std::size_t e = 0; e < result.pairs.size(); ++e) {
-            const PairResult& p = result.pairs[e];
-            if (p.source != static_cast<int>(i) && p.target != static_cast<int>(i)) continue;
-            any_ok = any_ok || edge_ok[e];
-        }
-        s.status = ambiguous[i]     ? SensorRegistrationStatus::kAmbiguous
-                   : unconfirmed[i] ? SensorRegistrationStatus::kUnconfirmed
-                   : any_ok         ? SensorRegistrationStatus::kNotConnectedToRoot
-                                    : SensorRegistrationStatus::kNoConsistentCorrespondences;
-    }
+    set_sensor_outcomes(features, result.pairs, edges, graph, &result.sensors);
     result.timings.total_s = whole.seconds();
     return result;
 }

@@ -159,6 +159,10 @@ public:
     void apply(FrameOutput* out) const;
 
 private:
+    // The steps of update() for each kind that is fixed from the frames; true when fixed.
+    bool update_road(const FrameOutput& out);
+    bool update_geo(const FrameOutput& out);
+
     WorldFrameParams params_;
     std::size_t num_sensors_;
     bool registration_applied_ = false;

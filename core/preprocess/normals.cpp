@@ -41,17 +41,22 @@ void record_neighbor_list(std::uint32_t i, const std::uint32_t* idx, const doubl
     cloud->neighbor_reach_d2[i] = reach;
 }
 
-}  // namespace
+// Where one call's per-point results go, and which of them it fills.
+struct NormalOutputs {
+    const NormalParams& params;
+    PointCloud* cloud;
+    std::vector<double>* curvature;  // may be null
+    bool axes;                       // covariance_axes: plane covariances (point_cloud.hpp)
+    bool lists;  // neighbor_list and neighbor_reach_d2: the tree is over this cloud
+};
 
-NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
-                                         const NormalParams& params,
-                                         std::vector<double>* curvature) {
-    NormalStats stats;
+// Sizes (or clears) the cloud's outputs for n points. The plane covariances' axes come with
+// the regularisation, the neighbor lists with the k-NN when the tree is over this cloud.
+NormalOutputs prepare_outputs(const NormalParams& params, std::size_t tree_size, PointCloud* cloud,
+                              std::vector<double>* curvature) {
     const std::size_t n = cloud->points.size();
-    stats.num_points = n;
     if (params.compute_normals) cloud->normals.resize(n);
     if (params.compute_covariances) cloud->covariances.resize(n);
-    // The plane covariances' axes (point_cloud.hpp) come with the regularisation.
     const bool axes = params.compute_covariances && params.regularize_covariances &&
                       params.gicp_epsilon > 0.0 && params.gicp_epsilon < 1.0;
     if (axes) {
@@ -61,17 +66,81 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
         cloud->covariance_axes.clear();
         cloud->covariance_epsilon = 0.0;
     }
-    // The neighbor lists come with the k-NN when the tree is over this cloud.
-    constexpr std::size_t kList = PointCloud::kNeighborListSize;
-    const bool lists = params.compute_covariances && tree.size() == n;
+    const bool lists = params.compute_covariances && tree_size == n;
     if (lists) {
-        cloud->neighbor_list.resize(n * kList);
+        cloud->neighbor_list.resize(n * PointCloud::kNeighborListSize);
         cloud->neighbor_reach_d2.resize(n);
     } else {
         cloud->neighbor_list.clear();
         cloud->neighbor_reach_d2.clear();
     }
     if (curvature) curvature->resize(n);
+    return NormalOutputs{params, cloud, curvature, axes, lists};
+}
+
+// Fewer than 3 neighbors: no normal, the identity covariance, isotropic curvature.
+inline void store_degenerate(const NormalOutputs& out, std::size_t i) {
+    if (out.params.compute_normals) out.cloud->normals[i].setZero();
+    if (out.params.compute_covariances) out.cloud->covariances[i].setIdentity();
+    if (out.axes) out.cloud->covariance_axes[i].setZero();
+    if (out.curvature) (*out.curvature)[i] = 1.0 / 3.0;
+}
+
+// Covariance of the `found` points idx[] about their mean (m^2). Two-pass (mean first) for
+// accuracy far from the origin.
+inline Eigen::Matrix3d neighborhood_covariance(const std::vector<Eigen::Vector3d>& points,
+                                               const std::uint32_t* idx, std::size_t found) {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (std::size_t j = 0; j < found; ++j) mean += points[idx[j]];
+    mean /= static_cast<double>(found);
+    Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+    for (std::size_t j = 0; j < found; ++j) {
+        const Eigen::Vector3d d = points[idx[j]] - mean;
+        C.noalias() += d * d.transpose();
+    }
+    C /= static_cast<double>(found);
+    return C;
+}
+
+// Point i's normal, covariance, plane axis and curvature from its neighborhood covariance C
+// and C's eigen decomposition (eigenvalues ascending).
+inline void store_point(const NormalOutputs& out, std::size_t i, const Eigen::Matrix3d& C,
+                        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& solver) {
+    const NormalParams& params = out.params;
+    const Eigen::Matrix3d& U = solver.eigenvectors();
+    if (params.compute_normals) {
+        Eigen::Vector3d normal = U.col(0);
+        const Eigen::Vector3d& p = out.cloud->points[i];
+        if (params.orient_towards_viewpoint && normal.dot(params.viewpoint - p) < 0.0) {
+            normal = -normal;
+        }
+        out.cloud->normals[i] = normal;
+    }
+    if (params.compute_covariances) {
+        if (params.regularize_covariances) {
+            const Eigen::Vector3d d(params.gicp_epsilon, 1.0, 1.0);
+            out.cloud->covariances[i] = U * d.asDiagonal() * U.transpose();
+            if (out.axes) out.cloud->covariance_axes[i] = U.col(0);
+        } else {
+            out.cloud->covariances[i] = C;
+        }
+    }
+    if (out.curvature) {
+        const Eigen::Vector3d lambda = solver.eigenvalues().cwiseMax(0.0);
+        const double sum = lambda.sum();
+        (*out.curvature)[i] = sum > 0.0 ? lambda(0) / sum : 1.0 / 3.0;
+    }
+}
+
+}  // namespace
+
+NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
+                                         const NormalParams& params,
+                                         std::vector<double>* curvature) {
+    NormalStats stats;
+    const std::size_t n = cloud->points.size();
+    stats.num_points = n;
+    const NormalOutputs out = prepare_outputs(params, tree.size(), cloud, curvature);
     if (n == 0) return stats;
 
     const std::size_t k = static_cast<std::size_t>(std::max(3, params.k_neighbors));
@@ -89,52 +158,18 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
         for (long long t = 0; t < count; ++t) {
             // In the tree's leaf order when the tree is over this cloud (kdtree.hpp).
             const long long i = own_tree ? static_cast<long long>(order[t]) : t;
-            const Eigen::Vector3d& p = cloud->points[i];
-            const std::size_t found = tree.knn(p, k, idx.data(), d2.data());
-            if (lists)
+            const std::size_t found = tree.knn(cloud->points[i], k, idx.data(), d2.data());
+            if (out.lists)
                 record_neighbor_list(static_cast<std::uint32_t>(i), idx.data(), d2.data(), found, n,
                                      cloud);
             if (found < 3) {
                 ++degenerate;
-                if (params.compute_normals) cloud->normals[i].setZero();
-                if (params.compute_covariances) cloud->covariances[i].setIdentity();
-                if (axes) cloud->covariance_axes[i].setZero();
-                if (curvature) (*curvature)[i] = 1.0 / 3.0;
+                store_degenerate(out, static_cast<std::size_t>(i));
                 continue;
             }
-            // Two-pass (mean first) for accuracy far from the origin.
-            Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-            for (std::size_t j = 0; j < found; ++j) mean += cloud->points[idx[j]];
-            mean /= static_cast<double>(found);
-            Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
-            for (std::size_t j = 0; j < found; ++j) {
-                const Eigen::Vector3d d = cloud->points[idx[j]] - mean;
-                C.noalias() += d * d.transpose();
-            }
-            C /= static_cast<double>(found);
+            const Eigen::Matrix3d C = neighborhood_covariance(cloud->points, idx.data(), found);
             solver.computeDirect(C);
-            const Eigen::Vector3d lambda = solver.eigenvalues().cwiseMax(0.0);
-            const Eigen::Matrix3d& U = solver.eigenvectors();
-            if (params.compute_normals) {
-                Eigen::Vector3d normal = U.col(0);
-                if (params.orient_towards_viewpoint && normal.dot(params.viewpoint - p) < 0.0) {
-                    normal = -normal;
-                }
-                cloud->normals[i] = normal;
-            }
-            if (params.compute_covariances) {
-                if (params.regularize_covariances) {
-                    const Eigen::Vector3d d(params.gicp_epsilon, 1.0, 1.0);
-                    cloud->covariances[i] = U * d.asDiagonal() * U.transpose();
-                    if (axes) cloud->covariance_axes[i] = U.col(0);
-                } else {
-                    cloud->covariances[i] = C;
-                }
-            }
-            if (curvature) {
-                const double sum = lambda.sum();
-                (*curvature)[i] = sum > 0.0 ? lambda(0) / sum : 1.0 / 3.0;
-            }
+            store_point(out, static_cast<std::size_t>(i), C, solver);
         }
     }
     stats.num_degenerate = degenerate;

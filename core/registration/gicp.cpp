@@ -130,6 +130,129 @@ Eigen::Matrix3d plane_pair_information(const Eigen::Vector3d& m, const Eigen::Ve
     return N;
 }
 
+// The target side of the correspondence search, read-only for one linearize() call.
+struct CorrespondenceSearch {
+    const KdTree& tree;
+    const std::vector<Eigen::Vector3d>& points;
+    const std::vector<std::uint32_t>& neighbor_list;  // kNeighborListSize per point
+    const std::vector<double>& neighbor_reach_d2;     // m^2
+    bool lists;                                       // the two above are filled
+    double max_d2;                                    // correspondence limit (m^2)
+};
+
+CorrespondenceSearch make_search(const GicpTarget& target, double max_distance_m) {
+    const PointCloud& cloud = target.cloud();
+    return CorrespondenceSearch{target.tree(),
+                                cloud.points,
+                                cloud.neighbor_list,
+                                cloud.neighbor_reach_d2,
+                                cloud.has_neighbor_lists(),
+                                max_distance_m * max_distance_m};
+}
+
+// The nearest of the previous neighbor `prev` and its listed neighbors, in *j and *d2
+// (m^2). True (certified) when it is the nearest of all: it is closer than
+// reach - |Ta - prev|, and every unlisted point is at least that far (triangle
+// inequality). The factor keeps rounding on the safe side.
+inline bool nearest_listed(const CorrespondenceSearch& search, const Eigen::Vector3d& Ta,
+                           std::size_t prev, std::uint32_t* j, double* d2) {
+    const double d2_prev = (search.points[prev] - Ta).squaredNorm();
+    *j = static_cast<std::uint32_t>(prev);
+    *d2 = d2_prev;
+    if (!search.lists) return false;
+    const std::uint32_t* list = &search.neighbor_list[prev * PointCloud::kNeighborListSize];
+    for (std::size_t r = 0; r < PointCloud::kNeighborListSize; ++r) {
+        const double d2_r = (search.points[list[r]] - Ta).squaredNorm();
+        if (d2_r < *d2) {
+            *d2 = d2_r;
+            *j = list[r];
+        }
+    }
+    const double margin = std::sqrt(search.neighbor_reach_d2[prev]) - std::sqrt(d2_prev);
+    return margin > 0.0 && *d2 < margin * margin * (1.0 - 1e-9);
+}
+
+// The nearest target point to Ta within the correspondence limit, in *j and *d2 (m^2);
+// false when there is none. `prev` (-1: none) is the previous correspondence: the search
+// bound is tightened to its candidate's distance, slightly inflated so that the candidate
+// itself is still found.
+inline bool find_correspondence(const CorrespondenceSearch& search, const Eigen::Vector3d& Ta,
+                                std::int32_t prev, std::uint32_t* j, double* d2) {
+    double bound = search.max_d2;
+    *j = 0;
+    *d2 = 0.0;
+    bool certified = false;
+    if (prev >= 0 && static_cast<std::size_t>(prev) < search.points.size()) {
+        certified = nearest_listed(search, Ta, static_cast<std::size_t>(prev), j, d2);
+        if (!certified) bound = std::min(bound, *d2 * (1.0 + 1e-9) + 1e-12);
+    }
+    if (!certified && !search.tree.nearest_within(Ta, bound, j, d2)) return false;
+    return !(*d2 > search.max_d2);
+}
+
+// The covariances of both clouds, read-only for one linearize() call at rotation R.
+struct PairCovariances {
+    const Eigen::Matrix3d& R;
+    const Eigen::Matrix3d& Rt;
+    const std::vector<Eigen::Matrix3d>& target_covs;
+    const std::vector<Eigen::Matrix3d>& source_covs;
+    // Plane covariances on both sides: their pairs are inverted in closed form.
+    bool planes;
+    const std::vector<Eigen::Vector3d>& target_axes;
+    const std::vector<Eigen::Vector3d>& source_axes;
+    double inv_beta_target;  // 1 / (1 - epsilon); 0 without planes
+    double inv_beta_source;
+};
+
+PairCovariances make_pair_covariances(const PointCloud& target, const PointCloud& source,
+                                      const Eigen::Matrix3d& R, const Eigen::Matrix3d& Rt) {
+    const bool planes = target.has_plane_covariances() && source.has_plane_covariances();
+    return PairCovariances{R,
+                           Rt,
+                           target.covariances,
+                           source.covariances,
+                           planes,
+                           target.covariance_axes,
+                           source.covariance_axes,
+                           planes ? 1.0 / (1.0 - target.covariance_epsilon) : 0.0,
+                           planes ? 1.0 / (1.0 - source.covariance_epsilon) : 0.0};
+}
+
+// N = R^T M R = (R^T C_B R + C_A)^-1 of source point i and target point j: M in the source
+// frame, formed directly (one congruence instead of two). False when the combined
+// covariance is singular (only with unregularised, degenerate covariances).
+inline bool pair_information(const PairCovariances& c, std::size_t i, std::uint32_t j,
+                             Eigen::Matrix3d* N) {
+    if (c.planes) {
+        *N = plane_pair_information(c.Rt * c.target_axes[j], c.source_axes[i], c.inv_beta_target,
+                                    c.inv_beta_source);
+        return true;
+    }
+    const Eigen::Matrix3d RCR = c.Rt * c.target_covs[j] * c.R + c.source_covs[i];
+    bool invertible = false;
+    RCR.computeInverseWithCheck(*N, invertible, 1e-12);
+    return invertible;
+}
+
+// Adds w J^T M J to H and w J^T M d to b for source point a. J = [R [a]x, -R] = R [A, -I]
+// with A = [a]x (see the header), so with d' = R^T d:
+//   J^T M J = [[-A N A, A N], [(A N)^T, N]],  J^T M d = [u x a, -u], u = N d'.
+// Cheaper than forming the 3x6 J (about half the multiply-adds), and the same numbers up to
+// rounding. The lower-left block of H is left to the caller (the transpose of the
+// upper-right one).
+inline void add_normal_equations(const Eigen::Vector3d& a, const Eigen::Matrix3d& N,
+                                 const Eigen::Vector3d& u, double w, Matrix6d* H, Vector6d* b) {
+    Eigen::Matrix3d AN;  // A N: column k is a x N.col(k)
+    for (int k = 0; k < 3; ++k) AN.col(k) = a.cross(N.col(k));
+    Eigen::Matrix3d ANA;  // -A N A: row i is a x (row i of A N)
+    for (int r = 0; r < 3; ++r) ANA.row(r) = a.cross(AN.row(r).transpose()).transpose();
+    H->topLeftCorner<3, 3>().noalias() += w * ANA;
+    H->topRightCorner<3, 3>().noalias() += w * AN;
+    H->bottomRightCorner<3, 3>().noalias() += w * N;
+    b->head<3>() += w * u.cross(a);
+    b->tail<3>() -= w * u;
+}
+
 }  // namespace
 
 void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& source,
@@ -143,23 +266,12 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
     // parallel region), and unused slots must not keep an earlier call's sums.
     partial_.assign(static_cast<std::size_t>(threads), Linearization());
     const Kernel kernel = make_kernel(params_);
-    const double max_d2 =
-        params_.max_correspondence_distance_m * params_.max_correspondence_distance_m;
     const Eigen::Matrix3d R = T.linear();
     const Eigen::Vector3d t = T.translation();
     linearized_rotation_ = R;
-    const auto& target_points = target.cloud().points;
-    const auto& target_covs = target.cloud().covariances;
-    const bool lists = target.cloud().has_neighbor_lists();
-    const auto& neighbor_list = target.cloud().neighbor_list;
-    const auto& neighbor_reach_d2 = target.cloud().neighbor_reach_d2;
-    // Plane covariances on both sides: their pairs are inverted in closed form.
-    const bool planes = target.cloud().has_plane_covariances() && source.has_plane_covariances();
-    const auto& target_axes = target.cloud().covariance_axes;
-    const auto& source_axes = source.covariance_axes;
-    const double inv_beta_target = planes ? 1.0 / (1.0 - target.cloud().covariance_epsilon) : 0.0;
-    const double inv_beta_source = planes ? 1.0 / (1.0 - source.covariance_epsilon) : 0.0;
     const Eigen::Matrix3d Rt = R.transpose();
+    const CorrespondenceSearch search = make_search(target, params_.max_correspondence_distance_m);
+    const PairCovariances covariances = make_pair_covariances(target.cloud(), source, R, Rt);
     const long long count = static_cast<long long>(n);
 
 #pragma omp parallel num_threads(threads) if (threads > 1)
@@ -169,79 +281,22 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
         for (long long i = 0; i < count; ++i) {
             const Eigen::Vector3d& a = source.points[i];
             const Eigen::Vector3d Ta = R * a + t;
-            // Search bound: the correspondence limit, tightened to the previous neighbor's
-            // distance (slightly inflated so that neighbor itself is still found).
-            double bound = max_d2;
+            const std::int32_t prev = reuse_correspondences ? target_index_[i] : -1;
             std::uint32_t j = 0;
             double d2 = 0.0;
-            bool certified = false;
-            if (reuse_correspondences && target_index_[i] >= 0 &&
-                static_cast<std::size_t>(target_index_[i]) < target_points.size()) {
-                const auto prev = static_cast<std::size_t>(target_index_[i]);
-                const double d2_prev = (target_points[prev] - Ta).squaredNorm();
-                j = static_cast<std::uint32_t>(prev);
-                d2 = d2_prev;
-                if (lists) {
-                    // The nearest of the previous neighbor and its listed neighbors is
-                    // the nearest of all when it is closer than reach - |Ta - prev|: every
-                    // unlisted point is at least that far (triangle inequality). The
-                    // factor keeps rounding on the safe side.
-                    const std::uint32_t* list =
-                        &neighbor_list[prev * PointCloud::kNeighborListSize];
-                    for (std::size_t r = 0; r < PointCloud::kNeighborListSize; ++r) {
-                        const double d2_r = (target_points[list[r]] - Ta).squaredNorm();
-                        if (d2_r < d2) {
-                            d2 = d2_r;
-                            j = list[r];
-                        }
-                    }
-                    const double margin = std::sqrt(neighbor_reach_d2[prev]) - std::sqrt(d2_prev);
-                    certified = margin > 0.0 && d2 < margin * margin * (1.0 - 1e-9);
-                }
-                if (!certified) bound = std::min(bound, d2 * (1.0 + 1e-9) + 1e-12);
-            }
-            if ((!certified && !target.tree().nearest_within(Ta, bound, &j, &d2)) || d2 > max_d2) {
+            Eigen::Matrix3d N;
+            if (!find_correspondence(search, Ta, prev, &j, &d2) ||
+                !pair_information(covariances, static_cast<std::size_t>(i), j, &N)) {
                 target_index_[i] = -1;
                 continue;
             }
-            // N = R^T M R = (R^T C_B R + C_A)^-1: M in the source frame, formed directly
-            // (one congruence instead of two). Skip a correspondence whose combined
-            // covariance is singular (only with unregularised, degenerate covariances).
-            Eigen::Matrix3d N;
-            if (planes) {
-                N = plane_pair_information(Rt * target_axes[j], source_axes[i], inv_beta_target,
-                                           inv_beta_source);
-            } else {
-                const Eigen::Matrix3d RCR = Rt * target_covs[j] * R + source.covariances[i];
-                bool invertible = false;
-                RCR.computeInverseWithCheck(N, invertible, 1e-12);
-                if (!invertible) {
-                    target_index_[i] = -1;
-                    continue;
-                }
-            }
             target_index_[i] = static_cast<std::int32_t>(j);
             mahalanobis_[i] = N;
-
-            // J = [R [a]x, -R] = R [A, -I] with A = [a]x (see the header), so with
-            // d' = R^T d:
-            //   J^T M J = [[-A N A, A N], [(A N)^T, N]],  J^T M d = [u x a, -u], u = N d'.
-            // Cheaper than forming the 3x6 J (about half the multiply-adds), and the same
-            // numbers up to rounding.
-            const Eigen::Vector3d d = target_points[j] - Ta;
+            const Eigen::Vector3d d = search.points[j] - Ta;
             const Eigen::Vector3d d_s = Rt * d;
             const Eigen::Vector3d u = N * d_s;
             const double s = d_s.dot(u);
-            const double w = kernel.weight(s);
-            Eigen::Matrix3d AN;  // A N: column k is a x N.col(k)
-            for (int k = 0; k < 3; ++k) AN.col(k) = a.cross(N.col(k));
-            Eigen::Matrix3d ANA;  // -A N A: row i is a x (row i of A N)
-            for (int r = 0; r < 3; ++r) ANA.row(r) = a.cross(AN.row(r).transpose()).transpose();
-            local.H.topLeftCorner<3, 3>().noalias() += w * ANA;
-            local.H.topRightCorner<3, 3>().noalias() += w * AN;  // lower-left: its transpose
-            local.H.bottomRightCorner<3, 3>().noalias() += w * N;
-            local.b.head<3>() += w * u.cross(a);
-            local.b.tail<3>() -= w * u;
+            add_normal_equations(a, N, u, kernel.weight(s), &local.H, &local.b);
             local.error += kernel.rho(s);
             local.sum_sq_dist_m2 += d2;
             ++local.num_inliers;
@@ -281,28 +336,85 @@ double GicpRegistration::evaluate(const GicpTarget& target, const PointCloud& so
     return sum;
 }
 
+namespace {
+
+// kEmptyInput or kMissingCovariances when the pair cannot be registered, else
+// kMaxIterations: the status of a run that no other condition ends.
+GicpStatus input_status(const GicpTarget& target, const PointCloud& source) {
+    if (source.empty() || target.empty()) return GicpStatus::kEmptyInput;
+    if (!source.has_covariances() || !target.cloud().has_covariances()) {
+        return GicpStatus::kMissingCovariances;
+    }
+    return GicpStatus::kMaxIterations;
+}
+
+bool is_small_update(const Vector6d& delta, const GicpParams& params) {
+    return delta.head<3>().norm() < params.rotation_eps_rad &&
+           delta.tail<3>().norm() < params.translation_eps_m;
+}
+
+// The error figures of the result from the sums over its inlier correspondences.
+void report_error(double error, double sum_sq_dist_m2, std::size_t num_inliers,
+                  GicpResult* result) {
+    result->num_inliers = num_inliers;
+    result->inlier_ratio =
+        static_cast<double>(num_inliers) / static_cast<double>(result->num_source);
+    result->error = error;
+    if (num_inliers > 0) {
+        result->mean_error = error / static_cast<double>(num_inliers);
+        result->rmse_m = std::sqrt(sum_sq_dist_m2 / static_cast<double>(num_inliers));
+        const double dof = 3.0 * static_cast<double>(num_inliers) - 6.0;
+        result->reduced_chi2 = dof > 0.0 ? error / dof : 0.0;
+    }
+}
+
+// H (symmetrised), b and H's spectra (ascending) into the result.
+void report_information(const Matrix6d& H, const Vector6d& b, GicpResult* result) {
+    result->H = 0.5 * (H + H.transpose());  // remove summation asymmetry
+    result->b = b;
+    if (result->H.allFinite()) {
+        Eigen::SelfAdjointEigenSolver<Matrix6d> eig(result->H, Eigen::EigenvaluesOnly);
+        result->H_eigenvalues = eig.eigenvalues();
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig_t(result->H.bottomRightCorner<3, 3>(),
+                                                             Eigen::EigenvaluesOnly);
+        result->H_translation_eigenvalues = eig_t.eigenvalues();
+    }
+}
+
+}  // namespace
+
+bool GicpRegistration::levenberg_marquardt_step(const GicpTarget& target, const PointCloud& source,
+                                                const Linearization& lin, double* lambda,
+                                                Eigen::Isometry3d* T, Vector6d* delta) {
+    for (int inner = 0; inner < params_.lm_max_inner_iterations; ++inner) {
+        const Matrix6d A = lin.H + *lambda * Matrix6d::Identity();
+        *delta = A.ldlt().solve(-lin.b);
+        if (!delta->allFinite()) return false;
+        const Eigen::Isometry3d T_new = *T * se3_exp(*delta);
+        if (evaluate(target, source, T_new) <= lin.error) {
+            *T = T_new;
+            *lambda = std::max(*lambda * 0.1, 1e-12);
+            return true;
+        }
+        *lambda *= 10.0;
+    }
+    return false;
+}
+
 GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& source,
                                    const Eigen::Isometry3d& T_init,
                                    const std::vector<std::int32_t>* guess) {
     GicpResult result;
     result.T_target_source = T_init;
     result.num_source = source.size();
-    if (source.empty() || target.empty()) {
-        result.status = GicpStatus::kEmptyInput;
-        return result;
-    }
-    if (!source.has_covariances() || !target.cloud().has_covariances()) {
-        result.status = GicpStatus::kMissingCovariances;
-        return result;
-    }
+    result.status = input_status(target, source);
+    if (result.status != GicpStatus::kMaxIterations) return result;
 
     const bool has_guess = guess && guess->size() == source.size();
     Eigen::Isometry3d T = T_init;
     Linearization lin;
     double lambda = params_.lm_initial_lambda;
     bool last_linearization_current = false;  // lin was computed at T
-    result.status = GicpStatus::kMaxIterations;
-
     for (int iteration = 0; iteration < params_.max_iterations; ++iteration) {
         if (iteration == 0 && has_guess) target_index_ = *guess;
         linearize(target, source, T, /*reuse_correspondences=*/iteration > 0 || has_guess, &lin);
@@ -315,42 +427,19 @@ GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& s
         bool stop = false;
         if (params_.solver == GicpSolver::kGaussNewton) {
             delta = lin.H.ldlt().solve(-lin.b);
-            if (!delta.allFinite()) {
-                result.status = GicpStatus::kSingular;
-                break;
-            }
-            T = T * se3_exp(delta);
-            last_linearization_current = false;
+            if (delta.allFinite()) T = T * se3_exp(delta);
         } else {
-            // Levenberg-Marquardt: accept the damped step only if the robust error over
-            // the current correspondences decreases.
-            bool accepted = false;
-            for (int inner = 0; inner < params_.lm_max_inner_iterations; ++inner) {
-                const Matrix6d A = lin.H + lambda * Matrix6d::Identity();
-                delta = A.ldlt().solve(-lin.b);
-                if (!delta.allFinite()) break;
-                const Eigen::Isometry3d T_new = T * se3_exp(delta);
-                if (evaluate(target, source, T_new) <= lin.error) {
-                    T = T_new;
-                    last_linearization_current = false;
-                    lambda = std::max(lambda * 0.1, 1e-12);
-                    accepted = true;
-                    break;
-                }
-                lambda *= 10.0;
-            }
-            if (!delta.allFinite()) {
-                result.status = GicpStatus::kSingular;
-                break;
-            }
             // No step lowers the error even with heavy damping: T is a local minimum for
             // these correspondences, which do not change when T does not.
-            if (!accepted) stop = true;
+            stop = !levenberg_marquardt_step(target, source, lin, &lambda, &T, &delta);
         }
+        if (!delta.allFinite()) {
+            result.status = GicpStatus::kSingular;
+            break;
+        }
+        last_linearization_current = stop;  // T has moved unless the LM step found none
         result.iterations = iteration + 1;
-        const bool small_update = delta.head<3>().norm() < params_.rotation_eps_rad &&
-                                  delta.tail<3>().norm() < params_.translation_eps_m;
-        if (stop || small_update) {
+        if (stop || is_small_update(delta, params_)) {
             result.status = GicpStatus::kConverged;
             break;
         }
@@ -364,25 +453,8 @@ GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& s
     }
     result.converged = result.status == GicpStatus::kConverged;
     result.T_target_source = T;
-    result.num_inliers = lin.num_inliers;
-    result.inlier_ratio =
-        static_cast<double>(lin.num_inliers) / static_cast<double>(result.num_source);
-    result.error = lin.error;
-    if (lin.num_inliers > 0) {
-        result.mean_error = lin.error / static_cast<double>(lin.num_inliers);
-        result.rmse_m = std::sqrt(lin.sum_sq_dist_m2 / static_cast<double>(lin.num_inliers));
-        const double dof = 3.0 * static_cast<double>(lin.num_inliers) - 6.0;
-        result.reduced_chi2 = dof > 0.0 ? lin.error / dof : 0.0;
-    }
-    result.H = 0.5 * (lin.H + lin.H.transpose());  // remove summation asymmetry
-    result.b = lin.b;
-    if (result.H.allFinite()) {
-        Eigen::SelfAdjointEigenSolver<Matrix6d> eig(result.H, Eigen::EigenvaluesOnly);
-        result.H_eigenvalues = eig.eigenvalues();
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig_t(result.H.bottomRightCorner<3, 3>(),
-                                                             Eigen::EigenvaluesOnly);
-        result.H_translation_eigenvalues = eig_t.eigenvalues();
-    }
+    report_error(lin.error, lin.sum_sq_dist_m2, lin.num_inliers, &result);
+    report_information(lin.H, lin.b, &result);
     return result;
 }
 

@@ -186,6 +186,12 @@ private:
                    bool reuse_correspondences, Linearization* lin);
     // Robust error over the stored correspondences at T (no k-d tree search).
     double evaluate(const GicpTarget& target, const PointCloud& source, const Eigen::Isometry3d& T);
+    // One Levenberg-Marquardt step over lin's correspondences: tries damped steps from
+    // *lambda up (updating it) and takes the first that lowers the robust error (*T moved,
+    // true). False when none does; *delta is then the last step tried (maybe not finite).
+    bool levenberg_marquardt_step(const GicpTarget& target, const PointCloud& source,
+                                  const Linearization& lin, double* lambda, Eigen::Isometry3d* T,
+                                  Vector6d* delta);
     int num_threads() const;
 
     GicpParams params_;

@@ -50,6 +50,93 @@ void PcapReader::finish() {
     sync_reassembly_stats();
 }
 
+namespace {
+
+// Whether a decoded frame is an IPv4 UDP packet (or fragment); counts the ones that are not.
+bool is_ipv4_udp(FrameKind kind, const Ipv4Packet& ip, PcapReaderStats* stats) {
+    switch (kind) {
+        case FrameKind::kIpv4:
+            break;
+        case FrameKind::kNotIpv4:
+        case FrameKind::kUnsupportedLink:
+            ++stats->non_ipv4;
+            return false;
+        case FrameKind::kMalformed:
+            ++stats->malformed;
+            return false;
+    }
+    if (ip.protocol != kIpProtocolUdp) {
+        ++stats->non_udp;
+        return false;
+    }
+    return true;
+}
+
+Ipv4Fragment to_fragment(const Ipv4Packet& ip, std::int64_t timestamp_ns) {
+    Ipv4Fragment fragment;
+    fragment.timestamp_ns = timestamp_ns;
+    fragment.src_ip = ip.src_ip;
+    fragment.dst_ip = ip.dst_ip;
+    fragment.id = ip.id;
+    fragment.protocol = ip.protocol;
+    fragment.offset_bytes = ip.offset_bytes;
+    fragment.more_fragments = ip.more_fragments;
+    fragment.payload = ip.payload;
+    fragment.size = ip.payload_size;
+    return fragment;
+}
+
+}  // namespace
+
+// libpcap failed to read a record: a short record (header or data) it reports as "truncated
+// dump file" means the file is cut off; anything else is a read error. Either ends the file.
+void PcapReader::stop_after_read_error() {
+    const std::string message = pcap_geterr(handle_->pcap);
+    if (message.find("truncated") != std::string::npos) {
+        stats_.cut_off = 1;
+        warning_ = "capture " + file_.string() + " is cut off after record " +
+                   std::to_string(stats_.records) + ": " + message;
+    } else {
+        stats_.read_errors = 1;
+        warning_ = "capture " + file_.string() + ": read error after record " +
+                   std::to_string(stats_.records) + ": " + message;
+    }
+    finish();
+}
+
+bool PcapReader::decode_record(const std::uint8_t* frame, std::size_t size,
+                               std::int64_t timestamp_ns, UdpDatagram* out) {
+    Ipv4Packet ip;
+    if (!is_ipv4_udp(decode_frame(link_type_, frame, size, &ip), ip, &stats_)) return false;
+    const std::uint8_t* ip_payload = ip.payload;
+    std::size_t ip_payload_size = ip.payload_size;
+    bool reassembled = false;
+    if (ip.is_fragment()) {
+        ReassembledDatagram whole;
+        const bool complete = reassembler_.add(to_fragment(ip, timestamp_ns), &whole);
+        sync_reassembly_stats();
+        if (!complete) return false;
+        ip_payload = whole.payload;
+        ip_payload_size = whole.size;
+        reassembled = true;
+    }
+    UdpPayload udp;
+    if (!decode_udp(ip_payload, ip_payload_size, &udp)) {
+        ++stats_.malformed;
+        return false;
+    }
+    out->timestamp_ns = timestamp_ns;
+    out->src_ip = ip.src_ip;
+    out->dst_ip = ip.dst_ip;
+    out->src_port = udp.src_port;
+    out->dst_port = udp.dst_port;
+    out->data = udp.data;
+    out->size = udp.size;
+    out->reassembled = reassembled;
+    ++stats_.udp_datagrams;
+    return true;
+}
+
 bool PcapReader::next(UdpDatagram* out) {
     if (finished_) return false;
     for (;;) {
@@ -61,18 +148,7 @@ bool PcapReader::next(UdpDatagram* out) {
             return false;
         }
         if (rc != 1) {
-            // libpcap reports a short record (header or data) as "truncated dump file".
-            const std::string message = pcap_geterr(handle_->pcap);
-            if (message.find("truncated") != std::string::npos) {
-                stats_.cut_off = 1;
-                warning_ = "capture " + file_.string() + " is cut off after record " +
-                           std::to_string(stats_.records) + ": " + message;
-            } else {
-                stats_.read_errors = 1;
-                warning_ = "capture " + file_.string() + ": read error after record " +
-                           std::to_string(stats_.records) + ": " + message;
-            }
-            finish();
+            stop_after_read_error();
             return false;
         }
         ++stats_.records;
@@ -87,60 +163,7 @@ bool PcapReader::next(UdpDatagram* out) {
         const std::int64_t timestamp_ns =
             static_cast<std::int64_t>(header->ts.tv_sec) * 1'000'000'000 +
             static_cast<std::int64_t>(header->ts.tv_usec);
-
-        Ipv4Packet ip;
-        switch (decode_frame(link_type_, frame, header->caplen, &ip)) {
-            case FrameKind::kIpv4:
-                break;
-            case FrameKind::kNotIpv4:
-            case FrameKind::kUnsupportedLink:
-                ++stats_.non_ipv4;
-                continue;
-            case FrameKind::kMalformed:
-                ++stats_.malformed;
-                continue;
-        }
-        if (ip.protocol != kIpProtocolUdp) {
-            ++stats_.non_udp;
-            continue;
-        }
-        const std::uint8_t* ip_payload = ip.payload;
-        std::size_t ip_payload_size = ip.payload_size;
-        bool reassembled = false;
-        if (ip.is_fragment()) {
-            Ipv4Fragment fragment;
-            fragment.timestamp_ns = timestamp_ns;
-            fragment.src_ip = ip.src_ip;
-            fragment.dst_ip = ip.dst_ip;
-            fragment.id = ip.id;
-            fragment.protocol = ip.protocol;
-            fragment.offset_bytes = ip.offset_bytes;
-            fragment.more_fragments = ip.more_fragments;
-            fragment.payload = ip.payload;
-            fragment.size = ip.payload_size;
-            ReassembledDatagram whole;
-            const bool complete = reassembler_.add(fragment, &whole);
-            sync_reassembly_stats();
-            if (!complete) continue;
-            ip_payload = whole.payload;
-            ip_payload_size = whole.size;
-            reassembled = true;
-        }
-        UdpPayload udp;
-        if (!decode_udp(ip_payload, ip_payload_size, &udp)) {
-            ++stats_.malformed;
-            continue;
-        }
-        out->timestamp_ns = timestamp_ns;
-        out->src_ip = ip.src_ip;
-        out->dst_ip = ip.dst_ip;
-        out->src_port = udp.src_port;
-        out->dst_port = udp.dst_port;
-        out->data = udp.data;
-        out->size = udp.size;
-        out->reassembled = reassembled;
-        ++stats_.udp_datagrams;
-        return true;
+        if (decode_record(frame, header->caplen, timestamp_ns, out)) return true;
     }
 }
 

@@ -67,6 +67,11 @@ public:
 private:
     void finish();
     void sync_reassembly_stats();
+    void stop_after_read_error();
+    // One complete record (link-layer frame of `size` bytes): true with *out set when it holds
+    // a whole UDP datagram, reassembled from its fragments if need be.
+    bool decode_record(const std::uint8_t* frame, std::size_t size, std::int64_t timestamp_ns,
+                       UdpDatagram* out);
 
     std::filesystem::path file_;
     struct PcapHandle;

@@ -64,6 +64,118 @@ private:
     std::vector<std::unique_ptr<net::UdpSender>> senders_;
 };
 
+// One replay run: sends each pass over the files at capture timing (or as fast as it can),
+// until the files end, the passes or the duration are used up, or the stop flag is set.
+class Replayer {
+public:
+    explicit Replayer(const ReplayParams& params)
+        : params_(params),
+          sockets_(params.max_source_sockets),
+          start_ns_(monotonic_ns()),
+          end_ns_(params.max_duration_s > 0
+                      ? start_ns_ + static_cast<std::int64_t>(params.max_duration_s * 1e9)
+                      : INT64_MAX) {}
+
+    ReplaySummary run(const std::vector<std::filesystem::path>& files) {
+        while (!files.empty()) {
+            if (!replay_pass(files)) break;
+            if (!end_pass()) break;
+        }
+        summary_.source_sockets = sockets_.sources();
+        summary_.duration_s = static_cast<double>(monotonic_ns() - start_ns_) / 1e9;
+        return summary_;
+    }
+
+private:
+    // One pass over the files, in order; false when stopped.
+    bool replay_pass(const std::vector<std::filesystem::path>& files) {
+        first_ts_ = 0;
+        last_ts_ = 0;
+        in_pass_ = 0;
+        summary_.reader_stats = PcapReaderStats{};
+        for (const auto& file : files) {
+            PcapReader reader(file, params_.reader);
+            replay_file(&reader);
+            summary_.reader_stats += reader.stats();
+            if (!reader.warning().empty()) summary_.warning = reader.warning();  // names the file
+            if (summary_.stopped) return false;
+        }
+        return true;
+    }
+
+    void replay_file(PcapReader* reader) {
+        UdpDatagram d;
+        while (reader->next(&d)) {
+            if (in_pass_ == 0) first_ts_ = d.timestamp_ns;
+            last_ts_ = std::max(last_ts_, d.timestamp_ns);
+            ++in_pass_;
+            if (!wait_until_due(d)) {
+                summary_.stopped = true;
+                break;
+            }
+            send(d, reader->stats().bytes_read);
+        }
+    }
+
+    // Waits until the datagram is due (capture time since the pass's first datagram, divided
+    // by the rate); false when the stop flag or the end of the duration comes first.
+    bool wait_until_due(const UdpDatagram& d) const {
+        if (!params_.max_rate) {
+            const double offset_ns =
+                pass_offset_ns_ + static_cast<double>(d.timestamp_ns - first_ts_);
+            const std::int64_t deadline =
+                start_ns_ + static_cast<std::int64_t>(offset_ns / params_.rate);
+            return !(deadline > end_ns_ || !sleep_until(deadline, params_));
+        }
+        return !(stop_requested(params_) ||
+                 (params_.max_duration_s > 0 && monotonic_ns() >= end_ns_));
+    }
+
+    // To host_ip on the (mapped) destination port, from the socket of the original source.
+    void send(const UdpDatagram& d, std::uint64_t file_bytes_read) {
+        const auto mapped = params_.port_map.find(d.dst_port);
+        const std::uint16_t port = mapped == params_.port_map.end() ? d.dst_port : mapped->second;
+        auto& sender = sockets_.for_source(d.src_ip, d.src_port);
+        if (sender.send_to(params_.host_ip, port, d.data, d.size)) {
+            ++summary_.datagrams_sent;
+            summary_.bytes_sent += d.size;
+            if (params_.on_progress && summary_.datagrams_sent % 256 == 0) {
+                params_.on_progress(summary_.passes, summary_.datagrams_sent,
+                                    summary_.reader_stats.bytes_read +  // earlier files
+                                        file_bytes_read);
+            }
+        } else {
+            if (summary_.send_errors++ == 0) summary_.first_send_errno = sender.last_errno();
+        }
+    }
+
+    // Counts a complete pass; false when no further pass is wanted.
+    bool end_pass() {
+        ++summary_.passes;
+        const std::int64_t span_ns = in_pass_ > 0 ? last_ts_ - first_ts_ : 0;
+        summary_.capture_span_s = static_cast<double>(span_ns) / 1e9;
+        if (!params_.loop || in_pass_ == 0) return false;
+        if (params_.max_passes > 0 && summary_.passes >= params_.max_passes) return false;
+        // One mean gap between passes; 1 ms when the pass has no time extent at all.
+        const double gap_ns =
+            span_ns > 0 ? static_cast<double>(span_ns) /
+                              static_cast<double>(std::max<std::uint64_t>(in_pass_ - 1, 1))
+                        : 1e6;
+        pass_offset_ns_ += static_cast<double>(span_ns) + gap_ns;
+        return true;
+    }
+
+    const ReplayParams& params_;
+    SourceSockets sockets_;
+    ReplaySummary summary_;
+    const std::int64_t start_ns_;  // monotonic
+    const std::int64_t end_ns_;    // monotonic; INT64_MAX: no duration limit
+    // Capture-time offset (ns, before dividing by rate) at which the current pass starts.
+    double pass_offset_ns_ = 0.0;
+    std::int64_t first_ts_ = 0, last_ts_ = 0;  // capture time of the pass, ns
+    std::uint64_t in_pass_ = 0;                // datagrams read in the pass
+};
+
 }  // namespace
 
 ReplaySummary replay_capture(const std::filesystem::path& file, const ReplayParams& params) {
@@ -76,76 +188,7 @@ ReplaySummary replay_capture(const std::vector<std::filesystem::path>& files,
     if (!params.max_rate && !(params.rate > 0.0 && std::isfinite(params.rate))) {
         throw std::invalid_argument("replay of " + name + ": rate must be > 0");
     }
-    ReplaySummary summary;
-    SourceSockets sockets(params.max_source_sockets);
-    const std::int64_t start_ns = monotonic_ns();
-    const std::int64_t end_ns =
-        params.max_duration_s > 0
-            ? start_ns + static_cast<std::int64_t>(params.max_duration_s * 1e9)
-            : INT64_MAX;
-    // Capture-time offset (ns, before dividing by rate) at which the current pass starts.
-    double pass_offset_ns = 0.0;
-    while (!files.empty()) {
-        std::int64_t first_ts = 0, last_ts = 0;
-        std::uint64_t in_pass = 0;
-        summary.reader_stats = PcapReaderStats{};
-        for (const auto& file : files) {
-            PcapReader reader(file, params.reader);
-            UdpDatagram d;
-            while (reader.next(&d)) {
-                if (in_pass == 0) first_ts = d.timestamp_ns;
-                last_ts = std::max(last_ts, d.timestamp_ns);
-                ++in_pass;
-                if (!params.max_rate) {
-                    const double offset_ns =
-                        pass_offset_ns + static_cast<double>(d.timestamp_ns - first_ts);
-                    const std::int64_t deadline =
-                        start_ns + static_cast<std::int64_t>(offset_ns / params.rate);
-                    if (deadline > end_ns || !sleep_until(deadline, params)) {
-                        summary.stopped = true;
-                        break;
-                    }
-                } else if (stop_requested(params) ||
-                           (params.max_duration_s > 0 && monotonic_ns() >= end_ns)) {
-                    summary.stopped = true;
-                    break;
-                }
-                const auto mapped = params.port_map.find(d.dst_port);
-                const std::uint16_t port =
-                    mapped == params.port_map.end() ? d.dst_port : mapped->second;
-                auto& sender = sockets.for_source(d.src_ip, d.src_port);
-                if (sender.send_to(params.host_ip, port, d.data, d.size)) {
-                    ++summary.datagrams_sent;
-                    summary.bytes_sent += d.size;
-                    if (params.on_progress && summary.datagrams_sent % 256 == 0) {
-                        params.on_progress(summary.passes, summary.datagrams_sent,
-                                           summary.reader_stats.bytes_read +  // earlier files
-                                               reader.stats().bytes_read);
-                    }
-                } else {
-                    if (summary.send_errors++ == 0) summary.first_send_errno = sender.last_errno();
-                }
-            }
-            summary.reader_stats += reader.stats();
-            if (!reader.warning().empty()) summary.warning = reader.warning();  // names the file
-            if (summary.stopped) break;
-        }
-        if (summary.stopped) break;
-        ++summary.passes;
-        const std::int64_t span_ns = in_pass > 0 ? last_ts - first_ts : 0;
-        summary.capture_span_s = static_cast<double>(span_ns) / 1e9;
-        if (!params.loop || in_pass == 0) break;
-        if (params.max_passes > 0 && summary.passes >= params.max_passes) break;
-        // One mean gap between passes; 1 ms when the pass has no time extent at all.
-        const double gap_ns = span_ns > 0
-                                  ? static_cast<double>(span_ns) /
-                                        static_cast<double>(std::max<std::uint64_t>(in_pass - 1, 1))
-                                  : 1e6;
-        pass_offset_ns += static_cast<double>(span_ns) + gap_ns;
-    }
-    summary.source_sockets = sockets.sources();
-    summary.duration_s = static_cast<double>(monotonic_ns() - start_ns) / 1e9;
-    return summary;
+    return Replayer(params).run(files);
 }
 
 }  // namespace lidarfuse::pcap

@@ -89,16 +89,14 @@ Scene build_straight(const SceneParams& p) {
     return build_street(centre, p, true, roadside);
 }
 
-Scene build_intersection(const SceneParams& p) {
-    using namespace street;
-    Scene scene;
-    scene.scenario = p.scenario;
-    scene.signals = SignalPlan{};
-    const double box = kSidewalkOuterM;  // junction box half size
-    const double arm_len = 160.0;
-    // Sensors on the arms (E, N, W, S, then further out), left of the outward direction,
-    // looking at the junction centre.
-    for (int k = 0; k < p.sensors; ++k) {
+constexpr double kJunctionHalfSizeM = street::kSidewalkOuterM;  // the junction box
+constexpr double kArmLengthM = 160.0;  // from the junction centre to the arm's end
+
+// Sensors on the arms (E, N, W, S, then further out), left of the outward direction,
+// looking at the junction centre.
+std::vector<SensorMount> intersection_mounts(int sensors) {
+    std::vector<SensorMount> mounts;
+    for (int k = 0; k < sensors; ++k) {
         const double a = (k % 4) * M_PI / 2;
         const Eigen::Vector2d out(std::cos(a), std::sin(a)), left(-out.y(), out.x());
         const double dist = 35.0 + 20.0 * (k / 4);
@@ -106,20 +104,21 @@ Scene build_intersection(const SceneParams& p) {
         const Eigen::Vector2d xy = dist * out + kPoleLateralM * left;
         m.pole_base = Eigen::Vector3d(xy.x(), xy.y(), 0.0);
         m.yaw_rad = yaw_towards(m.pole_base, Eigen::Vector2d::Zero());
-        scene.mounts.push_back(m);
+        mounts.push_back(m);
     }
-    CounterRng rng(p.seed, 0x7363656E65ULL, static_cast<std::uint64_t>(p.scenario));
-    RoadsideParams roadside;
-    roadside.keep_out = pole_positions(scene.mounts);
-    roadside.buildings_from_m = 52.0;  // the corner blocks below cover the first 50 m
-    roadside.tree_spacing_m = 20.0;
-    Mesh& mesh = scene.mesh;
+    return mounts;
+}
+
+// The junction box and the four arms with their roadside, stop lines and traffic lights.
+void add_intersection_arms(const RoadsideParams& roadside, CounterRng& rng, Mesh& mesh) {
+    using namespace street;
+    const double box = kJunctionHalfSizeM;
     mesh.add_quad({-box, -box, 0}, {box, -box, 0}, {box, box, 0}, {-box, box, 0},
                   Material::kAsphalt);
     for (int arm = 0; arm < 4; ++arm) {
         const double a = arm * M_PI / 2;
         const Eigen::Vector2d out(std::cos(a), std::sin(a));
-        const Path centre({box * out, arm_len * out});
+        const Path centre({box * out, kArmLengthM * out});
         add_road_surface(mesh, centre, 0.0, centre.length());
         add_sidewalks(mesh, centre, 0.0, centre.length());
         add_roadside(mesh, centre, 3.0, centre.length(), roadside, rng);
@@ -133,7 +132,11 @@ Scene build_intersection(const SceneParams& p) {
                       Material::kLaneMarking);
         add_traffic_light(mesh, inbound, inbound.length() - 1.0);
     }
-    // Corner blocks: large buildings filling each quadrant near the junction.
+}
+
+// Corner blocks: large buildings filling each quadrant near the junction.
+void add_corner_blocks(CounterRng& rng, Mesh& mesh) {
+    using namespace street;
     for (int q = 0; q < 4; ++q) {
         const double sx = (q & 1) ? 1.0 : -1.0, sy = (q & 2) ? 1.0 : -1.0;
         const double size = 32.0, h = rng.uniform(14.0, 22.0);
@@ -145,26 +148,47 @@ Scene build_intersection(const SceneParams& p) {
         T.translation() = Eigen::Vector3d(sx * (kBuildingLineM - 1.0), sy * (c + 5.0), 3.2);
         mesh.add_box(T, {1.0, 3.0, 0.15}, Material::kMetal);
     }
-    // Through traffic on both axes; each axis is its own signal group.
+}
+
+// Through traffic on both axes; each axis is its own signal group.
+std::vector<Track> intersection_tracks() {
+    const double box = kJunctionHalfSizeM;
+    std::vector<Track> tracks;
     for (int axis = 0; axis < 2; ++axis) {
         const Eigen::Vector2d d = axis == 0 ? Eigen::Vector2d(1, 0) : Eigen::Vector2d(0, 1);
-        const Path through({-arm_len * d, arm_len * d});
+        const Path through({-kArmLengthM * d, kArmLengthM * d});
         for (auto& t : street_tracks(through, 0.0, through.length())) {
             if (t.kind == TrackKind::kRoadLane) {
                 t.signal_group = axis;
-                t.conflict_begin_m = arm_len - box;
-                t.conflict_end_m = arm_len + box;
-                scene.tracks.push_back(std::move(t));
+                t.conflict_begin_m = kArmLengthM - box;
+                t.conflict_end_m = kArmLengthM + box;
+                tracks.push_back(std::move(t));
             }
         }
         // Cyclists and pedestrians stay on their arm (they turn off at the corner).
         for (int sign : {-1, 1}) {
-            const Path arm_path({sign * box * d, sign * arm_len * d});
+            const Path arm_path({sign * box * d, sign * kArmLengthM * d});
             for (auto& t : street_tracks(arm_path, 0.0, arm_path.length())) {
-                if (t.kind != TrackKind::kRoadLane) scene.tracks.push_back(std::move(t));
+                if (t.kind != TrackKind::kRoadLane) tracks.push_back(std::move(t));
             }
         }
     }
+    return tracks;
+}
+
+Scene build_intersection(const SceneParams& p) {
+    Scene scene;
+    scene.scenario = p.scenario;
+    scene.signals = SignalPlan{};
+    scene.mounts = intersection_mounts(p.sensors);
+    CounterRng rng(p.seed, 0x7363656E65ULL, static_cast<std::uint64_t>(p.scenario));
+    RoadsideParams roadside;
+    roadside.keep_out = pole_positions(scene.mounts);
+    roadside.buildings_from_m = 52.0;  // the corner blocks below cover the first 50 m
+    roadside.tree_spacing_m = 20.0;
+    add_intersection_arms(roadside, rng, scene.mesh);
+    add_corner_blocks(rng, scene.mesh);
+    scene.tracks = intersection_tracks();
     finish(scene);
     return scene;
 }

@@ -109,146 +109,230 @@ std::vector<io::PoseRecord> Simulator::ground_truth() const {
     return out;
 }
 
-SimStats Simulator::run(DatagramSink& sink) {
-    SimStats stats;
-    const int n = params_.sensors;
-    const int W = params_.columns_per_frame;
-    const int cpp = 16;
-    const int P = W / cpp;
-    const std::int64_t frame_ns = 1'000'000'000LL / params_.frames_per_second;
-    const int threads = params_.threads > 0
-                            ? params_.threads
-                            : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-    std::vector<std::vector<std::vector<std::uint8_t>>> packets(static_cast<std::size_t>(n));
-    for (int k = 0; k < n; ++k) {
-        packets[k].assign(static_cast<std::size_t>(P),
-                          std::vector<std::uint8_t>(impl_->formats[k].lidar_packet_size()));
-    }
-    std::vector<std::uint64_t> task_returns(static_cast<std::size_t>(n * P));
-    std::vector<SimDatagram> pending;
-    std::vector<std::optional<SimDatagram>> held(static_cast<std::size_t>(n));
-    std::vector<std::uint64_t> sequence(static_cast<std::size_t>(n), 0);
-    std::vector<MovingBox> boxes;
+namespace {
 
-    auto flush = [&](std::int64_t before_ns) {
-        std::stable_sort(pending.begin(), pending.end(),
+constexpr int kColumnsPerPacket = 16;  // Ouster: 16 columns per lidar packet
+constexpr int kMaxRows = 64;
+
+// packets[k][p]: sensor k's lidar packet p of the frame being rendered.
+using FramePackets = std::vector<std::vector<std::vector<std::uint8_t>>>;
+
+// One frame's render tasks (one per sensor and packet), shared by the render threads. They
+// only read it, except: `next` hands out the tasks, and task t writes only its own packet and
+// task_returns[t], so no two threads write the same memory.
+struct FrameRenderJob {
+    const Simulator* sim;
+    const std::vector<ColumnRenderer>* renderers;
+    const std::vector<ouster::PacketFormat>* formats;
+    const StaticScene* static_scene;
+    const std::vector<std::unique_ptr<DynamicScene>>* dynamic;  // per sensor, may hold null
+    int frame;
+    int packets_per_frame;
+    std::atomic<int>* next;
+    FramePackets* packets;
+    std::vector<std::uint64_t>* task_returns;  // pixels with a return, per task
+};
+
+// Renders the columns of packet p of sensor k and encodes the packet; px: scratch pixels.
+void render_task(const FrameRenderJob& job, int task, std::vector<PixelReturn>* px) {
+    const SimParams& params = job.sim->params();
+    const int f = job.frame;
+    const int k = task / job.packets_per_frame, p = task % job.packets_per_frame;
+    const SensorRig& rig = job.sim->rigs()[static_cast<std::size_t>(k)];
+    const ColumnRenderer& renderer = (*job.renderers)[static_cast<std::size_t>(k)];
+    const int rows = renderer.rows();
+    px->resize(static_cast<std::size_t>(kColumnsPerPacket * rows));
+    const std::int64_t frame_ns = 1'000'000'000LL / params.frames_per_second;
+    const std::uint64_t key = frame_key(params.seed, k, f);
+    const std::int64_t start = job.sim->column_time_ns(k, f, 0);
+    const std::int64_t clock_offset = params.faults.clock_offset_ns(k);
+    std::uint64_t ts[kColumnsPerPacket];  // column timestamps as the sensor's clock has them
+    std::uint64_t returns = 0;
+    for (int c = 0; c < kColumnsPerPacket; ++c) {
+        const int m = p * kColumnsPerPacket + c;
+        const std::int64_t t_ns = job.sim->column_time_ns(k, f, m);
+        ts[c] = static_cast<std::uint64_t>(t_ns + clock_offset);
+        const double t_s = static_cast<double>(t_ns - kEpochNs) * 1e-9;
+        const auto time01 =
+            static_cast<float>(static_cast<double>(t_ns - start) / static_cast<double>(frame_ns));
+        returns += static_cast<std::uint64_t>(renderer.render(
+            *job.static_scene, (*job.dynamic)[k].get(), time01, rig.T_world_sensor(t_s), m, key,
+            px->data() + static_cast<std::ptrdiff_t>(c * rows)));
+    }
+    const double t_first = static_cast<double>(start - kEpochNs) * 1e-9;
+    PacketHeaderValues h;
+    h.frame_id = static_cast<std::uint16_t>(rig.first_frame_id() + f);
+    h.init_id = params.faults.init_id_at(k, rig.info().init_id, t_first);
+    h.serial = rig.info().serial_number();
+    encode_lidar_packet((*job.formats)[k], h, p * kColumnsPerPacket, params.columns_per_frame, ts,
+                        px->data(), (*job.packets)[k][p].data());
+    (*job.task_returns)[static_cast<std::size_t>(task)] = returns;
+}
+
+// One render thread: takes tasks until none is left.
+void render_tasks(const FrameRenderJob& job) {
+    std::vector<PixelReturn> px(static_cast<std::size_t>(kColumnsPerPacket * kMaxRows));
+    const int num_tasks = job.sim->params().sensors * job.packets_per_frame;
+    for (int task; (task = job.next->fetch_add(1)) < num_tasks;) render_task(job, task, &px);
+}
+
+// Runs the job on `threads` threads, this one included.
+void render_frame(const FrameRenderJob& job, int threads) {
+    std::vector<std::thread> pool;
+    for (int i = 1; i < threads; ++i) pool.emplace_back(render_tasks, std::cref(job));
+    render_tasks(job);
+    for (auto& t : pool) t.join();
+}
+
+// The moving boxes of each sensor's frame f, over the frame's span of time (s since the epoch).
+std::vector<std::unique_ptr<DynamicScene>> dynamic_scenes(const Simulator& sim,
+                                                          const RayDevice& device, int f,
+                                                          std::vector<MovingBox>* boxes) {
+    const int n = sim.params().sensors;
+    const std::int64_t frame_ns = 1'000'000'000LL / sim.params().frames_per_second;
+    std::vector<std::unique_ptr<DynamicScene>> dynamic(static_cast<std::size_t>(n));
+    if (sim.traffic()) {
+        for (int k = 0; k < n; ++k) {
+            const double t0 = static_cast<double>(sim.column_time_ns(k, f, 0) - kEpochNs) * 1e-9;
+            sim.traffic()->moving_boxes(t0, t0 + static_cast<double>(frame_ns) * 1e-9, boxes);
+            dynamic[k] = std::make_unique<DynamicScene>(device, *boxes);
+        }
+    }
+    return dynamic;
+}
+
+// The network between the sensors and the capturing host: latency, jitter and faults per
+// packet; datagrams wait in capture-time order until flushed to the sink.
+class SimNetwork {
+public:
+    explicit SimNetwork(const Simulator& sim)
+        : sim_(sim),
+          held_(static_cast<std::size_t>(sim.params().sensors)),
+          sequence_(static_cast<std::size_t>(sim.params().sensors), 0) {}
+
+    // Frame f's packets, per sensor in sending order.
+    void send_frame(int f, const FramePackets& packets) {
+        for (int k = 0; k < sim_.params().sensors; ++k) {
+            for (std::size_t p = 0; p < packets[k].size(); ++p) {
+                send_packet(k, f, static_cast<int>(p), packets[k][p]);
+            }
+        }
+    }
+
+    // Packets still held back for reordering go out last.
+    void release_held() {
+        for (auto& h : held_) {
+            if (h) pending_.push_back(std::move(*h));
+        }
+    }
+
+    // Writes the datagrams captured before before_ns (ns since the epoch) to the sink in
+    // capture order (ties: by sensor).
+    void flush(std::int64_t before_ns, DatagramSink& sink, SimStats* stats) {
+        std::stable_sort(pending_.begin(), pending_.end(),
                          [](const SimDatagram& a, const SimDatagram& b) {
                              return a.capture_ns != b.capture_ns ? a.capture_ns < b.capture_ns
                                                                  : a.sensor < b.sensor;
                          });
         std::size_t i = 0;
-        for (; i < pending.size() && pending[i].capture_ns < before_ns; ++i) {
-            sink.write(pending[i]);
-            ++stats.datagrams_sent;
+        for (; i < pending_.size() && pending_[i].capture_ns < before_ns; ++i) {
+            sink.write(pending_[i]);
+            ++stats->datagrams_sent;
         }
-        pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(i));
-    };
+        pending_.erase(pending_.begin(), pending_.begin() + static_cast<std::ptrdiff_t>(i));
+    }
 
+private:
+    void send_packet(int k, int f, int p, const std::vector<std::uint8_t>& pkt) {
+        const SimParams& params = sim_.params();
+        const SensorRig& rig = sim_.rigs()[static_cast<std::size_t>(k)];
+        const std::int64_t t_last =
+            sim_.column_time_ns(k, f, p * kColumnsPerPacket + kColumnsPerPacket - 1);
+        const std::uint64_t seq = sequence_[k]++;
+        CounterRng jitter(params.seed ^ 0x6E6574ULL, static_cast<std::uint64_t>(k), seq);
+        SimDatagram d;
+        // Latency 30 us plus up to 40 us of jitter after the packet's last column.
+        d.capture_ns = t_last + 30'000 + static_cast<std::int64_t>(jitter.uniform() * 40'000);
+        d.sensor = k;
+        d.src_ip = rig.src_ip();
+        d.dst_ip = kHostIp;
+        d.src_port = rig.lidar_port();
+        d.dst_port = rig.lidar_port();
+        const PacketFate fate =
+            packet_fate(params.faults, params.seed, k, seq,
+                        static_cast<double>(t_last - kEpochNs) * 1e-9, pkt.size());
+        if (fate.drop) return;
+        d.payload.assign(pkt.begin(), pkt.end());
+        if (fate.truncate_to > 0) d.payload.resize(fate.truncate_to);
+        queue(k, fate, std::move(d));
+    }
+
+    void queue(int k, const PacketFate& fate, SimDatagram&& d) {
+        if (held_[k]) {  // a packet held back by `reorder` goes out after this one
+            held_[k]->capture_ns = d.capture_ns + 1'000;
+            pending_.push_back(d);
+            pending_.push_back(std::move(*held_[k]));
+            held_[k].reset();
+            return;
+        }
+        if (fate.reorder) {
+            held_[k] = d;
+            return;
+        }
+        if (fate.duplicate) {
+            SimDatagram dup = d;
+            dup.capture_ns += 2'000;
+            pending_.push_back(std::move(dup));
+        }
+        pending_.push_back(std::move(d));
+    }
+
+    const Simulator& sim_;
+    std::vector<SimDatagram> pending_;
+    std::vector<std::optional<SimDatagram>> held_;  // per sensor
+    std::vector<std::uint64_t> sequence_;           // per sensor, packets sent
+};
+
+}  // namespace
+
+SimStats Simulator::run(DatagramSink& sink) {
+    SimStats stats;
+    const int n = params_.sensors;
+    const int P = params_.columns_per_frame / kColumnsPerPacket;
+    const int threads = params_.threads > 0
+                            ? params_.threads
+                            : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+    FramePackets packets(static_cast<std::size_t>(n));
+    for (int k = 0; k < n; ++k) {
+        packets[k].assign(static_cast<std::size_t>(P),
+                          std::vector<std::uint8_t>(impl_->formats[k].lidar_packet_size()));
+    }
+    std::vector<std::uint64_t> task_returns(static_cast<std::size_t>(n * P));
+    SimNetwork network(*this);
+    std::vector<MovingBox> boxes;
     for (int f = 0; f < frames_; ++f) {
         const auto wall0 = std::chrono::steady_clock::now();
-        std::vector<std::unique_ptr<DynamicScene>> dynamic(static_cast<std::size_t>(n));
-        if (traffic_) {
-            for (int k = 0; k < n; ++k) {
-                const double t0 = static_cast<double>(column_time_ns(k, f, 0) - kEpochNs) * 1e-9;
-                traffic_->moving_boxes(t0, t0 + static_cast<double>(frame_ns) * 1e-9, &boxes);
-                dynamic[k] = std::make_unique<DynamicScene>(impl_->device, boxes);
-            }
-        }
+        const auto dynamic = dynamic_scenes(*this, impl_->device, f, &boxes);
         std::atomic<int> next{0};
-        auto worker = [&]() {
-            std::vector<PixelReturn> px(static_cast<std::size_t>(cpp * 64));
-            std::uint64_t ts[16];
-            for (int task; (task = next.fetch_add(1)) < n * P;) {
-                const int k = task / P, p = task % P;
-                const SensorRig& rig = rigs_[static_cast<std::size_t>(k)];
-                const ColumnRenderer& renderer = impl_->renderers[static_cast<std::size_t>(k)];
-                const int rows = renderer.rows();
-                px.resize(static_cast<std::size_t>(cpp * rows));
-                const std::uint64_t key = frame_key(params_.seed, k, f);
-                const std::int64_t start = column_time_ns(k, f, 0);
-                const std::int64_t clock_offset = params_.faults.clock_offset_ns(k);
-                std::uint64_t returns = 0;
-                for (int c = 0; c < cpp; ++c) {
-                    const int m = p * cpp + c;
-                    const std::int64_t t_ns = column_time_ns(k, f, m);
-                    ts[c] = static_cast<std::uint64_t>(t_ns + clock_offset);
-                    const double t_s = static_cast<double>(t_ns - kEpochNs) * 1e-9;
-                    const auto time01 = static_cast<float>(static_cast<double>(t_ns - start) /
-                                                           static_cast<double>(frame_ns));
-                    returns += static_cast<std::uint64_t>(renderer.render(
-                        *impl_->static_scene, dynamic[k].get(), time01, rig.T_world_sensor(t_s), m,
-                        key, px.data() + static_cast<std::ptrdiff_t>(c * rows)));
-                }
-                const double t_first = static_cast<double>(start - kEpochNs) * 1e-9;
-                PacketHeaderValues h;
-                h.frame_id = static_cast<std::uint16_t>(rig.first_frame_id() + f);
-                h.init_id = params_.faults.init_id_at(k, rig.info().init_id, t_first);
-                h.serial = rig.info().serial_number();
-                encode_lidar_packet(impl_->formats[k], h, p * cpp, W, ts, px.data(),
-                                    packets[k][p].data());
-                task_returns[static_cast<std::size_t>(task)] = returns;
-            }
-        };
-        std::vector<std::thread> pool;
-        for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
-        worker();
-        for (auto& t : pool) t.join();
+        render_frame({this, &impl_->renderers, &impl_->formats, impl_->static_scene.get(), &dynamic,
+                      f, P, &next, &packets, &task_returns},
+                     threads);
         stats.render_wall_s +=
             std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
         for (auto r : task_returns) stats.returns += r;
-        stats.rays += static_cast<std::uint64_t>(n) * static_cast<std::uint64_t>(W) * 64u;
+        stats.rays += static_cast<std::uint64_t>(n) *
+                      static_cast<std::uint64_t>(params_.columns_per_frame) * 64u;
         stats.packets_rendered += static_cast<std::uint64_t>(n * P);
 
-        // Network: latency, jitter and faults, per sensor in sending order.
-        for (int k = 0; k < n; ++k) {
-            const SensorRig& rig = rigs_[static_cast<std::size_t>(k)];
-            for (int p = 0; p < P; ++p) {
-                const std::int64_t t_last = column_time_ns(k, f, p * cpp + cpp - 1);
-                const std::uint64_t seq = sequence[k]++;
-                CounterRng jitter(params_.seed ^ 0x6E6574ULL, static_cast<std::uint64_t>(k), seq);
-                SimDatagram d;
-                d.capture_ns =
-                    t_last + 30'000 + static_cast<std::int64_t>(jitter.uniform() * 40'000);
-                d.sensor = k;
-                d.src_ip = rig.src_ip();
-                d.dst_ip = kHostIp;
-                d.src_port = rig.lidar_port();
-                d.dst_port = rig.lidar_port();
-                const auto& pkt = packets[k][p];
-                const PacketFate fate =
-                    packet_fate(params_.faults, params_.seed, k, seq,
-                                static_cast<double>(t_last - kEpochNs) * 1e-9, pkt.size());
-                if (fate.drop) continue;
-                d.payload.assign(pkt.begin(), pkt.end());
-                if (fate.truncate_to > 0) d.payload.resize(fate.truncate_to);
-                if (held[k]) {  // a packet held back by `reorder` goes out after this one
-                    held[k]->capture_ns = d.capture_ns + 1'000;
-                    pending.push_back(d);
-                    pending.push_back(std::move(*held[k]));
-                    held[k].reset();
-                    continue;
-                }
-                if (fate.reorder) {
-                    held[k] = d;
-                    continue;
-                }
-                if (fate.duplicate) {
-                    SimDatagram dup = d;
-                    dup.capture_ns += 2'000;
-                    pending.push_back(std::move(dup));
-                }
-                pending.push_back(std::move(d));
-            }
-        }
+        network.send_frame(f, packets);
+        // Everything captured before the next frame's first column is final.
         std::int64_t boundary = INT64_MAX;
         for (int k = 0; k < n; ++k) boundary = std::min(boundary, column_time_ns(k, f + 1, 0));
-        flush(boundary);
+        network.flush(boundary, sink, &stats);
         if (on_frame_) on_frame_(f + 1, frames_);
     }
-    for (auto& h : held) {
-        if (h) pending.push_back(std::move(*h));
-    }
-    flush(INT64_MAX);
+    network.release_held();
+    network.flush(INT64_MAX, sink, &stats);
     return stats;
 }
 

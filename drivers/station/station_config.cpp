@@ -198,84 +198,112 @@ std::size_t StationConfig::root_index() const {
     return 0;
 }
 
-StationConfig parse_station_config(const std::string& yaml_text, const std::string& source_name,
-                                   const std::filesystem::path& base_dir) {
-    const YAML::Node doc = load_config_document(yaml_text, source_name);
+namespace {
 
-    YamlReader r;
-    StationConfig config;
-    r.only_keys(doc, "", kTopLevelKeys);
+void read_station_name(YamlReader& r, const YAML::Node& doc, StationConfig* config) {
     if (auto s = r.string(doc["station"], "station", false)) {
         if (valid_station_name(*s)) {
-            config.station = *s;
+            config->station = *s;
         } else {
             r.problems.push_back("station: expected 1..128 bytes of printable UTF-8 text, got \"" +
                                  printable(*s) + "\"");
         }
     }
+}
 
+// What the sensors seen so far use, to refuse a second sensor with the same name or endpoint.
+struct SensorsSeen {
+    std::set<std::string> names;
+    std::set<std::pair<std::uint16_t, std::string>> endpoints;  // udp port, source address
+};
+
+void read_sensor_name(YamlReader& r, const YAML::Node& node, const std::string& path,
+                      SensorsSeen* seen, SensorConfig* sensor) {
+    if (auto s = r.string(node["name"], path + ".name", true)) {
+        sensor->name = *s;
+        if (!valid_sensor_name(*s)) {
+            r.problems.push_back(path +
+                                 ".name: expected 1..64 characters of [A-Za-z0-9_.-] (it names "
+                                 "poses.csv rows, extrinsics.yaml keys and tf frames), got \"" +
+                                 printable(*s) + "\"");
+        }
+        if (!seen->names.insert(*s).second) {
+            r.problems.push_back(path + ".name: \"" + *s + "\" is used by another sensor");
+        }
+    }
+}
+
+// One entry of `sensors` (a mapping, checked by the caller).
+SensorConfig read_sensor(YamlReader& r, const YAML::Node& node, const std::string& path,
+                         const std::filesystem::path& base_dir, SensorsSeen* seen) {
+    r.only_keys(node, path, kSensorKeys);
+    SensorConfig sensor;
+    read_sensor_name(r, node, path, seen, &sensor);
+    if (auto p = r.integer(node["udp_port"], path + ".udp_port", 1, 65535, true)) {
+        sensor.udp_port = static_cast<std::uint16_t>(*p);
+    }
+    read_metadata_source(node, path, base_dir, &r, &sensor);
+    sensor.source_address = ipv4_text(node["source_address"], path + ".source_address", &r);
+    if (auto t = r.integer(node["time_offset_ns"], path + ".time_offset_ns", -3600LL * 1000000000LL,
+                           3600LL * 1000000000LL, false)) {
+        sensor.time_offset_ns = *t;
+    }
+    if (auto e = r.boolean(node["enabled"], path + ".enabled")) sensor.enabled = *e;
+    // Two sensors on one port are fine only when their source addresses tell them
+    // apart (or, for non-legacy profiles, their serials; checked against metadata).
+    const auto endpoint = std::make_pair(sensor.udp_port, sensor.source_address.value_or("*"));
+    if (sensor.udp_port != 0 && !seen->endpoints.insert(endpoint).second &&
+        endpoint.second != "*") {
+        r.problems.push_back(path + ".source_address: port " + std::to_string(sensor.udp_port) +
+                             " and address " + endpoint.second + " are used by another sensor");
+    }
+    return sensor;
+}
+
+void read_sensors(YamlReader& r, const YAML::Node& doc, const std::filesystem::path& base_dir,
+                  StationConfig* config) {
     const YAML::Node sensors = doc["sensors"];
     if (!sensors || !sensors.IsSequence() || sensors.size() == 0) {
         r.problems.push_back("sensors: expected a non-empty list of sensors");
-    } else {
-        std::set<std::string> names;
-        std::set<std::pair<std::uint16_t, std::string>> endpoints;
-        for (std::size_t i = 0; i < sensors.size(); ++i) {
-            const std::string path = "sensors[" + std::to_string(i) + "]";
-            const YAML::Node node = sensors[i];
-            if (!node.IsMap()) {
-                r.problems.push_back(path + ": expected a mapping");
-                continue;
-            }
-            r.only_keys(node, path, kSensorKeys);
-            SensorConfig sensor;
-            if (auto s = r.string(node["name"], path + ".name", true)) {
-                sensor.name = *s;
-                if (!valid_sensor_name(*s)) {
-                    r.problems.push_back(
-                        path +
-                        ".name: expected 1..64 characters of [A-Za-z0-9_.-] (it names "
-                        "poses.csv rows, extrinsics.yaml keys and tf frames), got \"" +
-                        printable(*s) + "\"");
-                }
-                if (!names.insert(*s).second) {
-                    r.problems.push_back(path + ".name: \"" + *s + "\" is used by another sensor");
-                }
-            }
-            if (auto p = r.integer(node["udp_port"], path + ".udp_port", 1, 65535, true)) {
-                sensor.udp_port = static_cast<std::uint16_t>(*p);
-            }
-            read_metadata_source(node, path, base_dir, &r, &sensor);
-            sensor.source_address = ipv4_text(node["source_address"], path + ".source_address", &r);
-            if (auto t = r.integer(node["time_offset_ns"], path + ".time_offset_ns",
-                                   -3600LL * 1000000000LL, 3600LL * 1000000000LL, false)) {
-                sensor.time_offset_ns = *t;
-            }
-            if (auto e = r.boolean(node["enabled"], path + ".enabled")) sensor.enabled = *e;
-            // Two sensors on one port are fine only when their source addresses tell them
-            // apart (or, for non-legacy profiles, their serials; checked against metadata).
-            const auto endpoint =
-                std::make_pair(sensor.udp_port, sensor.source_address.value_or("*"));
-            if (sensor.udp_port != 0 && !endpoints.insert(endpoint).second &&
-                endpoint.second != "*") {
-                r.problems.push_back(path + ".source_address: port " +
-                                     std::to_string(sensor.udp_port) + " and address " +
-                                     endpoint.second + " are used by another sensor");
-            }
-            config.sensors.push_back(std::move(sensor));
-        }
+        return;
     }
+    SensorsSeen seen;
+    for (std::size_t i = 0; i < sensors.size(); ++i) {
+        const std::string path = "sensors[" + std::to_string(i) + "]";
+        const YAML::Node node = sensors[i];
+        if (!node.IsMap()) {
+            r.problems.push_back(path + ": expected a mapping");
+            continue;
+        }
+        config->sensors.push_back(read_sensor(r, node, path, base_dir, &seen));
+    }
+}
 
+// root: a configured sensor's name; the first sensor when not given.
+void read_root(YamlReader& r, const YAML::Node& doc, StationConfig* config) {
     if (auto root = r.string(doc["root"], "root", false)) {
-        config.root = *root;
+        config->root = *root;
         bool found = false;
-        for (const auto& s : config.sensors) found = found || s.name == *root;
-        if (!found && !config.sensors.empty()) {
+        for (const auto& s : config->sensors) found = found || s.name == *root;
+        if (!found && !config->sensors.empty()) {
             r.problems.push_back("root: \"" + *root + "\" is not the name of a configured sensor");
         }
-    } else if (!config.sensors.empty()) {
-        config.root = config.sensors.front().name;
+    } else if (!config->sensors.empty()) {
+        config->root = config->sensors.front().name;
     }
+}
+
+}  // namespace
+
+StationConfig parse_station_config(const std::string& yaml_text, const std::string& source_name,
+                                   const std::filesystem::path& base_dir) {
+    const YAML::Node doc = load_config_document(yaml_text, source_name);
+    YamlReader r;
+    StationConfig config;
+    r.only_keys(doc, "", kTopLevelKeys);
+    read_station_name(r, doc, &config);
+    read_sensors(r, doc, base_dir, &config);
+    read_root(r, doc, &config);
     if (!r.problems.empty()) throw ConfigError(source_name, r.problems);
     return config;
 }

@@ -58,24 +58,21 @@ bool valid_frame_id(const std::string& frame) {
     return true;
 }
 
-}  // namespace
-
-void read_world_section(YamlReader& r, const YAML::Node& document, const StationConfig& station,
-                        WorldConfig* world) {
-    auto& p = world->params;
-    p.root_sensor = station.root_index();
-    const YAML::Node n = document["world"];
-    if (!n || !r.optional_map(n, "world")) return;
-    r.only_keys(n, "world", {"frame", "frame_id", "positions", "T_world_root", "average_frames"});
+// world.frame; false (and a problem) when it names no world frame kind.
+bool read_frame_kind(YamlReader& r, const YAML::Node& n, core::WorldFrameParams* p) {
     if (const auto frame = r.string(n["frame"], "world.frame", false)) {
         if (const auto kind = core::world_frame_kind_from(*frame)) {
-            p.kind = *kind;
+            p->kind = *kind;
         } else {
             r.problems.push_back("world.frame: expected road, geo or sensor, got \"" + *frame +
                                  "\"");
-            return;
+            return false;
         }
     }
+    return true;
+}
+
+void read_frame_id(YamlReader& r, const YAML::Node& n, WorldConfig* world) {
     if (const auto id = r.string(n["frame_id"], "world.frame_id", false)) {
         if (valid_frame_id(*id)) {
             world->frame_id = *id;
@@ -86,37 +83,11 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
                 *id + "\"");
         }
     }
-    const bool geo = p.kind == core::WorldFrameKind::kGeo;
-    const YAML::Node positions = n["positions"];
-    const YAML::Node given = n["T_world_root"];
-    const YAML::Node average = n["average_frames"];
-    if (average && (!geo || !positions)) {
-        r.problems.push_back("world.average_frames: only used with world.frame: geo and positions");
-    } else if (const auto frames = r.integer(average, "world.average_frames", 1, 100000, false)) {
-        p.geo_average_frames = static_cast<int>(*frames);
-    }
-    if (!geo) {
-        // Given with another frame they would be ignored: refused, so that a forgotten
-        // `frame: geo` does not silently publish an ungeoreferenced cloud.
-        if (positions) r.problems.push_back("world.positions: only used with world.frame: geo");
-        if (given) r.problems.push_back("world.T_world_root: only used with world.frame: geo");
-        return;
-    }
-    if (positions && given) {
-        r.problems.push_back(
-            "world.T_world_root: give either world.positions or world.T_world_root, not both");
-        return;
-    }
-    if (!positions && !given) {
-        r.problems.push_back(
-            "world.positions: missing (world.frame: geo needs the known positions of at least 3 "
-            "sensors, or world.T_world_root)");
-        return;
-    }
-    if (given) {
-        p.T_world_root = read_transform(r, given, "world.T_world_root");
-        return;
-    }
+}
+
+// world.positions: sensor name -> [x, y, z] (m, world frame), at least 3 of them.
+void read_positions(YamlReader& r, const YAML::Node& positions, const StationConfig& station,
+                    core::WorldFrameParams* p) {
     if (!positions.IsMap()) {
         r.problems.push_back(
             "world.positions: expected a mapping of sensor name to [x, y, z], got " +
@@ -137,13 +108,64 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
             continue;
         }
         if (const auto xyz = numbers(r, entry.second, path, 3, "[x, y, z] in metres")) {
-            p.anchors.push_back({index, Eigen::Vector3d((*xyz)[0], (*xyz)[1], (*xyz)[2])});
+            p->anchors.push_back({index, Eigen::Vector3d((*xyz)[0], (*xyz)[1], (*xyz)[2])});
         }
     }
     if (positions.size() < 3) {
         r.problems.push_back("world.positions: expected at least 3 sensors, got " +
                              std::to_string(positions.size()));
     }
+}
+
+// What ties the geo frame to the station: either world.positions or world.T_world_root.
+void read_geo_anchoring(YamlReader& r, const YAML::Node& positions, const YAML::Node& given,
+                        const StationConfig& station, core::WorldFrameParams* p) {
+    if (positions && given) {
+        r.problems.push_back(
+            "world.T_world_root: give either world.positions or world.T_world_root, not both");
+        return;
+    }
+    if (!positions && !given) {
+        r.problems.push_back(
+            "world.positions: missing (world.frame: geo needs the known positions of at least 3 "
+            "sensors, or world.T_world_root)");
+        return;
+    }
+    if (given) {
+        p->T_world_root = read_transform(r, given, "world.T_world_root");
+        return;
+    }
+    read_positions(r, positions, station, p);
+}
+
+}  // namespace
+
+void read_world_section(YamlReader& r, const YAML::Node& document, const StationConfig& station,
+                        WorldConfig* world) {
+    auto& p = world->params;
+    p.root_sensor = station.root_index();
+    const YAML::Node n = document["world"];
+    if (!n || !r.optional_map(n, "world")) return;
+    r.only_keys(n, "world", {"frame", "frame_id", "positions", "T_world_root", "average_frames"});
+    if (!read_frame_kind(r, n, &p)) return;
+    read_frame_id(r, n, world);
+    const bool geo = p.kind == core::WorldFrameKind::kGeo;
+    const YAML::Node positions = n["positions"];
+    const YAML::Node given = n["T_world_root"];
+    const YAML::Node average = n["average_frames"];
+    if (average && (!geo || !positions)) {
+        r.problems.push_back("world.average_frames: only used with world.frame: geo and positions");
+    } else if (const auto frames = r.integer(average, "world.average_frames", 1, 100000, false)) {
+        p.geo_average_frames = static_cast<int>(*frames);
+    }
+    if (!geo) {
+        // Given with another frame they would be ignored: refused, so that a forgotten
+        // `frame: geo` does not silently publish an ungeoreferenced cloud.
+        if (positions) r.problems.push_back("world.positions: only used with world.frame: geo");
+        if (given) r.problems.push_back("world.T_world_root: only used with world.frame: geo");
+        return;
+    }
+    read_geo_anchoring(r, positions, given, station, &p);
 }
 
 WorldConfig load_world_config(const std::filesystem::path& file, const StationConfig& station) {
