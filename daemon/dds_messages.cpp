@@ -1,8 +1,10 @@
 #include "daemon/dds_messages.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
+#include <utility>
 
 namespace lidarfuse::daemon {
 
@@ -148,17 +150,21 @@ const lidarfuse_msgs_msg_dds__FramePoses_& FrameMessageBuilder::poses(
     return poses_;
 }
 
-DiagnosticsBuilder::DiagnosticsBuilder(StationFrames frames) : frames_(std::move(frames)) {
+DiagnosticsBuilder::DiagnosticsBuilder(StationFrames frames)
+    : frames_(std::move(frames)), prefix_("lidarfuse/" + frames_.station + "/") {
     array_.header.frame_id = c_str(frames_.fused_frame);
 }
 
-void DiagnosticsBuilder::add(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values,
-                             const char* key, std::string value) {
+void DiagnosticsBuilder::add(KeyValues* values, const char* key, std::string value) {
     strings_.push_back(std::move(value));
     values->push_back({const_cast<char*>(key), c_str(strings_.back())});
 }
 
 namespace {
+
+constexpr std::uint8_t kOk = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_OK;
+constexpr std::uint8_t kWarn = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN;
+constexpr std::uint8_t kError = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_ERROR;
 
 std::string number(double v, const char* format = "%.3f") {
     char buffer[64];
@@ -166,19 +172,107 @@ std::string number(double v, const char* format = "%.3f") {
     return buffer;
 }
 
+std::string value_of(const PipelineFigure& figure, const PipelineStats& stats) {
+    if (figure.count) return std::to_string(stats.*figure.count);
+    if (figure.measure) return number(stats.*figure.measure, figure.format);
+    if (figure.text) return stats.*figure.text;
+    return stats.*figure.flag ? "true" : "false";
+}
+
+// A sensor's level and message: ERROR when LOST, disagreeing with its metadata or without
+// one, WARN when STALE or (`fusing`: frames were fused) without a pose.
+std::pair<std::uint8_t, std::string> sensor_level(const SensorStats& s, bool fusing) {
+    std::uint8_t level = kOk;
+    std::string message = to_string(s.state);
+    if (s.state == SensorState::kLost) {
+        level = kError;
+    } else if (s.state == SensorState::kModeMismatch) {
+        level = kError;
+        message += ": " + s.mode_seen;
+    } else if (s.state == SensorState::kNoMetadata) {
+        level = kError;
+        if (!s.metadata.last_error.empty()) message += ": " + s.metadata.last_error;
+    } else if (s.state == SensorState::kStale) {
+        level = kWarn;
+    }
+    if (s.state != SensorState::kDisabled && fusing && !s.pose_valid) {
+        level = std::max(level, kWarn);
+        message += "; not registered";
+    }
+    return {level, std::move(message)};
+}
+
 }  // namespace
+
+void DiagnosticsBuilder::set_status(diagnostic_msgs_msg_dds__DiagnosticStatus_* status,
+                                    std::uint8_t level, std::string name, std::string message,
+                                    std::string hardware_id) {
+    status->level = level;
+    strings_.push_back(std::move(name));
+    status->name = c_str(strings_.back());
+    strings_.push_back(std::move(message));
+    status->message = c_str(strings_.back());
+    strings_.push_back(std::move(hardware_id));
+    status->hardware_id = c_str(strings_.back());
+}
+
+void DiagnosticsBuilder::add_sensor(diagnostic_msgs_msg_dds__DiagnosticStatus_* status,
+                                    KeyValues* values, const SensorStats& s, bool fusing) {
+    auto [level, message] = sensor_level(s, fusing);
+    set_status(status, level, prefix_ + s.name, std::move(message), s.name);
+    add_sensor_values(values, s);
+}
+
+void DiagnosticsBuilder::add_sensor_values(KeyValues* v, const SensorStats& s) {
+    add(v, "state", to_string(s.state));
+    for (const auto& counter : kSensorCounters)
+        add(v, counter.name, std::to_string(s.*counter.member));
+    add(v, "mode_seen", s.mode_seen);
+    add(v, "metadata_source", s.metadata.source);
+    add(v, "metadata_fetches", std::to_string(s.metadata.fetches));
+    add(v, "metadata_fetch_failures", std::to_string(s.metadata.failures));
+    add(v, "metadata_changes", std::to_string(s.metadata.changes));
+    add(v, "metadata_configured", std::to_string(s.metadata.configured));
+    add(v, "metadata_last_error", s.metadata.last_error);
+    add(v, "completeness", number(s.last_completeness, "%.4f"));
+    add(v, "ms_since_last_scan", number(s.ms_since_last_scan, "%.1f"));
+    add(v, "clock_offset_ms", number(s.clock_offset_ms, "%.3f"));
+    add(v, "offset_to_root_ms", number(s.offset_to_root_ms, "%.3f"));
+    add(v, "track_state", s.track_state);
+    add(v, "pose_valid", s.pose_valid ? "true" : "false");
+    add(v, "fitness", number(s.fitness, "%.4f"));
+}
+
+// WARN when packets or scans were dropped or the recording has a problem.
+void DiagnosticsBuilder::add_pipeline(diagnostic_msgs_msg_dds__DiagnosticStatus_* status,
+                                      KeyValues* values, const PipelineStats& stats) {
+    const bool drops = stats.kernel_drops > 0 || stats.scan_queue_drops > 0;
+    const std::string record_problem = stats.record.problem();
+    set_status(status, drops || !record_problem.empty() ? kWarn : kOk, prefix_ + "pipeline",
+               drops                    ? "packets or scans dropped"
+               : record_problem.empty() ? "OK"
+                                        : record_problem,
+               frames_.station);
+    for (const auto& figure : kPipelineFigures) add(values, figure.name, value_of(figure, stats));
+    if (stats.record.enabled) add_record(values, stats.record);
+    if (stats.foxglove.enabled) add_foxglove(values, stats.foxglove);
+}
+
+void DiagnosticsBuilder::add_record(KeyValues* v, const RecorderStats& r) {
+    add(v, "record_state", r.recording ? "recording" : "stopped: " + r.stopped_because);
+    add(v, "record_folder", r.folder);
+    add(v, "record_file", r.file);
+    for (const auto& counter : kRecorderCounters)
+        add(v, counter.name, std::to_string(r.*counter.member));
+}
 
 // The live view's clients, and per client (at most max_clients) what it was sent and what
 // it lost to a full send buffer: "127.0.0.1:40312 sent 120 dropped 30".
-void DiagnosticsBuilder::add_foxglove(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values,
-                                      const FoxgloveStats& f) {
+void DiagnosticsBuilder::add_foxglove(KeyValues* values, const FoxgloveStats& f) {
     add(values, "foxglove_port", std::to_string(f.port));
     add(values, "foxglove_clients", std::to_string(f.clients.size()));
-    add(values, "foxglove_connections", std::to_string(f.connections));
-    add(values, "foxglove_refused", std::to_string(f.refused));
-    add(values, "foxglove_messages_sent", std::to_string(f.sent));
-    add(values, "foxglove_messages_dropped", std::to_string(f.dropped));
-    add(values, "foxglove_queue_drops", std::to_string(f.queue_drops));
+    for (const auto& counter : kFoxgloveCounters)
+        add(values, counter.name, std::to_string(f.*counter.member));
     for (std::size_t i = 0; i < f.clients.size(); ++i) {
         const auto& c = f.clients[i];
         strings_.push_back("foxglove_client_" + std::to_string(i));
@@ -187,114 +281,24 @@ void DiagnosticsBuilder::add_foxglove(std::vector<diagnostic_msgs_msg_dds__KeyVa
     }
 }
 
-const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
-    const PipelineStats& stats, std::int64_t stamp_ns) {
-    strings_.clear();
-    values_.assign(stats.sensors.size() + 1, {});
-    status_.assign(stats.sensors.size() + 1, diagnostic_msgs_msg_dds__DiagnosticStatus_{});
-    const std::string prefix = "lidarfuse/" + frames_.station + "/";
-    for (std::size_t i = 0; i < stats.sensors.size(); ++i) {
-        const auto& s = stats.sensors[i];
-        auto& st = status_[i];
-        auto* v = &values_[i];
-        std::uint8_t level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_OK;
-        std::string message = to_string(s.state);
-        if (s.state == SensorState::kLost) {
-            level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_ERROR;
-        } else if (s.state == SensorState::kModeMismatch) {
-            level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_ERROR;
-            message += ": " + s.mode_seen;
-        } else if (s.state == SensorState::kNoMetadata) {
-            level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_ERROR;
-            if (!s.metadata.last_error.empty()) message += ": " + s.metadata.last_error;
-        } else if (s.state == SensorState::kStale) {
-            level = diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN;
-        }
-        if (s.state != SensorState::kDisabled && stats.frames_fused > 0 && !s.pose_valid) {
-            level = std::max<std::uint8_t>(
-                level, diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN);
-            message += "; not registered";
-        }
-        st.level = level;
-        strings_.push_back(prefix + s.name);
-        st.name = c_str(strings_.back());
-        strings_.push_back(std::move(message));
-        st.message = c_str(strings_.back());
-        strings_.push_back(s.name);
-        st.hardware_id = c_str(strings_.back());
-        add(v, "state", to_string(s.state));
-        for (const auto& counter : kSensorCounters)
-            add(v, counter.name, std::to_string(s.*counter.member));
-        add(v, "mode_seen", s.mode_seen);
-        add(v, "metadata_source", s.metadata.source);
-        add(v, "metadata_fetches", std::to_string(s.metadata.fetches));
-        add(v, "metadata_fetch_failures", std::to_string(s.metadata.failures));
-        add(v, "metadata_changes", std::to_string(s.metadata.changes));
-        add(v, "metadata_configured", std::to_string(s.metadata.configured));
-        add(v, "metadata_last_error", s.metadata.last_error);
-        add(v, "completeness", number(s.last_completeness, "%.4f"));
-        add(v, "ms_since_last_scan", number(s.ms_since_last_scan, "%.1f"));
-        add(v, "clock_offset_ms", number(s.clock_offset_ms, "%.3f"));
-        add(v, "offset_to_root_ms", number(s.offset_to_root_ms, "%.3f"));
-        add(v, "track_state", s.track_state);
-        add(v, "pose_valid", s.pose_valid ? "true" : "false");
-        add(v, "fitness", number(s.fitness, "%.4f"));
-    }
-    auto& p = status_.back();
-    auto* v = &values_.back();
-    const bool drops = stats.kernel_drops > 0 || stats.scan_queue_drops > 0;
-    const std::string record_problem = stats.record.problem();
-    p.level = drops || !record_problem.empty()
-                  ? diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_WARN
-                  : diagnostic_msgs_msg_dds__DiagnosticStatus_Constants_OK;
-    strings_.push_back(prefix + "pipeline");
-    p.name = c_str(strings_.back());
-    strings_.push_back(drops                    ? "packets or scans dropped"
-                       : record_problem.empty() ? "OK"
-                                                : record_problem);
-    p.message = c_str(strings_.back());
-    strings_.push_back(frames_.station);
-    p.hardware_id = c_str(strings_.back());
-    add(v, "datagrams", std::to_string(stats.datagrams));
-    add(v, "unassigned_datagrams", std::to_string(stats.unassigned_datagrams));
-    add(v, "kernel_drops", std::to_string(stats.kernel_drops));
-    add(v, "scan_queue_drops", std::to_string(stats.scan_queue_drops));
-    add(v, "frame_queue_drops", std::to_string(stats.frame_queue_drops));
-    add(v, "result_queue_drops", std::to_string(stats.result_queue_drops));
-    add(v, "frames_synchronised", std::to_string(stats.frames_synchronised));
-    add(v, "frames_partial", std::to_string(stats.frames_partial));
-    add(v, "scans_late", std::to_string(stats.scans_late));
-    add(v, "frames_fused", std::to_string(stats.frames_fused));
-    add(v, "last_fusion_ms", number(stats.last_fusion_ms, "%.2f"));
-    add(v, "mean_fusion_ms", number(stats.mean_fusion_ms, "%.2f"));
-    add(v, "last_latency_ms", number(stats.last_latency_ms, "%.2f"));
-    add(v, "dds_samples_written", std::to_string(stats.dds_samples_written));
-    add(v, "dds_write_failures", std::to_string(stats.dds_write_failures));
-    add(v, "world_frame", stats.world_frame);
-    add(v, "world_frame_fixed", stats.world_fixed ? "true" : "false");
-    add(v, "frames_before_world_frame", std::to_string(stats.frames_before_world_frame));
-    add(v, "last_initial_registration_ms", number(stats.last_initial_registration_ms, "%.0f"));
-    add(v, "world_residual_rms_m", number(stats.world_residual_rms_m, "%.4f"));
-    add(v, "world_residual_max_m", number(stats.world_residual_max_m, "%.4f"));
-    if (stats.record.enabled) {
-        const auto& r = stats.record;
-        add(v, "record_state", r.recording ? "recording" : "stopped: " + r.stopped_because);
-        add(v, "record_folder", r.folder);
-        add(v, "record_file", r.file);
-        add(v, "record_datagrams", std::to_string(r.datagrams));
-        add(v, "record_bytes", std::to_string(r.bytes));
-        add(v, "record_files", std::to_string(r.files));
-        add(v, "record_files_removed", std::to_string(r.files_removed));
-        add(v, "record_queue_drops", std::to_string(r.queue_drops));
-        add(v, "record_write_errors", std::to_string(r.write_errors));
-    }
-    if (stats.foxglove.enabled) add_foxglove(v, stats.foxglove);
+void DiagnosticsBuilder::point_values() {
     for (std::size_t i = 0; i < status_.size(); ++i) {
         status_[i].values._buffer = values_[i].data();
         status_[i].values._length = status_[i].values._maximum =
             static_cast<std::uint32_t>(values_[i].size());
         status_[i].values._release = false;
     }
+}
+
+const diagnostic_msgs_msg_dds__DiagnosticArray_& DiagnosticsBuilder::build(
+    const PipelineStats& stats, std::int64_t stamp_ns) {
+    strings_.clear();
+    values_.assign(stats.sensors.size() + 1, {});
+    status_.assign(stats.sensors.size() + 1, diagnostic_msgs_msg_dds__DiagnosticStatus_{});
+    for (std::size_t i = 0; i < stats.sensors.size(); ++i)
+        add_sensor(&status_[i], &values_[i], stats.sensors[i], stats.frames_fused > 0);
+    add_pipeline(&status_.back(), &values_.back(), stats);
+    point_values();
     array_.header.stamp = to_ros_time(stamp_ns);
     point_sequence(&array_.status, status_);
     return array_;

@@ -87,12 +87,23 @@ public:
                                                            std::int64_t stamp_ns);
 
 private:
-    void add(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values, const char* key,
-             std::string value);
-    void add_foxglove(std::vector<diagnostic_msgs_msg_dds__KeyValue_>* values,
-                      const FoxgloveStats& foxglove);
+    using KeyValues = std::vector<diagnostic_msgs_msg_dds__KeyValue_>;
+    void add(KeyValues* values, const char* key, std::string value);
+    // Level, name, message and hardware id of one status.
+    void set_status(diagnostic_msgs_msg_dds__DiagnosticStatus_* status, std::uint8_t level,
+                    std::string name, std::string message, std::string hardware_id);
+    void add_sensor(diagnostic_msgs_msg_dds__DiagnosticStatus_* status, KeyValues* values,
+                    const SensorStats& sensor, bool fusing);
+    void add_sensor_values(KeyValues* values, const SensorStats& sensor);
+    void add_pipeline(diagnostic_msgs_msg_dds__DiagnosticStatus_* status, KeyValues* values,
+                      const PipelineStats& stats);
+    void add_record(KeyValues* values, const RecorderStats& record);
+    void add_foxglove(KeyValues* values, const FoxgloveStats& foxglove);
+    // Points every status at its values.
+    void point_values();
 
     StationFrames frames_;
+    std::string prefix_;  // of every status name: "lidarfuse/<station>/"
     // Strings of the current message; the C structs point into them. A deque never moves
     // its elements, so pointers stay valid while more are added (rebuilt at every call,
     // about once a second).

@@ -18,6 +18,7 @@
 
 #include <spdlog/logger.h>
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -43,6 +44,22 @@ struct FoxgloveStats {
     std::uint64_t queue_drops = 0;             // dropped before any client: the hand-over was full
     std::vector<FoxgloveClientStats> clients;  // connected now
 };
+
+// A counter of FoxgloveStats: its diagnostics key, the member, its unit.
+struct FoxgloveCounter {
+    const char* name;
+    std::uint64_t FoxgloveStats::*member;
+    const char* unit;
+};
+
+// Every counter of FoxgloveStats once, in the order of the diagnostics' values.
+inline constexpr std::array<FoxgloveCounter, 5> kFoxgloveCounters{{
+    {"foxglove_connections", &FoxgloveStats::connections, "connections"},
+    {"foxglove_refused", &FoxgloveStats::refused, "connections"},
+    {"foxglove_messages_sent", &FoxgloveStats::sent, "messages"},
+    {"foxglove_messages_dropped", &FoxgloveStats::dropped, "messages"},
+    {"foxglove_queue_drops", &FoxgloveStats::queue_drops, "messages"},
+}};
 
 class FoxgloveServer {
 public:

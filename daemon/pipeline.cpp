@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
-#include <map>
 
 #include "daemon/pipeline_impl.hpp"
 #include "drivers/net/ipv4_address.hpp"
@@ -70,7 +69,19 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
     sync_log = logger("sync");
     fusion_log = logger("fusion");
     output_log = logger("output");
-    std::map<std::uint16_t, std::vector<SensorIngest*>> by_port;
+    const PortMembers by_port = make_sensors();
+    make_recorder();
+    make_fetchers();
+    make_receivers(by_port);
+    make_fusion();
+    make_publishers();
+    heartbeat_ns = steady_ns();
+}
+
+// Every configured sensor, and the enabled ones by UDP port. A sensor whose metadata is a
+// file has it now; every file that fails to load is listed in one exception.
+Pipeline::Impl::PortMembers Pipeline::Impl::make_sensors() {
+    PortMembers by_port;
     std::vector<std::string> problems;
     for (std::size_t i = 0; i < config.station.sensors.size(); ++i) {
         const auto& sc = config.station.sensors[i];
@@ -96,12 +107,19 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         for (const auto& p : problems) text += "\n  " + p;
         throw std::runtime_error(text);
     }
-    if (config.output.record.enabled) {
-        const std::uint32_t dst_ip = net::parse_ipv4(config.network.bind_address);  // 0.0.0.0: 0
-        RecordConfig record = config.output.record;
-        record.directory = record_directory(config.output);
-        recorder = std::make_unique<Recorder>(record, config.station, dst_ip, logger("record"));
-    }
+    return by_port;
+}
+
+void Pipeline::Impl::make_recorder() {
+    if (!config.output.record.enabled) return;
+    const std::uint32_t dst_ip = net::parse_ipv4(config.network.bind_address);  // 0.0.0.0: 0
+    RecordConfig record = config.output.record;
+    record.directory = record_directory(config.output);
+    recorder = std::make_unique<Recorder>(record, config.station, dst_ip, logger("record"));
+}
+
+// One per enabled sensor named by hostname.
+void Pipeline::Impl::make_fetchers() {
     for (std::size_t i = 0; i < config.station.sensors.size(); ++i) {
         const auto& sc = config.station.sensors[i];
         if (!sc.enabled || !sc.hostname) continue;
@@ -111,12 +129,18 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
         fetchers.push_back(std::make_unique<MetadataFetcher>(
             sensors[i].get(), sc, params, config.output.directory, recorder.get(), ingest_log));
     }
-    for (auto& [port, members] : by_port) {
+}
+
+void Pipeline::Impl::make_receivers(const PortMembers& by_port) {
+    for (const auto& [port, members] : by_port) {
         receivers.push_back(make_receiver(port, members, config.network, config.station,
                                           config.health.min_completeness));
         receivers.back()->log = ingest_log;
         receivers.back()->recorder = recorder.get();
     }
+}
+
+void Pipeline::Impl::make_fusion() {
     engine = std::make_unique<core::FusionEngine>(sensors.size(), config.fusion);
     core::WorldFrameParams world_params = config.world.params;
     world_params.settle_frames = core::world_frame_settle_frames(config.fusion);
@@ -124,27 +148,28 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
     world_frame = world->frame();
     last_health.assign(sensors.size(), core::SensorHealth{});
     offset_to_root_ms.assign(sensors.size(), 0.0);
-    if (config.output.dds.enabled) {
-        StationFrames names;
-        names.station = config.station.station;
-        names.fused_frame = config.output.dds.frame_id;
-        for (const auto& sc : config.station.sensors) names.sensor_names.push_back(sc.name);
-        names.root = config.fusion.root_sensor;
-        // geo: the world frame is the fused frame's parent on rt/tf_static (the offset).
-        const bool geo = config.world.params.kind == core::WorldFrameKind::kGeo;
-        dds = std::make_unique<DdsPublisher>(config.output.dds, names,
-                                             geo ? config.world.frame_id : "");
-        // The config check refuses output.foxglove without output.dds.
-        if (config.output.foxglove.enabled) {
-            foxglove = std::make_unique<FoxgloveServer>(
-                config.output.foxglove,
-                foxglove_channels(config.output.dds.topic_namespace,
-                                  config.output.dds.points_voxel_size_m > 0),
-                "lidarfused " + config.station.station, logger("foxglove"));
-            dds->mirror_to(foxglove.get());
-        }
-    }
-    heartbeat_ns = steady_ns();
+}
+
+// output.dds, and output.foxglove mirroring it (the config check refuses output.foxglove
+// without output.dds).
+void Pipeline::Impl::make_publishers() {
+    if (!config.output.dds.enabled) return;
+    StationFrames names;
+    names.station = config.station.station;
+    names.fused_frame = config.output.dds.frame_id;
+    for (const auto& sc : config.station.sensors) names.sensor_names.push_back(sc.name);
+    names.root = config.fusion.root_sensor;
+    // geo: the world frame is the fused frame's parent on rt/tf_static (the offset).
+    const bool geo = config.world.params.kind == core::WorldFrameKind::kGeo;
+    dds =
+        std::make_unique<DdsPublisher>(config.output.dds, names, geo ? config.world.frame_id : "");
+    if (!config.output.foxglove.enabled) return;
+    foxglove = std::make_unique<FoxgloveServer>(
+        config.output.foxglove,
+        foxglove_channels(config.output.dds.topic_namespace,
+                          config.output.dds.points_voxel_size_m > 0),
+        "lidarfused " + config.station.station, logger("foxglove"));
+    dds->mirror_to(foxglove.get());
 }
 
 std::shared_ptr<spdlog::logger> Pipeline::Impl::logger(const std::string& name) {

@@ -98,6 +98,8 @@ inline constexpr std::array<SensorCounter, 13> kSensorCounters{{
     {"scans_mode_rejected", &SensorStats::scans_mode_rejected, "scans", nullptr},
 }};
 
+// Every figure of PipelineStats the diagnostics publish has its row in kPipelineFigures
+// (below); truncated, dds_write_timeouts and granted_receive_buffers are not published.
 struct PipelineStats {
     std::uint64_t datagrams = 0, unassigned_datagrams = 0, kernel_drops = 0, truncated = 0;
     std::uint64_t scan_queue_drops = 0, frame_queue_drops = 0, result_queue_drops = 0;
@@ -123,6 +125,53 @@ struct PipelineStats {
     RecorderStats record;    // output.record (enabled false when off)
     FoxgloveStats foxglove;  // output.foxglove (enabled false when off)
 };
+
+// A pipeline-wide figure of PipelineStats: its diagnostics key, the member (a count, a
+// measure printed with the printf `format`, a text or a flag; the other members are null)
+// and its unit ("" for a text or a flag).
+struct PipelineFigure {
+    const char* name;
+    const char* unit;
+    std::uint64_t PipelineStats::*count = nullptr;
+    double PipelineStats::*measure = nullptr;
+    const char* format = nullptr;
+    std::string PipelineStats::*text = nullptr;
+    bool PipelineStats::*flag = nullptr;
+
+    constexpr PipelineFigure(const char* n, std::uint64_t PipelineStats::*m, const char* u)
+        : name(n), unit(u), count(m) {}
+    constexpr PipelineFigure(const char* n, double PipelineStats::*m, const char* f, const char* u)
+        : name(n), unit(u), measure(m), format(f) {}
+    constexpr PipelineFigure(const char* n, std::string PipelineStats::*m)
+        : name(n), unit(""), text(m) {}
+    constexpr PipelineFigure(const char* n, bool PipelineStats::*m) : name(n), unit(""), flag(m) {}
+};
+
+// Every published figure of PipelineStats once, in the order of the pipeline's diagnostics
+// values (the recorder's and the live view's follow them, when on).
+inline constexpr std::array<PipelineFigure, 21> kPipelineFigures{{
+    {"datagrams", &PipelineStats::datagrams, "datagrams"},
+    {"unassigned_datagrams", &PipelineStats::unassigned_datagrams, "datagrams"},
+    {"kernel_drops", &PipelineStats::kernel_drops, "datagrams"},
+    {"scan_queue_drops", &PipelineStats::scan_queue_drops, "scans"},
+    {"frame_queue_drops", &PipelineStats::frame_queue_drops, "frames"},
+    {"result_queue_drops", &PipelineStats::result_queue_drops, "frames"},
+    {"frames_synchronised", &PipelineStats::frames_synchronised, "frames"},
+    {"frames_partial", &PipelineStats::frames_partial, "frames"},
+    {"scans_late", &PipelineStats::scans_late, "scans"},
+    {"frames_fused", &PipelineStats::frames_fused, "frames"},
+    {"last_fusion_ms", &PipelineStats::last_fusion_ms, "%.2f", "ms"},
+    {"mean_fusion_ms", &PipelineStats::mean_fusion_ms, "%.2f", "ms"},
+    {"last_latency_ms", &PipelineStats::last_latency_ms, "%.2f", "ms"},
+    {"dds_samples_written", &PipelineStats::dds_samples_written, "samples"},
+    {"dds_write_failures", &PipelineStats::dds_write_failures, "samples"},
+    {"world_frame", &PipelineStats::world_frame},
+    {"world_frame_fixed", &PipelineStats::world_fixed},
+    {"frames_before_world_frame", &PipelineStats::frames_before_world_frame, "frames"},
+    {"last_initial_registration_ms", &PipelineStats::last_initial_registration_ms, "%.0f", "ms"},
+    {"world_residual_rms_m", &PipelineStats::world_residual_rms_m, "%.4f", "m"},
+    {"world_residual_max_m", &PipelineStats::world_residual_max_m, "%.4f", "m"},
+}};
 
 class Pipeline {
 public:

@@ -88,26 +88,8 @@ void Pipeline::Impl::fusion_loop() {
     // engine hands a job out (FrameOutput::initial_job), this thread passes it on and
     // keeps fusing the sensors already tracked; a later process() applies the result.
     // One job at a time (the engine's rule), so the queue of two never drops one.
-    DropOldestQueue<std::shared_ptr<core::InitialRegistrationJob>> init_jobs(2);
-    std::thread init_worker([this, &init_jobs] {
-        ::pthread_setname_np(::pthread_self(), "lf-init");
-        while (true) {
-            auto job = init_jobs.pop_wait(std::chrono::milliseconds(100));
-            if (job) {
-                (*job)->run();
-                {
-                    std::lock_guard<std::mutex> lock(stats_mutex);
-                    last_initial_registration_ms = (*job)->run_ms();
-                }
-                const std::string& error = (*job)->error();
-                fusion_log->log(error.empty() ? spdlog::level::info : spdlog::level::warn,
-                                "initial registration done in {:.0f} ms{}", (*job)->run_ms(),
-                                error.empty() ? "" : ": " + error);
-            } else if (init_jobs.closed()) {
-                break;
-            }
-        }
-    });
+    InitialJobs init_jobs(2);
+    std::thread init_worker(&Impl::initial_registration_loop, this, &init_jobs);
     std::shared_ptr<core::InitialRegistrationJob> last_job;
     while (!stopping.load(std::memory_order_acquire)) {
         heartbeat_ns.store(steady_ns(), std::memory_order_release);
@@ -119,23 +101,10 @@ void Pipeline::Impl::fusion_loop() {
             last_job = std::move(out.initial_job);
             init_jobs.push(last_job);
         }
-        for (std::size_t s = 0; s < sensors.size(); ++s) {
-            const auto& h = out.health[s];
-            if (h.event.empty()) continue;
-            fusion_log->log(h.event_is_problem ? spdlog::level::warn : spdlog::level::info,
-                            "frame {}: {}: {}", out.frame_index, sensors[s]->name, h.event);
-        }
+        log_sensor_events(out);
         const bool world_fixed_now = world->update(out);
         if (world_fixed_now) log_world_frame(world->frame());
-        {
-            std::lock_guard<std::mutex> lock(stats_mutex);
-            ++frames_fused;
-            last_fusion_ms = out.timings.total_ms;
-            sum_fusion_ms += out.timings.total_ms;
-            last_health = out.health;
-            if (world_fixed_now) world_frame = world->frame();
-            if (!world->fixed()) ++frames_before_world_frame;
-        }
+        note_fused(out, world_fixed_now);
         // Until the world frame is known (road: the initial registration), a frame's poses
         // and cloud are in no frame a consumer could keep: counted, not published.
         if (!world->fixed()) continue;
@@ -148,6 +117,45 @@ void Pipeline::Impl::fusion_loop() {
     init_jobs.close();
     init_worker.join();
     results.close();
+}
+
+void Pipeline::Impl::initial_registration_loop(InitialJobs* jobs) {
+    ::pthread_setname_np(::pthread_self(), "lf-init");
+    while (true) {
+        auto job = jobs->pop_wait(std::chrono::milliseconds(100));
+        if (job) {
+            (*job)->run();
+            {
+                std::lock_guard<std::mutex> lock(stats_mutex);
+                last_initial_registration_ms = (*job)->run_ms();
+            }
+            const std::string& error = (*job)->error();
+            fusion_log->log(error.empty() ? spdlog::level::info : spdlog::level::warn,
+                            "initial registration done in {:.0f} ms{}", (*job)->run_ms(),
+                            error.empty() ? "" : ": " + error);
+        } else if (jobs->closed()) {
+            break;
+        }
+    }
+}
+
+void Pipeline::Impl::log_sensor_events(const core::FrameOutput& out) {
+    for (std::size_t s = 0; s < sensors.size(); ++s) {
+        const auto& h = out.health[s];
+        if (h.event.empty()) continue;
+        fusion_log->log(h.event_is_problem ? spdlog::level::warn : spdlog::level::info,
+                        "frame {}: {}: {}", out.frame_index, sensors[s]->name, h.event);
+    }
+}
+
+void Pipeline::Impl::note_fused(const core::FrameOutput& out, bool world_fixed_now) {
+    std::lock_guard<std::mutex> lock(stats_mutex);
+    ++frames_fused;
+    last_fusion_ms = out.timings.total_ms;
+    sum_fusion_ms += out.timings.total_ms;
+    last_health = out.health;
+    if (world_fixed_now) world_frame = world->frame();
+    if (!world->fixed()) ++frames_before_world_frame;
 }
 
 void Pipeline::Impl::log_world_frame(const core::WorldFrame& f) {

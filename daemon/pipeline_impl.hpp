@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include <atomic>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -21,6 +22,7 @@
 #include "daemon/metadata_fetcher.hpp"
 #include "daemon/pipeline.hpp"
 #include "daemon/sensor_ingest.hpp"
+#include "drivers/io/extrinsics_yaml.hpp"
 
 namespace lidarfuse::daemon {
 
@@ -74,6 +76,15 @@ struct Pipeline::Impl {
     explicit Impl(const DaemonConfig& c);
     static std::shared_ptr<spdlog::logger> logger(const std::string& name);
 
+    // pipeline.cpp: the constructor's steps, in this order.
+    using PortMembers = std::map<std::uint16_t, std::vector<SensorIngest*>>;
+    PortMembers make_sensors();
+    void make_recorder();
+    void make_fetchers();
+    void make_receivers(const PortMembers& by_port);
+    void make_fusion();
+    void make_publishers();
+
     // pipeline_fusion.cpp
     std::int64_t max_offset_ns() const;
     void sync_loop();
@@ -81,10 +92,24 @@ struct Pipeline::Impl {
     // The frame's entry of the ring; empty t_ns when it is no longer known.
     FrameTime frame_time(const core::FrameOutput& out);
     void fusion_loop();
+    // The fusion thread's worker: runs each initial registration job until `jobs` closes.
+    using InitialJobs = DropOldestQueue<std::shared_ptr<core::InitialRegistrationJob>>;
+    void initial_registration_loop(InitialJobs* jobs);
+    // The sensors' track events of a fused frame (problems as warnings).
+    void log_sensor_events(const core::FrameOutput& out);
+    // The fused frame's figures into the stats (and the world frame, once it became fixed).
+    void note_fused(const core::FrameOutput& out, bool world_fixed_now);
     void log_world_frame(const core::WorldFrame& frame);
 
     // pipeline_output.cpp
     void output_loop();
+    io::ExtrinsicsDocument extrinsics_document() const;
+    // Output thread: the fusion thread's world frame, until it is fixed.
+    void take_world_frame(core::WorldFrame* world_now) const;
+    // Output thread: the diagnostics every output.dds.diagnostics_period_ms.
+    void publish_diagnostics_when_due(std::int64_t* next_diagnostics_ns);
+    // Output thread: a fused frame to DDS (geo: with the world frame's static transform).
+    void publish_frame(const core::FrameOutput& out, const core::WorldFrame& world);
     // Output thread, after a frame went to DDS: its latency and the members' offsets to the root.
     void note_published(const core::FrameOutput& out, const FrameTime& times);
     // The stamps of a fused frame's messages in output.stamp's clock (host: the scans'
@@ -94,6 +119,9 @@ struct Pipeline::Impl {
     // root's clock offset, or the first sensor's with a scan when the root has none yet.
     std::int64_t diagnostics_stamp_ns() const;
     PipelineStats collect_stats() const;
+    void add_receiver_stats(PipelineStats* out) const;
+    void add_fusion_stats(PipelineStats* out) const;                  // stats_mutex held
+    SensorStats sensor_stats(std::size_t i, std::int64_t now) const;  // stats_mutex held
 };
 
 }  // namespace lidarfuse::daemon

@@ -13,6 +13,7 @@
 
 #include <spdlog/logger.h>
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -40,6 +41,23 @@ struct RecorderStats {
     // What the operator should look at (stopped, files removed, drops), "" when nothing.
     std::string problem() const;
 };
+
+// A counter of RecorderStats: its diagnostics key, the member, its unit.
+struct RecorderCounter {
+    const char* name;
+    std::uint64_t RecorderStats::*member;
+    const char* unit;
+};
+
+// Every counter of RecorderStats once, in the order of the diagnostics' values.
+inline constexpr std::array<RecorderCounter, 6> kRecorderCounters{{
+    {"record_datagrams", &RecorderStats::datagrams, "datagrams"},
+    {"record_bytes", &RecorderStats::bytes, "bytes"},
+    {"record_files", &RecorderStats::files, "files"},
+    {"record_files_removed", &RecorderStats::files_removed, "files"},
+    {"record_queue_drops", &RecorderStats::queue_drops, "datagrams"},
+    {"record_write_errors", &RecorderStats::write_errors, "errors"},
+}};
 
 // Why a recording into `directory` could not start (for `lidarfused --check`, which makes
 // no folder): the nearest folder on its path that exists is not a directory this process

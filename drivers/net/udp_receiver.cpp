@@ -32,10 +32,73 @@ std::int64_t realtime_now_ns() {
     return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
 
+void check_params(const UdpReceiverParams& params) {
+    if (params.ports.empty()) throw std::runtime_error("UDP receiver: no ports configured");
+    if (params.ports.size() > kMaxSockets) {
+        throw std::runtime_error("UDP receiver: " + std::to_string(params.ports.size()) +
+                                 " ports configured, at most 63 per receiver");
+    }
+    if (params.batch_size == 0 || params.max_datagram_bytes == 0) {
+        throw std::runtime_error("UDP receiver: batch_size and max_datagram_bytes must be > 0");
+    }
+}
+
+// SO_RCVBUFFORCE when the process may, else SO_RCVBUF (capped by net.core.rmem_max); the
+// size granted, read back.
+void set_receive_buffer(int fd, int bytes, UdpSocketInfo* info) {
+    if (::setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &bytes, sizeof bytes) == 0) {
+        info->rcvbuf_forced = true;
+    } else {
+        ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &bytes, sizeof bytes);
+    }
+    socklen_t len = sizeof info->granted_rcvbuf_bytes;
+    ::getsockopt(fd, SOL_SOCKET, SO_RCVBUF, &info->granted_rcvbuf_bytes, &len);
+}
+
+// A bound non-blocking socket with kernel timestamps and drop counts, or -1 with the
+// problem appended to `problems`.
+int open_socket(const UdpReceiverParams& params, std::uint32_t bind_ip, std::uint16_t port,
+                UdpSocketInfo* info, std::string* problems) {
+    const std::string where = params.bind_address + ":" + std::to_string(port);
+    const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+    if (fd < 0) {
+        *problems += "\n  " + where + ": socket: " + std::strerror(errno);
+        return -1;
+    }
+    set_receive_buffer(fd, params.requested_rcvbuf_bytes, info);
+    const int on = 1;
+    if (::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) != 0 ||
+        ::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) != 0) {
+        *problems += "\n  " + where + ": setsockopt: " + std::strerror(errno);
+        ::close(fd);
+        return -1;
+    }
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(bind_ip);
+    addr.sin_port = htons(port);
+    if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
+        *problems += "\n  " + where + ": bind: " + std::strerror(errno);
+        ::close(fd);
+        return -1;
+    }
+    socklen_t len = sizeof addr;
+    ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+    info->port = ntohs(addr.sin_port);
+    return fd;
+}
+
 }  // namespace
 
 // The preallocated ring: batch_size buffers of max_datagram_bytes, reused by every call.
 struct UdpReceiver::Batch {
+    Batch(std::size_t n, std::size_t max_datagram_bytes)
+        : buffers(n * max_datagram_bytes),
+          iov(n),
+          msgs(n),
+          sources(n),
+          control(n * kControlBytes + alignof(cmsghdr)) {}
+
     std::vector<std::uint8_t> buffers;
     std::vector<iovec> iov;
     std::vector<mmsghdr> msgs;
@@ -44,51 +107,13 @@ struct UdpReceiver::Batch {
 };
 
 UdpReceiver::UdpReceiver(const UdpReceiverParams& params) : params_(params) {
-    if (params_.ports.empty()) throw std::runtime_error("UDP receiver: no ports configured");
-    if (params_.ports.size() > kMaxSockets) {
-        throw std::runtime_error("UDP receiver: " + std::to_string(params_.ports.size()) +
-                                 " ports configured, at most 63 per receiver");
-    }
-    if (params_.batch_size == 0 || params_.max_datagram_bytes == 0) {
-        throw std::runtime_error("UDP receiver: batch_size and max_datagram_bytes must be > 0");
-    }
+    check_params(params_);
     const std::uint32_t bind_ip = parse_ipv4(params_.bind_address);
     std::string problems;
     for (const std::uint16_t port : params_.ports) {
-        const std::string where = params_.bind_address + ":" + std::to_string(port);
-        const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-        if (fd < 0) {
-            problems += "\n  " + where + ": socket: " + std::strerror(errno);
-            continue;
-        }
         UdpSocketInfo info;
-        const int rcvbuf = params_.requested_rcvbuf_bytes;
-        if (::setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &rcvbuf, sizeof rcvbuf) == 0) {
-            info.rcvbuf_forced = true;
-        } else {
-            ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
-        }
-        socklen_t len = sizeof info.granted_rcvbuf_bytes;
-        ::getsockopt(fd, SOL_SOCKET, SO_RCVBUF, &info.granted_rcvbuf_bytes, &len);
-        const int on = 1;
-        if (::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) != 0 ||
-            ::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) != 0) {
-            problems += "\n  " + where + ": setsockopt: " + std::strerror(errno);
-            ::close(fd);
-            continue;
-        }
-        sockaddr_in addr{};
-        addr.sin_family = AF_INET;
-        addr.sin_addr.s_addr = htonl(bind_ip);
-        addr.sin_port = htons(port);
-        if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
-            problems += "\n  " + where + ": bind: " + std::strerror(errno);
-            ::close(fd);
-            continue;
-        }
-        len = sizeof addr;
-        ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
-        info.port = ntohs(addr.sin_port);
+        const int fd = open_socket(params_, bind_ip, port, &info, &problems);
+        if (fd < 0) continue;
         fds_.push_back(fd);
         sockets_.push_back(info);
     }
@@ -100,14 +125,7 @@ UdpReceiver::UdpReceiver(const UdpReceiverParams& params) : params_(params) {
         throw std::runtime_error("UDP receiver cannot open its sockets:" + problems);
     }
     last_drop_count_.assign(fds_.size(), 0);
-
-    batch_ = std::make_unique<Batch>();
-    const std::size_t n = params_.batch_size;
-    batch_->buffers.resize(n * params_.max_datagram_bytes);
-    batch_->iov.resize(n);
-    batch_->msgs.resize(n);
-    batch_->sources.resize(n);
-    batch_->control.resize(n * kControlBytes + alignof(cmsghdr));
+    batch_ = std::make_unique<Batch>(params_.batch_size, params_.max_datagram_bytes);
 }
 
 UdpReceiver::~UdpReceiver() {
@@ -172,27 +190,12 @@ void UdpReceiver::read_drop_count(std::size_t socket_index) {
 }
 
 std::size_t UdpReceiver::drain(std::size_t socket_index, const DatagramHandler& handler) {
-    Batch& b = *batch_;
     const std::size_t n = params_.batch_size;
-    auto* control_base = reinterpret_cast<std::uint8_t*>(
-        (reinterpret_cast<std::uintptr_t>(b.control.data()) + alignof(cmsghdr) - 1) &
-        ~(static_cast<std::uintptr_t>(alignof(cmsghdr)) - 1));
     std::size_t delivered = 0;
     for (std::size_t round = 0; round < params_.max_batches_per_wakeup; ++round) {
-        for (std::size_t k = 0; k < n; ++k) {
-            b.iov[k] = {&b.buffers[k * params_.max_datagram_bytes], params_.max_datagram_bytes};
-            msghdr& h = b.msgs[k].msg_hdr;
-            h.msg_name = &b.sources[k];
-            h.msg_namelen = sizeof(sockaddr_in);
-            h.msg_iov = &b.iov[k];
-            h.msg_iovlen = 1;
-            h.msg_control = control_base + k * kControlBytes;
-            h.msg_controllen = kControlBytes;
-            h.msg_flags = 0;
-            b.msgs[k].msg_len = 0;
-        }
-        const int got = ::recvmmsg(fds_[socket_index], b.msgs.data(), static_cast<unsigned>(n),
-                                   MSG_DONTWAIT, nullptr);
+        prepare_batch();
+        const int got = ::recvmmsg(fds_[socket_index], batch_->msgs.data(),
+                                   static_cast<unsigned>(n), MSG_DONTWAIT, nullptr);
         if (got < 0) {
             if (errno == EINTR) continue;
             if (errno != EAGAIN && errno != EWOULDBLOCK) {
@@ -201,44 +204,74 @@ std::size_t UdpReceiver::drain(std::size_t socket_index, const DatagramHandler& 
             break;
         }
         stats_.batches.fetch_add(1, std::memory_order_relaxed);
-        const std::int64_t fallback_time_ns = realtime_now_ns();
-        std::uint64_t bytes = 0;
-        for (int k = 0; k < got; ++k) {
-            msghdr& h = b.msgs[k].msg_hdr;
-            ReceivedDatagram d;
-            d.receive_time_ns = fallback_time_ns;
-            for (cmsghdr* c = CMSG_FIRSTHDR(&h); c; c = CMSG_NXTHDR(&h, c)) {
-                if (c->cmsg_level != SOL_SOCKET) continue;
-                if (c->cmsg_type == SCM_TIMESTAMPNS) {
-                    timespec ts;
-                    std::memcpy(&ts, CMSG_DATA(c), sizeof ts);
-                    d.receive_time_ns =
-                        static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-                } else if (c->cmsg_type == SO_RXQ_OVFL) {
-                    std::uint32_t drops;
-                    std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
-                    note_drop_count(socket_index, drops);
-                }
-            }
-            if (h.msg_flags & MSG_TRUNC) {
-                stats_.truncated.fetch_add(1, std::memory_order_relaxed);
-                continue;
-            }
-            d.socket_index = socket_index;
-            d.local_port = sockets_[socket_index].port;
-            d.src_ip = ntohl(b.sources[k].sin_addr.s_addr);
-            d.src_port = ntohs(b.sources[k].sin_port);
-            d.data = static_cast<const std::uint8_t*>(b.iov[k].iov_base);
-            d.size = b.msgs[k].msg_len;
-            handler(d);
-            bytes += d.size;
-            ++delivered;
-        }
-        stats_.bytes.fetch_add(bytes, std::memory_order_relaxed);
+        delivered += deliver(socket_index, static_cast<std::size_t>(got), handler);
         if (static_cast<std::size_t>(got) < n) break;  // socket drained
     }
     stats_.datagrams.fetch_add(delivered, std::memory_order_relaxed);
     return delivered;
+}
+
+void UdpReceiver::prepare_batch() {
+    Batch& b = *batch_;
+    auto* control_base = reinterpret_cast<std::uint8_t*>(
+        (reinterpret_cast<std::uintptr_t>(b.control.data()) + alignof(cmsghdr) - 1) &
+        ~(static_cast<std::uintptr_t>(alignof(cmsghdr)) - 1));
+    for (std::size_t k = 0; k < params_.batch_size; ++k) {
+        b.iov[k] = {&b.buffers[k * params_.max_datagram_bytes], params_.max_datagram_bytes};
+        msghdr& h = b.msgs[k].msg_hdr;
+        h.msg_name = &b.sources[k];
+        h.msg_namelen = sizeof(sockaddr_in);
+        h.msg_iov = &b.iov[k];
+        h.msg_iovlen = 1;
+        h.msg_control = control_base + k * kControlBytes;
+        h.msg_controllen = kControlBytes;
+        h.msg_flags = 0;
+        b.msgs[k].msg_len = 0;
+    }
+}
+
+std::size_t UdpReceiver::deliver(std::size_t socket_index, std::size_t got,
+                                 const DatagramHandler& handler) {
+    Batch& b = *batch_;
+    const std::int64_t fallback_time_ns = realtime_now_ns();
+    std::uint64_t bytes = 0;
+    std::size_t delivered = 0;
+    for (std::size_t k = 0; k < got; ++k) {
+        msghdr& h = b.msgs[k].msg_hdr;
+        ReceivedDatagram d;
+        d.receive_time_ns = fallback_time_ns;
+        read_control(socket_index, &h, &d);
+        if (h.msg_flags & MSG_TRUNC) {
+            stats_.truncated.fetch_add(1, std::memory_order_relaxed);
+            continue;
+        }
+        d.socket_index = socket_index;
+        d.local_port = sockets_[socket_index].port;
+        d.src_ip = ntohl(b.sources[k].sin_addr.s_addr);
+        d.src_port = ntohs(b.sources[k].sin_port);
+        d.data = static_cast<const std::uint8_t*>(b.iov[k].iov_base);
+        d.size = b.msgs[k].msg_len;
+        handler(d);
+        bytes += d.size;
+        ++delivered;
+    }
+    stats_.bytes.fetch_add(bytes, std::memory_order_relaxed);
+    return delivered;
+}
+
+void UdpReceiver::read_control(std::size_t socket_index, msghdr* h, ReceivedDatagram* d) {
+    for (cmsghdr* c = CMSG_FIRSTHDR(h); c; c = CMSG_NXTHDR(h, c)) {
+        if (c->cmsg_level != SOL_SOCKET) continue;
+        if (c->cmsg_type == SCM_TIMESTAMPNS) {
+            timespec ts;
+            std::memcpy(&ts, CMSG_DATA(c), sizeof ts);
+            d->receive_time_ns = static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+        } else if (c->cmsg_type == SO_RXQ_OVFL) {
+            std::uint32_t drops;
+            std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
+            note_drop_count(socket_index, drops);
+        }
+    }
 }
 
 }  // namespace lidarfuse::net

@@ -25,6 +25,8 @@
 #include <string>
 #include <vector>
 
+struct msghdr;  // <sys/socket.h>
+
 namespace lidarfuse::net {
 
 struct UdpReceiverParams {
@@ -93,6 +95,12 @@ public:
 private:
     struct Batch;
     std::size_t drain(std::size_t socket_index, const DatagramHandler& handler);
+    // drain's steps: every message header of the ring pointed at its buffers again; the
+    // `got` datagrams recvmmsg filled handed to the handler (how many, truncated ones
+    // skipped); one datagram's kernel timestamp and drop count.
+    void prepare_batch();
+    std::size_t deliver(std::size_t socket_index, std::size_t got, const DatagramHandler& handler);
+    inline void read_control(std::size_t socket_index, msghdr* h, ReceivedDatagram* d);
     void note_drop_count(std::size_t socket_index, std::uint32_t drops);
     void read_drop_count(std::size_t socket_index);
 

@@ -125,29 +125,43 @@ PacketOutcome ScanAssembler::add_packet(const std::uint8_t* data, std::size_t si
             ++counters_.bad_profile;
             return PacketOutcome::kWrongProfile;
     }
-    // FW 2.2-2.4 fill the CRC field with a fixed marker, not a CRC: skip computing it.
-    if (params_.check_crc && format_.has_crc() && format_.stored_crc(data) != kUnfilledCrcMarker) {
-        switch (format_.check_crc(data)) {
-            case CrcStatus::kValid:
-                ++counters_.crc_valid;
-                break;
-            case CrcStatus::kInvalid:
-                ++counters_.crc_errors;
-                return PacketOutcome::kCrcError;
-            case CrcStatus::kAbsent:
-            case CrcStatus::kNotApplicable:
-                break;
-        }
-    }
+    if (!crc_ok(data)) return PacketOutcome::kCrcError;
     ++counters_.lidar_packets;
     mode_.observe_lidar_packet();
+    LidarScan* scan = frame_of(data);
+    if (!scan) return PacketOutcome::kLate;
+    const std::size_t written = write_columns(data, scan);
+    window_.packet_done(*scan, written);
+    return written > 0 ? PacketOutcome::kAssembled : PacketOutcome::kDuplicate;
+}
 
+// FW 2.2-2.4 fill the CRC field with a fixed marker, not a CRC: skip computing it.
+bool ScanAssembler::crc_ok(const std::uint8_t* data) {
+    if (!params_.check_crc || !format_.has_crc() || format_.stored_crc(data) == kUnfilledCrcMarker)
+        return true;
+    switch (format_.check_crc(data)) {
+        case CrcStatus::kValid:
+            ++counters_.crc_valid;
+            break;
+        case CrcStatus::kInvalid:
+            ++counters_.crc_errors;
+            return false;
+        case CrcStatus::kAbsent:
+        case CrcStatus::kNotApplicable:
+            break;
+    }
+    return true;
+}
+
+LidarScan* ScanAssembler::frame_of(const std::uint8_t* data) {
     const std::uint64_t resets = counters_.resets;
     LidarScan* scan =
         window_.scan_for(format_.frame_id(data), format_.init_id(data), format_.prod_sn(data));
     if (counters_.resets != resets) mode_.forget_previous_frame();
-    if (!scan) return PacketOutcome::kLate;
+    return scan;
+}
 
+std::size_t ScanAssembler::write_columns(const std::uint8_t* data, LidarScan* scan) {
     const std::ptrdiff_t stride = static_cast<std::ptrdiff_t>(layout_.columns);
     std::size_t written = 0;
     for (int i = 0; i < format_.columns_per_packet(); ++i) {
@@ -176,8 +190,7 @@ PacketOutcome ScanAssembler::add_packet(const std::uint8_t* data, std::size_t si
         if (!scan->near_ir.empty())
             format_.read_column(col, Field::kNearIr, &scan->near_ir[m], stride);
     }
-    window_.packet_done(*scan, written);
-    return written > 0 ? PacketOutcome::kAssembled : PacketOutcome::kDuplicate;
+    return written;
 }
 
 void ScanAssembler::flush() { window_.flush(); }

@@ -78,6 +78,15 @@ public:
     const LidarScanLayout& layout() const { return layout_; }
 
 private:
+    // add_packet's steps, defined in scan_assembler.cpp (the only caller) and inlined there.
+    // False when the footer holds a CRC-64 and it is wrong (counted).
+    inline bool crc_ok(const std::uint8_t* data);
+    // The frame the packet's header picks (a reset forgets the mode check's last frame);
+    // nullptr when the packet is late.
+    inline LidarScan* frame_of(const std::uint8_t* data);
+    // The packet's columns the window has not seen yet; how many.
+    inline std::size_t write_columns(const std::uint8_t* data, LidarScan* scan);
+
     PacketFormat format_;
     LidarScanLayout layout_;
     ScanAssemblerParams params_;

@@ -85,6 +85,21 @@ private:
     }
     int bound(std::uint32_t ip) const;
     void learn(std::uint32_t ip, int sensor);
+    // route's steps, defined in sensor_router.cpp (the only caller) and inlined there.
+    static int counted(int sensor, std::uint64_t* counter) {
+        ++*counter;
+        return sensor;
+    }
+    // Rule 1: how many sensors listen on the port, and the last of them.
+    inline int on_port_count(std::uint16_t dst_port, int* last) const;
+    // Rule 2: the sensor configured with this source address, if it is on the port.
+    inline int configured_source(std::uint32_t src_ip, std::uint16_t dst_port) const;
+    // Rule 3: the first sensor on the port whose serial the lidar packet's header carries.
+    inline int serial_owner(std::uint16_t dst_port, const std::uint8_t* data,
+                            std::size_t size) const;
+    // Rule 5: the last sensor on the port whose lidar (or IMU) packet has this size, and how
+    // many have it (added to *matches).
+    inline int size_match(std::uint16_t dst_port, std::size_t size, bool imu, int* matches) const;
 
     std::vector<Entry> sensors_;
     std::vector<Binding> configured_;
