@@ -36,7 +36,7 @@ void write_plot(const std::filesystem::path& file, const core::EvaluationResult&
     std::ofstream(file) << render_svg_line_plot(spec);
 }
 
-const char* kUsage =
+const char* const kUsage =
     "usage: lidarfuse eval --gt ground_truth.csv --poses poses.csv [--root NAME]\n"
     "                      [--tolerance-ms 25] [--plot DIR [--cloud FUSED.ply]]\n"
     "Per sensor and on average: translation and rotation RMSE over frames, after\n"

@@ -147,7 +147,7 @@ void print_summary(const SensorState& s) {
     }
 }
 
-const char* kUsage =
+const char* const kUsage =
     "usage: lidarfuse inspect CAPTURE.pcap --meta M.json[@SRC_IP] [--meta ...]\n"
     "                         [--frames] [--digest]\n"
     "                         [--export FRAME_ID --out scan.ply [--sensor INDEX]]\n"

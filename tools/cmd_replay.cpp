@@ -37,7 +37,7 @@ std::uint16_t parse_port(const std::string& text, const std::string& option) {
     return static_cast<std::uint16_t>(value);
 }
 
-const char* kUsage =
+const char* const kUsage =
     "usage: lidarfuse replay CAPTURE.pcap|RECORDING [--to HOST] [--port-map ORIG:NEW ...]\n"
     "                        [--rate R | --max-rate] [--loop [--passes N]] [--duration S]\n"
     "                        [--quiet]\n"
