@@ -262,8 +262,7 @@ void DiagnosticsBuilder::add_record(KeyValues* v, const RecorderStats& r) {
     add(v, "record_state", r.recording ? "recording" : "stopped: " + r.stopped_because);
     add(v, "record_folder", r.folder);
     add(v, "record_file", r.file);
-    for (const auto& counter : kRecorderCounters)
-        add(v, counter.name, std::to_string(r.*counter.member));
+    add_counters(v, kRecorderCounters, r);
 }
 
 // The live view's clients, and per client (at most max_clients) what it was sent and what
@@ -271,8 +270,7 @@ void DiagnosticsBuilder::add_record(KeyValues* v, const RecorderStats& r) {
 void DiagnosticsBuilder::add_foxglove(KeyValues* values, const FoxgloveStats& f) {
     add(values, "foxglove_port", std::to_string(f.port));
     add(values, "foxglove_clients", std::to_string(f.clients.size()));
-    for (const auto& counter : kFoxgloveCounters)
-        add(values, counter.name, std::to_string(f.*counter.member));
+    add_counters(values, kFoxgloveCounters, f);
     for (std::size_t i = 0; i < f.clients.size(); ++i) {
         const auto& c = f.clients[i];
         strings_.push_back("foxglove_client_" + std::to_string(i));

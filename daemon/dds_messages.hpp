@@ -10,11 +10,14 @@
 // little endian, one row (height 1), fields x, y, z, intensity (float32), sensor_id and
 // dynamic (uint8), point_step 20 (two bytes of padding keep every float 4-byte aligned).
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <deque>
 #include <string>
 #include <vector>
 
+#include "core/common/counter_field.hpp"
 #include "core/pipeline/fusion_types.hpp"
 #include "daemon/frame_stamps.hpp"
 #include "daemon/pipeline.hpp"
@@ -89,6 +92,13 @@ public:
 private:
     using KeyValues = std::vector<diagnostic_msgs_msg_dds__KeyValue_>;
     void add(KeyValues* values, const char* key, std::string value);
+    // Every counter of `record`'s table, in the table's order.
+    template <class Record, std::size_t N>
+    void add_counters(KeyValues* values, const std::array<core::CounterField<Record>, N>& table,
+                      const Record& record) {
+        for (const auto& counter : table)
+            add(values, counter.name, std::to_string(record.*counter.member));
+    }
     // Level, name, message and hardware id of one status.
     void set_status(diagnostic_msgs_msg_dds__DiagnosticStatus_* status, std::uint8_t level,
                     std::string name, std::string message, std::string hardware_id);

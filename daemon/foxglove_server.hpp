@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "core/common/counter_field.hpp"
 #include "daemon/daemon_config.hpp"
 #include "daemon/foxglove_schemas.hpp"
 
@@ -45,15 +46,8 @@ struct FoxgloveStats {
     std::vector<FoxgloveClientStats> clients;  // connected now
 };
 
-// A counter of FoxgloveStats: its diagnostics key, the member, its unit.
-struct FoxgloveCounter {
-    const char* name;
-    std::uint64_t FoxgloveStats::*member;
-    const char* unit;
-};
-
 // Every counter of FoxgloveStats once, in the order of the diagnostics' values.
-inline constexpr std::array<FoxgloveCounter, 5> kFoxgloveCounters{{
+inline constexpr std::array<core::CounterField<FoxgloveStats>, 5> kFoxgloveCounters{{
     {"foxglove_connections", &FoxgloveStats::connections, "connections"},
     {"foxglove_refused", &FoxgloveStats::refused, "connections"},
     {"foxglove_messages_sent", &FoxgloveStats::sent, "messages"},

@@ -21,6 +21,7 @@
 #include <mutex>
 #include <string>
 
+#include "core/common/counter_field.hpp"
 #include "daemon/daemon_config.hpp"
 #include "drivers/net/udp_receiver.hpp"
 
@@ -42,15 +43,8 @@ struct RecorderStats {
     std::string problem() const;
 };
 
-// A counter of RecorderStats: its diagnostics key, the member, its unit.
-struct RecorderCounter {
-    const char* name;
-    std::uint64_t RecorderStats::*member;
-    const char* unit;
-};
-
 // Every counter of RecorderStats once, in the order of the diagnostics' values.
-inline constexpr std::array<RecorderCounter, 6> kRecorderCounters{{
+inline constexpr std::array<core::CounterField<RecorderStats>, 6> kRecorderCounters{{
     {"record_datagrams", &RecorderStats::datagrams, "datagrams"},
     {"record_bytes", &RecorderStats::bytes, "bytes"},
     {"record_files", &RecorderStats::files, "files"},

@@ -6,6 +6,8 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "core/common/counter_field.hpp"
+
 namespace lidarfuse::ouster {
 
 // Packet-level counts are filled by the ScanAssembler, frame-level ones by the FrameWindow.
@@ -31,11 +33,8 @@ struct AssemblyCounters {
     std::uint64_t mode_mismatches = 0;
 };
 
-struct AssemblyCounterField {
-    const char* name;  // as `lidarfuse inspect` prints it after "inspect_<sensor>_"
-    std::uint64_t AssemblyCounters::*member;
-    const char* unit;
-};
+// A counter's name is as `lidarfuse inspect` prints it after "inspect_<sensor>_".
+using AssemblyCounterField = core::CounterField<AssemblyCounters>;
 
 // Every member once, in the order `lidarfuse inspect` prints them.
 inline constexpr std::array<AssemblyCounterField, 17> kAssemblyCounterFields{{
