@@ -2,12 +2,12 @@
 // sensors in a synthetic roadside scene; writes capture.pcap, <sensor>.json,
 // ground_truth.csv and station.yaml (drivers/sim/sim_outputs.hpp).
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <optional>
 
+#include "core/common/stopwatch.hpp"
 #include "drivers/net/ipv4_address.hpp"
 #include "drivers/sim/live_sink.hpp"
 #include "drivers/sim/sim_http_server.hpp"
@@ -158,7 +158,7 @@ int run_sim(int argc, char** argv) {
     } else if (args.value("--to") || args.value("--http")) {
         throw UsageError("--to and --http need --live");
     }
-    const auto wall0 = std::chrono::steady_clock::now();
+    const core::Stopwatch wall_time;
     sim::Simulator simulator(params);
     ProgressLine progress("sim", progress_wanted(args));
     simulator.set_on_frame([&](int done, int total) {
@@ -176,8 +176,7 @@ int run_sim(int argc, char** argv) {
         stats = sim::write_simulation(simulator, out, options);
     }
     progress.finish();
-    const double wall =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    const double wall = wall_time.seconds();
     std::printf("sim_rays %llu rays\n", static_cast<unsigned long long>(stats.rays));
     std::printf("sim_returns %llu points\n", static_cast<unsigned long long>(stats.returns));
     std::printf("sim_datagrams %llu datagrams\n",
