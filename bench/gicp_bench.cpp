@@ -140,9 +140,8 @@ Prepared prepare(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen:
     grid.downsample(b, VoxelGridParams{voxel_m, 1}, &p.source);
     NormalParams np;
     np.k_neighbors = 10;
-    np.num_threads = threads;
-    lidarfuse::core::estimate_normals_covariances(&p.target, np);
-    lidarfuse::core::estimate_normals_covariances(&p.source, np);
+    lidarfuse::core::estimate_normals_covariances(&p.target, np, nullptr, threads);
+    lidarfuse::core::estimate_normals_covariances(&p.source, np, nullptr, threads);
     return p;
 }
 
@@ -184,11 +183,12 @@ int main(int argc, char** argv) {
         PointCloud full;
         full.points = scan_a;
         NormalParams np;
-        np.num_threads = threads;
         np.k_neighbors = 10;
         const int reps = static_cast<int>(3 * scale) + 1;
         const auto start = std::chrono::steady_clock::now();
-        for (int r = 0; r < reps; ++r) lidarfuse::core::estimate_normals_covariances(&full, np);
+        for (int r = 0; r < reps; ++r) {
+            lidarfuse::core::estimate_normals_covariances(&full, np, nullptr, threads);
+        }
         print("normals_full_scan_t" + std::to_string(threads) + "_time", ms_since(start) / reps,
               "ms");
     }
@@ -212,14 +212,13 @@ int main(int argc, char** argv) {
             }
             GicpParams params;
             params.max_correspondence_distance_m = c.max_corr_m;
-            params.num_threads = threads;
             // Target build (k-d tree) is per frame too: time it separately.
             const int reps = std::max(1, static_cast<int>(c.reps * scale));
             auto start = std::chrono::steady_clock::now();
             for (int r = 0; r < reps; ++r) GicpTarget tmp(PointCloud(p.target));
             print(prefix + "_target_build_time", ms_since(start) / reps, "ms");
             const GicpTarget target(std::move(p.target));
-            GicpRegistration registration(params);
+            GicpRegistration registration(params, threads);
             GicpResult result;
             start = std::chrono::steady_clock::now();
             for (int r = 0; r < reps; ++r) result = registration.align(target, p.source);

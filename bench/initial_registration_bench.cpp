@@ -33,12 +33,11 @@ int main(int argc, char** argv) {
     }
 
     core::InitialRegistrationParams params = core::default_initial_registration_params();
-    params.num_threads = threads;
     std::vector<double> total, features, pairs, graph, cpu;
     core::InitialRegistrationResult result;
     for (int r = 0; r < repeats; ++r) {
         const std::clock_t cpu_start = std::clock();
-        result = core::register_initial(clouds, params);
+        result = core::register_initial(clouds, params, threads);
         cpu.push_back(static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC);
         total.push_back(result.timings.total_s);
         features.push_back(result.timings.features_s);

@@ -67,14 +67,13 @@ core::PointCloud azimuth_sector(const core::PointCloud& cloud, double centre_deg
 Outcome run(const core::PointCloud& target, const core::PointCloud& source,
             const Eigen::Isometry3d& truth, int threads) {
     core::InitialRegistrationParams params = core::default_initial_registration_params();
-    params.num_threads = threads;
     if (const char* fs = std::getenv("SWEEP_MAX_FREE_SPACE"))
         params.pair.max_free_space_violation_share = std::atof(fs);
     if (std::getenv("SWEEP_NO_GROUND_SEARCH")) params.pair.use_ground_aligned_search = false;
     if (std::getenv("SWEEP_NO_AMBIGUITY")) params.consensus.ambiguity.enabled = false;
     if (const char* b = std::getenv("SWEEP_MIN_BRIDGE_INFO"))
         params.consensus.min_bridge_information_per_inlier = std::atof(b);
-    const auto result = core::register_initial({target, source}, params);
+    const auto result = core::register_initial({target, source}, params, threads);
     Outcome o;
     o.overlap_share = overlap_share(source, target, truth);
     const auto& s = result.sensors[1];

@@ -14,13 +14,13 @@
 // extrinsics.yaml gets the same `world:` block and each sensor's T_fused_sensor (road, geo;
 // sensor, and --cloud files: the root frame only, as before).
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <optional>
 
 #include "core/common/se3.hpp"
+#include "core/common/stopwatch.hpp"
 #include "core/initial/initial_registration.hpp"
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/world_frame.hpp"
@@ -326,7 +326,7 @@ int run_calibrate(int argc, char** argv) {
         std::printf("%s", kUsage);
         return 0;
     }
-    const auto start = std::chrono::steady_clock::now();
+    const core::Stopwatch whole;
     const bool from_files = !args.values("--cloud").empty();
     if (!from_files && args.value("--root")) throw UsageError("--root applies to --cloud files");
     const std::string out_path = args.required("--out");
@@ -338,10 +338,9 @@ int run_calibrate(int argc, char** argv) {
     progress.update({from_files ? "reading the clouds" : "reading the capture", 0, 0, "", -1, 0});
     const CalibrationInput input =
         from_files ? input_from_cloud_files(args) : input_from_capture(args);
-    const double input_s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double input_s = whole.seconds();
 
-    params.num_threads = static_cast<int>(args.integer("--threads", 2));
+    const int threads = static_cast<int>(args.integer("--threads", 2));
     params.on_progress = [&](const char* stage, std::size_t done, std::size_t total) {
         const bool sensors = std::string(stage) == "features";
         progress.update({stage, static_cast<double>(done), static_cast<double>(total),
@@ -349,7 +348,8 @@ int run_calibrate(int argc, char** argv) {
                          total > 0 ? static_cast<double>(done) / static_cast<double>(total) : -1.0,
                          0});
     };
-    const core::InitialRegistrationResult result = core::register_initial(input.clouds, params);
+    const core::InitialRegistrationResult result =
+        core::register_initial(input.clouds, params, threads);
     progress.finish();
 
     io::ExtrinsicsDocument doc;
@@ -364,9 +364,7 @@ int run_calibrate(int argc, char** argv) {
         doc.world = io::extrinsics_world(*world, "", input.world->frame_id);
     }
     io::write_extrinsics_yaml(out_path, doc);
-    print_figures(result, input_s,
-                  std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
-                  input.names.size());
+    print_figures(result, input_s, whole.seconds(), input.names.size());
     return result.num_registered() == input.names.size() ? 0 : 2;
 }
 

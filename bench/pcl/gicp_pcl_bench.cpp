@@ -96,7 +96,6 @@ lidarfuse::core::NormalParams covariance_params() {
     lidarfuse::core::NormalParams np;
     np.k_neighbors = kCovarianceNeighbors;
     np.compute_normals = false;
-    np.num_threads = 1;
     return np;
 }
 
@@ -109,7 +108,6 @@ Outcome run_ours(const PointCloud& target_in, const PointCloud& source_in, const
     gp.max_iterations = kMaxIterations;
     gp.translation_eps_m = kTranslationEpsM;
     gp.rotation_eps_rad = kRotationEpsRad;
-    gp.num_threads = 1;
 
     PointCloud target = target_in, source = source_in;
     const double start = cpu_ms();

@@ -155,14 +155,14 @@ bool pair_features(const Eigen::Vector3d& p1, const Eigen::Vector3d& n1, const E
 
 std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud,
                                          const std::vector<std::uint32_t>& keypoints,
-                                         const FpfhParams& params) {
+                                         const FpfhParams& params, int num_threads) {
     std::vector<FpfhDescriptor> descriptors(keypoints.size(), FpfhDescriptor::Zero());
     if (!cloud.has_normals() || keypoints.empty() || !(params.radius_m > 0.0)) return descriptors;
     for (std::uint32_t k : keypoints) {
         if (k >= cloud.size()) return descriptors;
     }
     const KdTree tree(cloud.points);
-    const int threads = std::max(1, params.num_threads);
+    const int threads = std::max(1, num_threads);
     const std::vector<Neighbors> keypoint_neighbors =
         keypoint_neighborhoods(cloud, tree, keypoints, params.radius_m, threads);
     const SpfhSlots slots = needed_points(cloud.size(), keypoints, keypoint_neighbors);

@@ -30,14 +30,13 @@ struct FpfhParams {
     // Neighborhood radius for both the SPFH and the weighting step (m). Rusu suggests a
     // radius a few times the sampling distance.
     double radius_m = 3.0;
-    int num_threads = 1;
 };
 
 // Descriptors at `keypoints` (indices into `cloud`), in the same order. `cloud` must have
 // normals; otherwise every descriptor is zero.
 std::vector<FpfhDescriptor> compute_fpfh(const PointCloud& cloud,
                                          const std::vector<std::uint32_t>& keypoints,
-                                         const FpfhParams& params = {});
+                                         const FpfhParams& params = {}, int num_threads = 1);
 
 // The three pair features (alpha, phi, theta) of Rusu's Darboux frame; false when the
 // points coincide.

@@ -35,9 +35,7 @@ PointCloud preprocess(const PointCloud& cloud, const SensorFeatureParams& params
     PointCloud clean;
     if (params.remove_outliers &&
         cropped.size() > static_cast<std::size_t>(params.outliers.k_neighbors)) {
-        StatisticalOutlierParams outliers = params.outliers;
-        outliers.num_threads = threads;
-        remove_statistical_outliers(cropped, outliers, &clean);
+        remove_statistical_outliers(cropped, params.outliers, &clean, nullptr, threads);
     } else {
         clean = std::move(cropped);
     }
@@ -50,9 +48,8 @@ std::vector<double> normals_and_curvature(const NormalParams& params, int thread
     NormalParams normal_params = params;
     normal_params.compute_normals = true;
     normal_params.compute_covariances = false;
-    normal_params.num_threads = threads;
     std::vector<double> curvature;
-    estimate_normals_covariances(cloud, normal_params, &curvature);
+    estimate_normals_covariances(cloud, normal_params, &curvature, threads);
     return curvature;
 }
 
@@ -67,9 +64,8 @@ GicpTarget covariance_cloud(const std::vector<Eigen::Vector3d>& points, double v
     cov_params.k_neighbors = k_neighbors;
     cov_params.compute_normals = false;
     cov_params.compute_covariances = true;
-    cov_params.num_threads = threads;
     if (voxels.size() < 3) return GicpTarget(std::move(voxels));
-    return GicpTarget(std::move(voxels), cov_params);
+    return GicpTarget(std::move(voxels), cov_params, 10, threads);
 }
 
 // The G-ICP cloud and the finer polish cloud (left empty when off).
@@ -87,10 +83,8 @@ void build_registration_clouds(const std::vector<Eigen::Vector3d>& points,
 // Step 4, second half: FPFH at the keypoints of the octree cloud, and their positions and
 // normals.
 void describe_keypoints(const FpfhParams& params, int threads, SensorFeatures* out) {
-    FpfhParams fpfh = params;
-    fpfh.num_threads = threads;
     const PointCloud& cloud = out->octree.cloud;
-    out->descriptors = compute_fpfh(cloud, out->keypoints, fpfh);
+    out->descriptors = compute_fpfh(cloud, out->keypoints, params, threads);
     for (std::uint32_t k : out->keypoints) {
         out->keypoint_points.push_back(cloud.points[k]);
         out->keypoint_normals.push_back(cloud.normals[k]);
@@ -114,10 +108,10 @@ const char* to_string(SensorFeatureStatus status) {
 }
 
 SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeatureParams& params,
-                                       std::size_t min_keypoints) {
+                                       std::size_t min_keypoints, int num_threads) {
     SensorFeatures out;
     out.num_input_points = cloud.size();
-    const int threads = std::max(1, params.num_threads);
+    const int threads = std::max(1, num_threads);
 
     Stopwatch stage;
     PointCloud clean = preprocess(cloud, params, threads);
@@ -150,10 +144,9 @@ SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeat
 
     // Step 4: SIFT-3D keypoints on curvature, FPFH at them, both on the octree cloud.
     stage.restart();
-    SiftKeypointParams sift = params.sift;
-    sift.num_threads = threads;
     out.keypoints =
-        detect_sift_keypoints(out.octree.cloud.points, out.octree.curvature, sift).indices;
+        detect_sift_keypoints(out.octree.cloud.points, out.octree.curvature, params.sift, threads)
+            .indices;
     out.timings.keypoints_s = stage.seconds();
     if (out.keypoints.size() < min_keypoints) {
         out.status = SensorFeatureStatus::kTooFewKeypoints;

@@ -53,7 +53,6 @@ struct SensorFeatureParams {
     // The octree cloud is "plane only" when the second largest eigenvalue of its normals'
     // scatter matrix (1/N sum n n^T) is below this: every normal (nearly) parallel.
     double min_normal_spread = 0.02;
-    int num_threads = 1;
 };
 
 enum class SensorFeatureStatus {
@@ -100,6 +99,6 @@ inline Eigen::Vector3d up_direction(const SensorFeatures& features) {
 
 // Needs at least `min_keypoints` keypoints for kOk.
 SensorFeatures compute_sensor_features(const PointCloud& cloud, const SensorFeatureParams& params,
-                                       std::size_t min_keypoints = 8);
+                                       std::size_t min_keypoints = 8, int num_threads = 1);
 
 }  // namespace lidarfuse::core

@@ -185,8 +185,8 @@ void record_keypoints(const OctaveCloud& cloud, const std::vector<int>& found_at
 // is too small, which ends the pyramid.
 bool detect_in_octave(const std::vector<Eigen::Vector3d>& points,
                       const std::vector<double>& curvature, const SiftKeypointParams& params,
-                      double base_m, const KdTree& input_tree, std::vector<float>* best_scale) {
-    const int threads = std::max(1, params.num_threads);
+                      double base_m, const KdTree& input_tree, int threads,
+                      std::vector<float>* best_scale) {
     const int n_scales = params.scales_per_octave + 3;  // Gaussian levels per octave
     const OctaveCloud cloud = voxel_average(points, curvature, base_m);
     const auto n = static_cast<std::int64_t>(cloud.points.size());
@@ -206,7 +206,7 @@ bool detect_in_octave(const std::vector<Eigen::Vector3d>& points,
 
 SiftKeypointResult detect_sift_keypoints(const std::vector<Eigen::Vector3d>& points,
                                          const std::vector<double>& curvature,
-                                         const SiftKeypointParams& params) {
+                                         const SiftKeypointParams& params, int num_threads) {
     SiftKeypointResult result;
     if (points.empty() || curvature.size() != points.size() || !(params.min_scale_m > 0.0) ||
         params.octaves < 1 || params.scales_per_octave < 1) {
@@ -216,7 +216,10 @@ SiftKeypointResult detect_sift_keypoints(const std::vector<Eigen::Vector3d>& poi
     std::vector<float> best_scale(points.size(), 0.0f);  // 0: not a keypoint
     for (int octave = 0; octave < params.octaves; ++octave) {
         const double base_m = params.min_scale_m * std::pow(2.0, octave);
-        if (!detect_in_octave(points, curvature, params, base_m, input_tree, &best_scale)) break;
+        if (!detect_in_octave(points, curvature, params, base_m, input_tree,
+                              std::max(1, num_threads), &best_scale)) {
+            break;
+        }
     }
     for (std::size_t i = 0; i < points.size(); ++i) {
         if (best_scale[i] > 0.0f) {

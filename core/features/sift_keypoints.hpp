@@ -30,7 +30,6 @@ struct SiftKeypointParams {
     double min_contrast = 0.001;
     // Octave clouds with fewer points than this end the pyramid.
     int min_points_per_octave = 16;
-    int num_threads = 1;
 };
 
 struct SiftKeypointResult {
@@ -43,6 +42,7 @@ struct SiftKeypointResult {
 // `points` with one `curvature` value each (sizes must match, else no keypoints).
 SiftKeypointResult detect_sift_keypoints(const std::vector<Eigen::Vector3d>& points,
                                          const std::vector<double>& curvature,
-                                         const SiftKeypointParams& params = {});
+                                         const SiftKeypointParams& params = {},
+                                         int num_threads = 1);
 
 }  // namespace lidarfuse::core

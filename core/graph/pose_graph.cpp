@@ -159,7 +159,7 @@ bool PoseGraph::remove_edge(EdgeId id) {
     return true;
 }
 
-PoseGraphSummary PoseGraph::optimize() {
+PoseGraphSummary PoseGraph::optimize(int num_threads) {
     PoseGraphSummary summary;
     summary.num_nodes = nodes_.size();
     summary.num_edges = edges_.size();
@@ -176,7 +176,7 @@ PoseGraphSummary PoseGraph::optimize() {
     options.function_tolerance = params_.function_tolerance;
     options.gradient_tolerance = params_.gradient_tolerance;
     options.parameter_tolerance = params_.parameter_tolerance;
-    options.num_threads = std::max(1, params_.num_threads);
+    options.num_threads = std::max(1, num_threads);
     options.logging_type = ceres::SILENT;
     options.minimizer_progress_to_stdout = false;
     ceres::Solver::Summary ceres_summary;

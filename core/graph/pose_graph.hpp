@@ -19,7 +19,7 @@
 // Gauge: any node can be held constant (set_node_fixed). If no node is fixed, optimize()
 // fixes none and the solution floats (the caller is expected to fix the root).
 //
-// Not thread safe; optimize() may use params.num_threads Ceres threads internally.
+// Not thread safe; optimize() may use `num_threads` Ceres threads internally.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -48,7 +48,6 @@ struct PoseGraphParams {
     double function_tolerance = 1e-8;
     double gradient_tolerance = 1e-10;
     double parameter_tolerance = 1e-10;
-    int num_threads = 1;
 };
 
 struct PoseGraphSummary {
@@ -100,7 +99,7 @@ public:
     std::size_t num_edges() const { return edges_.size(); }
 
     // Solves with the current values as the starting point.
-    PoseGraphSummary optimize();
+    PoseGraphSummary optimize(int num_threads = 1);
 
     // The edge's disagreement at the current node values (after optimize(): the residual).
     std::optional<EdgeResidual> edge_residual(EdgeId id) const;

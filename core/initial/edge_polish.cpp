@@ -19,8 +19,7 @@ bool polish_one(const SensorFeatures& source, const SensorFeatures& target,
     const PointCloud& source_cloud =
         source.polish.empty() ? source.gicp.cloud() : source.polish.cloud();
     GicpParams gicp_params = params.gicp;
-    gicp_params.num_threads = 1;
-    GicpRegistration gicp(gicp_params);
+    GicpRegistration gicp(gicp_params);  // one thread: the edges run in parallel
     Eigen::Isometry3d T = pair->chosen.T_target_source;
     GicpResult run;
     for (const double bound : params.max_correspondence_m) {

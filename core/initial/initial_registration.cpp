@@ -127,12 +127,12 @@ std::vector<SensorFeatures> compute_all_features(const std::vector<PointCloud>& 
     std::atomic<std::size_t> done{0};
     report_progress(params, "features", 0, n);
     const int outer = std::min<int>(threads, static_cast<int>(n));
-    SensorFeatureParams feature_params = params.features;
-    feature_params.num_threads = std::max(1, threads / outer);
+    const int inner = std::max(1, threads / outer);
 #pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
     for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
         if (cancel_requested(params)) continue;
-        features[i] = compute_sensor_features(clouds[i], feature_params, params.min_keypoints);
+        features[i] =
+            compute_sensor_features(clouds[i], params.features, params.min_keypoints, inner);
         report_progress(params, "features", ++done, n);
     }
     return features;
@@ -274,12 +274,10 @@ GraphPoses solve_pose_graph(std::size_t n, const InitialRegistrationParams& para
     GraphPoses tree;
     while (true) {
         spanning_tree_poses(n, *pairs, *edge_ok, &tree.poses, &tree.reached);
-        PoseGraphParams graph_params = params.pose_graph;
-        graph_params.num_threads = threads;
-        PoseGraph graph(graph_params);
+        PoseGraph graph(params.pose_graph);
         const GraphEdges edges = build_pose_graph(tree, pairs, edge_ok, &graph);
         if (edges.empty()) break;
-        *summary = graph.optimize();
+        *summary = graph.optimize(threads);
         if (!summary->usable) break;  // keep the spanning-tree poses
         const std::size_t worst = worst_edge(graph, edges, pairs->size(), params);
         if (worst == pairs->size()) {
@@ -403,11 +401,12 @@ StageTimeSums sum_stage_timings(const InitialRegistrationResult& result) {
 }
 
 InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds,
-                                           const InitialRegistrationParams& params) {
+                                           const InitialRegistrationParams& params,
+                                           int num_threads) {
     const Stopwatch whole;
     InitialRegistrationResult result;
     const std::size_t n = clouds.size();
-    const int threads = std::max(1, params.num_threads);
+    const int threads = std::max(1, num_threads);
     result.sensors.resize(n);
     if (n == 0) return result;
 

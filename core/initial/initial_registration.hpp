@@ -65,7 +65,6 @@ struct InitialRegistrationParams {
     // The last, tighter G-ICP run on the pairs the consensus kept (edge_polish.hpp).
     // register_initial sets its G-ICP settings and r_c from `pair`.
     EdgePolishParams polish{};
-    int num_threads = 1;
     // Optional stop request, read between sensors and between pairs (a worker thread's
     // job is cancelled when the daemon stops): once set, the remaining work is skipped
     // and no sensor is registered (status kCancelled). Must outlive the call.
@@ -139,6 +138,7 @@ StageTimeSums sum_stage_timings(const InitialRegistrationResult& result);
 
 InitialRegistrationResult register_initial(
     const std::vector<PointCloud>& clouds,
-    const InitialRegistrationParams& params = default_initial_registration_params());
+    const InitialRegistrationParams& params = default_initial_registration_params(),
+    int num_threads = 1);
 
 }  // namespace lidarfuse::core

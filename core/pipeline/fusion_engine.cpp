@@ -28,7 +28,6 @@ PoseGraphParams graph_params(const FusionParams& p) {
     PoseGraphParams g;
     g.huber_delta = p.huber_delta;
     g.max_iterations = p.graph_max_iterations;
-    g.num_threads = 1;
     return g;
 }
 
@@ -46,7 +45,7 @@ FusionEngine::Impl::Impl(std::size_t num_sensors, const FusionParams& p)
     for (std::size_t i = 0; i < n; ++i) tracks.push_back(std::make_unique<SensorTrack>(params));
     GicpParams g = params.gicp;
     g.max_correspondence_distance_m = params.correspondence_factor * params.voxel_size_m;
-    g.num_threads = 1;  // edges already run in parallel
+    // One registration per thread, each on one thread: the edges run in parallel.
     for (int t = 0; t < std::max(1, params.num_threads); ++t) registrations.emplace_back(g);
 }
 

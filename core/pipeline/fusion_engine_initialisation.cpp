@@ -36,10 +36,9 @@ void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameI
         c.points = in.sensors[s].points;
         clouds.push_back(std::move(c));
     }
-    InitialRegistrationParams ip = params.initial;
-    ip.num_threads = std::max(
-        1, run_inline || !tracking_beyond_root() ? params.num_threads : params.initial_threads);
-    p.job = std::make_shared<InitialRegistrationJob>(std::move(clouds), ip);
+    const int threads =
+        run_inline || !tracking_beyond_root() ? params.num_threads : params.initial_threads;
+    p.job = std::make_shared<InitialRegistrationJob>(std::move(clouds), params.initial, threads);
     pending = std::move(p);
     if (run_inline) {
         pending->job->run();

@@ -102,7 +102,6 @@ void FusionEngine::Impl::add_fine_reference_edges(const std::vector<std::size_t>
     }
     GicpParams g = params.gicp;
     g.max_correspondence_distance_m = params.correspondence_factor * params.reference_voxel_size_m;
-    g.num_threads = 1;
     std::vector<GicpRegistration> fine(static_cast<std::size_t>(threads), GicpRegistration(g));
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (std::size_t k = 0; k < pairs.size(); ++k) {

@@ -1,5 +1,6 @@
 #include "core/pipeline/initial_registration_job.hpp"
 
+#include <algorithm>
 #include <exception>
 
 #include "core/common/stopwatch.hpp"
@@ -7,8 +8,12 @@
 namespace lidarfuse::core {
 
 InitialRegistrationJob::InitialRegistrationJob(std::vector<PointCloud> clouds,
-                                               const InitialRegistrationParams& params)
-    : clouds_(std::move(clouds)), params_(params), num_clouds_(clouds_.size()) {
+                                               const InitialRegistrationParams& params,
+                                               int num_threads)
+    : clouds_(std::move(clouds)),
+      params_(params),
+      num_threads_(std::max(1, num_threads)),
+      num_clouds_(clouds_.size()) {
     params_.cancel = &cancel_;  // cancel() stops a running registration between its steps
 }
 
@@ -19,7 +24,7 @@ void InitialRegistrationJob::run() {
     } else {
         const Stopwatch run;
         try {
-            result_ = register_initial(clouds_, params_);
+            result_ = register_initial(clouds_, params_, num_threads_);
         } catch (const std::exception& e) {
             // Allocation failure or a bug: the engine sees no registered sensor and retries
             // later, which beats taking the caller's thread down.

@@ -27,7 +27,8 @@ class InitialRegistrationJob {
 public:
     // clouds[0] is the root's scan (the frame the poses are relative to), the others the
     // sensors to register; all in their own sensor frames.
-    InitialRegistrationJob(std::vector<PointCloud> clouds, const InitialRegistrationParams& params);
+    InitialRegistrationJob(std::vector<PointCloud> clouds, const InitialRegistrationParams& params,
+                           int num_threads = 1);
     InitialRegistrationJob(const InitialRegistrationJob&) = delete;
     InitialRegistrationJob& operator=(const InitialRegistrationJob&) = delete;
 
@@ -42,12 +43,13 @@ public:
     const InitialRegistrationResult& result() const { return result_; }
     const std::string& error() const { return error_; }
     std::size_t num_clouds() const { return num_clouds_; }
-    double run_ms() const { return run_ms_; }                // wall-clock time of the registration
-    int num_threads() const { return params_.num_threads; }  // its OpenMP threads
+    double run_ms() const { return run_ms_; }         // wall-clock time of the registration
+    int num_threads() const { return num_threads_; }  // its OpenMP threads
 
 private:
     std::vector<PointCloud> clouds_;
     InitialRegistrationParams params_;
+    int num_threads_ = 1;
     std::size_t num_clouds_ = 0;
     InitialRegistrationResult result_;
     std::string error_;

@@ -117,7 +117,6 @@ GicpTarget SensorTrack::reference_target_at(double voxel_size_m) const {
     NormalParams normals;
     normals.k_neighbors = covariance_neighbors_for(params_, voxel_size_m);
     normals.compute_normals = false;
-    normals.num_threads = 1;
     return GicpTarget(std::move(cloud), normals);
 }
 
@@ -168,8 +167,7 @@ void SensorTrack::build_current_target(bool static_only, const Eigen::Isometry3d
     NormalParams normals;
     normals.k_neighbors = covariance_neighbors_for(params_, params_.voxel_size_m);
     normals.compute_normals = false;
-    normals.num_threads = 1;  // tracks already run in parallel
-    current_target_ = GicpTarget(std::move(cloud), normals);
+    current_target_ = GicpTarget(std::move(cloud), normals);  // one thread: tracks run in parallel
 }
 
 void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,

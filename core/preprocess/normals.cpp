@@ -135,8 +135,8 @@ inline void store_point(const NormalOutputs& out, std::size_t i, const Eigen::Ma
 }  // namespace
 
 NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
-                                         const NormalParams& params,
-                                         std::vector<double>* curvature) {
+                                         const NormalParams& params, std::vector<double>* curvature,
+                                         int num_threads) {
     NormalStats stats;
     const std::size_t n = cloud->points.size();
     stats.num_points = n;
@@ -148,7 +148,7 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
     const std::vector<std::uint32_t>& order = tree.leaf_order();
     const long long count = static_cast<long long>(n);
     std::size_t degenerate = 0;
-#pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1) \
+#pragma omp parallel num_threads(std::max(1, num_threads)) if (num_threads > 1) \
     reduction(+ : degenerate)
     {
         std::vector<std::uint32_t> idx(k);
@@ -177,9 +177,9 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
 }
 
 NormalStats estimate_normals_covariances(PointCloud* cloud, const NormalParams& params,
-                                         std::vector<double>* curvature) {
-    const KdTree tree(cloud->points, 10, params.num_threads);
-    return estimate_normals_covariances(cloud, tree, params, curvature);
+                                         std::vector<double>* curvature, int num_threads) {
+    const KdTree tree(cloud->points, 10, num_threads);
+    return estimate_normals_covariances(cloud, tree, params, curvature, num_threads);
 }
 
 }  // namespace lidarfuse::core

@@ -44,7 +44,6 @@ struct NormalParams {
     // cloud's frame), so that FPFH on different sensors sees consistent signs.
     bool orient_towards_viewpoint = true;
     Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();
-    int num_threads = 1;
 };
 
 struct NormalStats {
@@ -56,11 +55,13 @@ struct NormalStats {
 // is not null, the curvature per point. `tree` must be built over cloud->points.
 NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
                                          const NormalParams& params,
-                                         std::vector<double>* curvature = nullptr);
+                                         std::vector<double>* curvature = nullptr,
+                                         int num_threads = 1);
 
 // Same, building a temporary k-d tree over cloud->points.
 NormalStats estimate_normals_covariances(PointCloud* cloud, const NormalParams& params,
-                                         std::vector<double>* curvature = nullptr);
+                                         std::vector<double>* curvature = nullptr,
+                                         int num_threads = 1);
 
 // The G-ICP plane regularisation of one covariance (see the file comment).
 Eigen::Matrix3d regularize_plane_covariance(const Eigen::Matrix3d& covariance, double epsilon);

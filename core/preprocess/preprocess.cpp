@@ -63,7 +63,7 @@ std::size_t filter_range(const PointCloud& in, const RangeFilterParams& params, 
 
 std::size_t remove_statistical_outliers(const PointCloud& in,
                                         const StatisticalOutlierParams& params, PointCloud* out,
-                                        std::vector<std::uint32_t>* kept_indices) {
+                                        std::vector<std::uint32_t>* kept_indices, int num_threads) {
     const std::size_t n = in.points.size();
     const std::size_t k = static_cast<std::size_t>(std::max(1, params.k_neighbors));
     if (n <= k) {
@@ -71,10 +71,10 @@ std::size_t remove_statistical_outliers(const PointCloud& in,
         std::vector<char> keep(n, 1);
         return apply_mask(in, keep, out, kept_indices);
     }
-    const KdTree tree(in.points, 10, params.num_threads);
+    const KdTree tree(in.points, 10, num_threads);
     std::vector<double> mean_distance(n, 0.0);
     const long long count = static_cast<long long>(n);
-#pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1)
+#pragma omp parallel num_threads(std::max(1, num_threads)) if (num_threads > 1)
     {
         // k + 1: the query point is its own nearest neighbor.
         std::vector<std::uint32_t> idx(k + 1);
@@ -100,16 +100,17 @@ std::size_t remove_statistical_outliers(const PointCloud& in,
 }
 
 std::size_t remove_radius_outliers(const PointCloud& in, const RadiusOutlierParams& params,
-                                   PointCloud* out, std::vector<std::uint32_t>* kept_indices) {
+                                   PointCloud* out, std::vector<std::uint32_t>* kept_indices,
+                                   int num_threads) {
     const std::size_t n = in.points.size();
     std::vector<char> keep(n, 0);
     if (n > 0) {
-        const KdTree tree(in.points, 10, params.num_threads);
+        const KdTree tree(in.points, 10, num_threads);
         // The query point itself is among its neighbors, hence + 1.
         const std::size_t needed = static_cast<std::size_t>(std::max(0, params.min_neighbors)) + 1;
         const double r2 = params.radius_m * params.radius_m;
         const long long count = static_cast<long long>(n);
-#pragma omp parallel num_threads(std::max(1, params.num_threads)) if (params.num_threads > 1)
+#pragma omp parallel num_threads(std::max(1, num_threads)) if (num_threads > 1)
         {
             // A knn query of `needed` points is cheaper than a full radius search: the point
             // stays if its needed-th nearest neighbor lies within the radius.

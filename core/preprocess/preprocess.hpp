@@ -32,24 +32,24 @@ struct StatisticalOutlierParams {
     // distribution over the whole cloud; points beyond mean + std_ratio * stddev go.
     int k_neighbors = 16;
     double std_ratio = 2.0;
-    int num_threads = 1;  // OpenMP threads for the neighbor queries
 };
 
 // Input points must be finite (run filter_range first). Returns the count kept.
 std::size_t remove_statistical_outliers(const PointCloud& in,
                                         const StatisticalOutlierParams& params, PointCloud* out,
-                                        std::vector<std::uint32_t>* kept_indices = nullptr);
+                                        std::vector<std::uint32_t>* kept_indices = nullptr,
+                                        int num_threads = 1);
 
 struct RadiusOutlierParams {
     // A point stays if at least min_neighbors other points lie within radius_m.
     double radius_m = 0.5;
     int min_neighbors = 3;
-    int num_threads = 1;
 };
 
 std::size_t remove_radius_outliers(const PointCloud& in, const RadiusOutlierParams& params,
                                    PointCloud* out,
-                                   std::vector<std::uint32_t>* kept_indices = nullptr);
+                                   std::vector<std::uint32_t>* kept_indices = nullptr,
+                                   int num_threads = 1);
 
 // Copies the selected points (and normals / covariances when present) into `out`.
 void extract_indices(const PointCloud& in, const std::vector<std::uint32_t>& indices,

@@ -37,11 +37,12 @@ GicpTarget::GicpTarget(PointCloud cloud, int leaf_max_size)
     : cloud_(std::make_unique<PointCloud>(std::move(cloud))),
       tree_(std::make_unique<KdTree>(cloud_->points, leaf_max_size)) {}
 
-GicpTarget::GicpTarget(PointCloud cloud, const NormalParams& covariances, int leaf_max_size)
+GicpTarget::GicpTarget(PointCloud cloud, const NormalParams& covariances, int leaf_max_size,
+                       int num_threads)
     : cloud_(std::make_unique<PointCloud>(std::move(cloud))),
-      tree_(std::make_unique<KdTree>(cloud_->points, leaf_max_size, covariances.num_threads)) {
+      tree_(std::make_unique<KdTree>(cloud_->points, leaf_max_size, num_threads)) {
     // Only the covariances and lists change, never the points the tree refers to.
-    estimate_normals_covariances(cloud_.get(), *tree_, covariances);
+    estimate_normals_covariances(cloud_.get(), *tree_, covariances, nullptr, num_threads);
 }
 
 GicpTarget::GicpTarget(GicpTarget&&) noexcept = default;
@@ -102,9 +103,8 @@ void GicpRegistration::Linearization::add(const Linearization& o) {
     num_inliers += o.num_inliers;
 }
 
-GicpRegistration::GicpRegistration(const GicpParams& params) : params_(params) {}
-
-int GicpRegistration::num_threads() const { return std::max(1, params_.num_threads); }
+GicpRegistration::GicpRegistration(const GicpParams& params, int num_threads)
+    : params_(params), num_threads_(std::max(1, num_threads)) {}
 
 namespace {
 
@@ -259,7 +259,7 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
                                  const Eigen::Isometry3d& T, bool reuse_correspondences,
                                  Linearization* lin) {
     const std::size_t n = source.size();
-    const int threads = num_threads();
+    const int threads = num_threads_;
     target_index_.resize(n);
     mahalanobis_.resize(n);
     // Zeroed every call: the team can be smaller than asked (nested inside another
@@ -312,7 +312,7 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
 
 double GicpRegistration::evaluate(const GicpTarget& target, const PointCloud& source,
                                   const Eigen::Isometry3d& T) {
-    const int threads = num_threads();
+    const int threads = num_threads_;
     partial_error_.assign(static_cast<std::size_t>(threads), 0.0);
     const Kernel kernel = make_kernel(params_);
     const auto& target_points = target.cloud().points;
@@ -459,8 +459,8 @@ GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& s
 }
 
 GicpResult align_gicp(const GicpTarget& target, const PointCloud& source,
-                      const Eigen::Isometry3d& T_init, const GicpParams& params) {
-    GicpRegistration registration(params);
+                      const Eigen::Isometry3d& T_init, const GicpParams& params, int num_threads) {
+    GicpRegistration registration(params, num_threads);
     return registration.align(target, source, T_init);
 }
 

@@ -34,7 +34,8 @@
 // point_cloud.hpp), C = I - beta a a^T, and the inverse of the pair's sum is a rank-2
 // Woodbury update of I / 2 (gicp.cpp), instead of two congruences and a 3x3 inverse.
 //
-// Threading: the per-iteration reduction runs with `num_threads` OpenMP threads, each with
+// Threading: the per-iteration reduction runs with the registration's `num_threads` OpenMP
+// threads (a constructor argument, not a parameter of the method), each with
 // its own H, b and error sums, added at the end in a fixed order (results do not depend on
 // scheduling beyond floating-point summation order per thread block, which is static).
 // num_threads = 1 runs serially without touching the OpenMP pool. On a loaded machine,
@@ -78,7 +79,6 @@ struct GicpParams {
     int lm_max_inner_iterations = 10;
     // Fewer correspondences than this: not converged, status kTooFewCorrespondences.
     std::size_t min_correspondences = 10;
-    int num_threads = 1;
 };
 
 enum class GicpStatus {
@@ -130,8 +130,10 @@ public:
     explicit GicpTarget(PointCloud cloud, int leaf_max_size = 10);
     // Takes the cloud and computes its covariances (and neighbor lists) as `covariances`
     // asks, on this target's own k-d tree: the same numbers as estimate_normals_covariances
-    // followed by the constructor above, with one tree per cloud instead of two.
-    GicpTarget(PointCloud cloud, const NormalParams& covariances, int leaf_max_size = 10);
+    // followed by the constructor above, with one tree per cloud instead of two; the tree
+    // and the covariances on `num_threads` OpenMP threads.
+    GicpTarget(PointCloud cloud, const NormalParams& covariances, int leaf_max_size = 10,
+               int num_threads = 1);
     GicpTarget(GicpTarget&&) noexcept;
     GicpTarget& operator=(GicpTarget&&) noexcept;
     ~GicpTarget();
@@ -150,7 +152,7 @@ private:
 // so a frame loop does not allocate once the buffers have grown. One object per thread.
 class GicpRegistration {
 public:
-    explicit GicpRegistration(const GicpParams& params = {});
+    explicit GicpRegistration(const GicpParams& params = {}, int num_threads = 1);
     const GicpParams& params() const { return params_; }
     void set_params(const GicpParams& params) { params_ = params; }
 
@@ -192,9 +194,8 @@ private:
     bool levenberg_marquardt_step(const GicpTarget& target, const PointCloud& source,
                                   const Linearization& lin, double* lambda, Eigen::Isometry3d* T,
                                   Vector6d* delta);
-    int num_threads() const;
-
     GicpParams params_;
+    int num_threads_ = 1;                     // at least 1
     std::vector<std::int32_t> target_index_;  // per source point, -1 = no correspondence
     // Per source point, M_i at the last linearisation in the source frame at its rotation:
     // N_i = R^T M_i R (evaluate() rotates the residuals back with linearized_rotation_).
@@ -206,6 +207,7 @@ private:
 
 // One-off convenience wrapper (allocates its buffers).
 GicpResult align_gicp(const GicpTarget& target, const PointCloud& source,
-                      const Eigen::Isometry3d& T_init, const GicpParams& params = {});
+                      const Eigen::Isometry3d& T_init, const GicpParams& params = {},
+                      int num_threads = 1);
 
 }  // namespace lidarfuse::core

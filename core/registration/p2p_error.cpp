@@ -10,14 +10,14 @@ namespace lidarfuse::core {
 
 P2pErrorResult p2p_error(const std::vector<Eigen::Vector3d>& source_points,
                          const KdTree& target_tree, const Eigen::Isometry3d& T_target_source,
-                         const P2pErrorParams& params) {
+                         const P2pErrorParams& params, int num_threads) {
     P2pErrorResult result;
     result.num_source = source_points.size();
     if (source_points.empty() || target_tree.size() == 0) return result;
     const double rc2 = params.cutoff_radius_m * params.cutoff_radius_m;
     // nearest_within() finds points strictly closer than its bound: d2 < next(rc2) <=> d2 <= rc2.
     const double bound = std::nextafter(rc2, std::numeric_limits<double>::infinity());
-    const int threads = std::max(1, params.num_threads);
+    const int threads = std::max(1, num_threads);
     // Per-thread partial sums, added in thread order (deterministic for a thread count).
     std::vector<double> partial_sum(static_cast<std::size_t>(threads), 0.0);
     std::vector<std::size_t> partial_count(static_cast<std::size_t>(threads), 0);

@@ -17,7 +17,6 @@ namespace lidarfuse::core {
 
 struct P2pErrorParams {
     double cutoff_radius_m = 1.0;  // r_c; the paper: ~ the largest downsampling voxel size
-    int num_threads = 1;
 };
 
 struct P2pErrorResult {
@@ -31,6 +30,6 @@ struct P2pErrorResult {
 // `target_tree` is a k-d tree over the target points (frame: target).
 P2pErrorResult p2p_error(const std::vector<Eigen::Vector3d>& source_points,
                          const KdTree& target_tree, const Eigen::Isometry3d& T_target_source,
-                         const P2pErrorParams& params = {});
+                         const P2pErrorParams& params = {}, int num_threads = 1);
 
 }  // namespace lidarfuse::core

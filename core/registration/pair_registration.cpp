@@ -52,23 +52,18 @@ struct CandidateSet {
     bool any_consensus = false;  // some search produced a transform at all
 };
 
-GicpParams gicp_params_with_threads(GicpParams params, int threads) {
-    params.num_threads = threads;
-    return params;
-}
-
 // The G-ICP and p2p set-up every candidate of the pair is refined and scored with. One
 // GicpRegistration serves every run (its buffers are reused); `gicp_params` is re-targeted
 // per coarse-to-fine run.
 struct PairRefiner {
     explicit PairRefiner(const PairInputs& pair)
-        : gicp_params(gicp_params_with_threads(pair.params.gicp, pair.threads)), gicp(gicp_params) {
+        : gicp_params(pair.params.gicp), gicp(gicp_params, pair.threads), threads(pair.threads) {
         p2p_params.cutoff_radius_m = pair.params.p2p_cutoff_m;
-        p2p_params.num_threads = pair.threads;
     }
     GicpParams gicp_params;
     GicpRegistration gicp;
     P2pErrorParams p2p_params;
+    int threads = 1;  // of G-ICP and p2p
 };
 
 // True when T_target_source lies within `separation_m` (at the source origin) of one of
@@ -151,7 +146,7 @@ CandidateOutcome check_after_refinement(const PairInputs& pair, PairRefiner& ref
     }
     const Stopwatch stage;
     candidate.p2p = p2p_error(pair.source.gicp.cloud().points, pair.target.gicp.tree(),
-                              candidate.T_target_source, refiner.p2p_params);
+                              candidate.T_target_source, refiner.p2p_params, refiner.threads);
     timings.p2p_s += stage.seconds();
     // No overlap at all within r_c: not a candidate.
     if (!candidate.p2p.valid) return CandidateOutcome::kNoP2pOverlap;

@@ -57,8 +57,7 @@ TEST(Fpfh, InvariantUnderRigidTransform) {
     for (std::uint32_t i = 0; i < cloud.size(); i += 97) keypoints.push_back(i);
     FpfhParams params;
     params.radius_m = 1.0;
-    params.num_threads = 2;
-    const auto before = compute_fpfh(cloud, keypoints, params);
+    const auto before = compute_fpfh(cloud, keypoints, params, 2);
 
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.linear() =

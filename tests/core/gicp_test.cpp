@@ -17,8 +17,7 @@ PointCloud with_covariances(std::vector<Eigen::Vector3d> points) {
     cloud.points = std::move(points);
     NormalParams params;
     params.k_neighbors = 15;
-    params.num_threads = 2;
-    estimate_normals_covariances(&cloud, params);
+    estimate_normals_covariances(&cloud, params, nullptr, 2);
     return cloud;
 }
 
@@ -140,10 +139,8 @@ TEST_F(GicpScene, ThreadCountDoesNotChangeTheResult) {
     const PointCloud source = with_covariances(test::transformed(T_true.inverse(), target_points_));
     GicpParams params;
     params.max_correspondence_distance_m = 2.0;
-    params.num_threads = 1;
-    const GicpResult r1 = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
-    params.num_threads = 2;
-    const GicpResult r2 = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
+    const GicpResult r1 = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params, 1);
+    const GicpResult r2 = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params, 2);
     EXPECT_EQ(r1.iterations, r2.iterations);
     EXPECT_EQ(r1.num_inliers, r2.num_inliers);
     EXPECT_LT((r1.T_target_source.matrix() - r2.T_target_source.matrix()).norm(), 1e-9);
@@ -158,8 +155,7 @@ TEST_F(GicpScene, NestedInAParallelRegionGivesTheSameResult) {
     const PointCloud source = with_covariances(test::transformed(T_true.inverse(), target_points_));
     GicpParams params;
     params.max_correspondence_distance_m = 2.0;
-    params.num_threads = 2;
-    GicpRegistration registration(params);
+    GicpRegistration registration(params, 2);
     const GicpResult outside = registration.align(target_, source);
     GicpResult inside;
 #pragma omp parallel num_threads(2)

@@ -25,17 +25,15 @@ std::vector<PointCloud> scan_all(const testing::Scene& scene,
     return clouds;
 }
 
-InitialRegistrationParams registration_test_params() {
-    InitialRegistrationParams params = default_initial_registration_params();
-    params.num_threads = 2;
-    return params;
-}
+// The registration's OpenMP threads in these tests (results do not depend on it).
+constexpr int kThreads = 2;
 
 // Four sensors with relative yaws up to 180 degrees, registered with no initial guess.
 TEST(InitialRegistration, RegistersFourSensorsOfAStreet) {
     const auto T_world_sensor = testing::street_sensor_poses();
     const auto clouds = scan_all(testing::street_scene(), T_world_sensor);
-    const InitialRegistrationResult r = register_initial(clouds, registration_test_params());
+    const InitialRegistrationResult r =
+        register_initial(clouds, default_initial_registration_params(), kThreads);
     ASSERT_EQ(r.sensors.size(), 4u);
     ASSERT_EQ(r.pairs.size(), 6u);
     for (std::size_t i = 0; i < 4; ++i) {
@@ -74,7 +72,8 @@ TEST(InitialRegistration, PlaneOnlySensorIsReportedNotInvented) {
     empty.ground_half_extent_m = 60.0;
     const auto plane = scan_all(empty, {testing::sensor_pose(0, 0, 6, 30, 10)});
     clouds.push_back(plane[0]);
-    const InitialRegistrationResult r = register_initial(clouds, registration_test_params());
+    const InitialRegistrationResult r =
+        register_initial(clouds, default_initial_registration_params(), kThreads);
     ASSERT_EQ(r.sensors.size(), 4u);
     EXPECT_FALSE(r.sensors[3].registered);
     EXPECT_TRUE(r.sensors[3].status == SensorRegistrationStatus::kDegenerate ||
@@ -104,7 +103,8 @@ TEST(InitialRegistration, EmptyCloudsAndNoOverlap) {
     nans.points.assign(100, Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
     clouds.push_back(nans);
 
-    const InitialRegistrationResult r = register_initial(clouds, registration_test_params());
+    const InitialRegistrationResult r =
+        register_initial(clouds, default_initial_registration_params(), kThreads);
     ASSERT_EQ(r.sensors.size(), 5u);
     EXPECT_TRUE(r.sensors[0].registered);
     EXPECT_EQ(r.sensors[2].status, SensorRegistrationStatus::kEmptyCloud);
@@ -140,9 +140,9 @@ TEST(InitialRegistration, CancelledRunRegistersNothing) {
     const auto T_world_sensor = testing::street_sensor_poses();
     const auto clouds = scan_all(testing::street_scene(), {T_world_sensor[0], T_world_sensor[1]});
     std::atomic<bool> cancel{true};
-    InitialRegistrationParams params = registration_test_params();
+    InitialRegistrationParams params = default_initial_registration_params();
     params.cancel = &cancel;
-    const InitialRegistrationResult r = register_initial(clouds, params);
+    const InitialRegistrationResult r = register_initial(clouds, params, kThreads);
     ASSERT_EQ(r.sensors.size(), 2u);
     for (const SensorRegistration& s : r.sensors) {
         EXPECT_FALSE(s.registered);
@@ -152,7 +152,7 @@ TEST(InitialRegistration, CancelledRunRegistersNothing) {
     EXPECT_STREQ(to_string(SensorRegistrationStatus::kCancelled), "cancelled");
     // The same clouds register when nobody asks to stop.
     cancel = false;
-    const InitialRegistrationResult ok = register_initial(clouds, params);
+    const InitialRegistrationResult ok = register_initial(clouds, params, kThreads);
     EXPECT_TRUE(ok.sensors[1].registered) << to_string(ok.sensors[1].status);
 }
 
@@ -200,7 +200,8 @@ TEST(InitialRegistration, NarrowViewLookAlikeIsRefusedNotGuessed) {
     for (const double centre_deg : {0.0, 315.0}) {
         const std::vector<PointCloud> clouds{street.target,
                                              azimuth_sector(street.source, centre_deg, 90.0)};
-        const InitialRegistrationResult r = register_initial(clouds, registration_test_params());
+        const InitialRegistrationResult r =
+            register_initial(clouds, default_initial_registration_params(), kThreads);
         ASSERT_EQ(r.sensors.size(), 2u);
         const SensorRegistration& s = r.sensors[1];
         if (s.registered) {
@@ -217,10 +218,10 @@ TEST(InitialRegistration, NarrowViewLookAlikeIsRefusedNotGuessed) {
 
         // The case is a real trap: without the ambiguity test and the weak-bridge test the
         // look-alike is taken.
-        InitialRegistrationParams guessing = registration_test_params();
+        InitialRegistrationParams guessing = default_initial_registration_params();
         guessing.consensus.ambiguity.enabled = false;
         guessing.consensus.min_bridge_information_per_inlier = 0.0;
-        const InitialRegistrationResult g = register_initial(clouds, guessing);
+        const InitialRegistrationResult g = register_initial(clouds, guessing, kThreads);
         ASSERT_TRUE(g.sensors[1].registered) << "sector " << centre_deg;
         EXPECT_GT(translation_error_m(g.sensors[1].T_root_sensor, truth), 1.0)
             << "sector " << centre_deg;
@@ -237,7 +238,7 @@ TEST(InitialRegistration, WeakSinglePairIsRefusedNotTaken) {
     const PointCloud& target = street.target;
     const PointCloud source = azimuth_sector(street.source, 0.0, 90.0);
     const InitialRegistrationResult r =
-        register_initial({target, source}, registration_test_params());
+        register_initial({target, source}, default_initial_registration_params(), kThreads);
     ASSERT_EQ(r.sensors.size(), 2u);
     EXPECT_FALSE(r.sensors[1].registered);
     EXPECT_TRUE(r.sensors[1].status == SensorRegistrationStatus::kUnconfirmed ||
@@ -246,10 +247,10 @@ TEST(InitialRegistration, WeakSinglePairIsRefusedNotTaken) {
     EXPECT_TRUE(r.pairs[0].status == PairStatus::kUnconfirmed ||
                 r.pairs[0].status == PairStatus::kAmbiguous);
 
-    InitialRegistrationParams guessing = registration_test_params();
+    InitialRegistrationParams guessing = default_initial_registration_params();
     guessing.consensus.ambiguity.enabled = false;
     guessing.consensus.min_bridge_information_per_inlier = 0.0;
-    const InitialRegistrationResult g = register_initial({target, source}, guessing);
+    const InitialRegistrationResult g = register_initial({target, source}, guessing, kThreads);
     ASSERT_TRUE(g.sensors[1].registered);
     EXPECT_GT(translation_error_m(g.sensors[1].T_root_sensor, truth), 1.0);
 }

@@ -21,9 +21,8 @@ TEST(Normals, PlaneNormalsCurvatureAndRegularisedCovariance) {
     test::sample_rectangle(rng, Eigen::Vector3d(0, 0, 5) - 5 * u - 5 * v, 10 * u, 10 * v, 2000,
                            &cloud.points);
     NormalParams params;
-    params.num_threads = 2;
     std::vector<double> curvature;
-    const NormalStats stats = estimate_normals_covariances(&cloud, params, &curvature);
+    const NormalStats stats = estimate_normals_covariances(&cloud, params, &curvature, 2);
     EXPECT_EQ(stats.num_degenerate, 0u);
     ASSERT_TRUE(cloud.has_normals());
     ASSERT_TRUE(cloud.has_covariances());
@@ -67,10 +66,8 @@ TEST(Normals, ThreadCountDoesNotChangeTheResult) {
     a.points = test::make_structured_scene(rng, 1.0);
     PointCloud b = a;
     NormalParams params;
-    params.num_threads = 1;
-    estimate_normals_covariances(&a, params);
-    params.num_threads = 2;
-    estimate_normals_covariances(&b, params);
+    estimate_normals_covariances(&a, params, nullptr, 1);
+    estimate_normals_covariances(&b, params, nullptr, 2);
     for (std::size_t i = 0; i < a.size(); ++i) {
         EXPECT_EQ(a.normals[i], b.normals[i]);
         EXPECT_EQ(a.covariances[i], b.covariances[i]);
@@ -88,8 +85,7 @@ TEST(Normals, NeighborListsComeWithTheCovariances) {
     cloud.points = test::make_structured_scene(rng, 1.0);
     cloud.points.push_back(cloud.points[7]);  // a duplicate of point 7
     NormalParams params;
-    params.num_threads = 2;
-    estimate_normals_covariances(&cloud, params);
+    estimate_normals_covariances(&cloud, params, nullptr, 2);
     ASSERT_TRUE(cloud.has_neighbor_lists());
     const std::size_t n = cloud.size();
     for (std::size_t i = 0; i < n; ++i) {

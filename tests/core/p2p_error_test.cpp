@@ -13,7 +13,7 @@ TEST(P2pError, HandComputedValue) {
     const KdTree tree(target);
     // Distances to the nearest target point: 0.3, 0.4, 2.0 (beyond r_c = 1), 0.0.
     const std::vector<Eigen::Vector3d> source = {{0.3, 0, 0}, {10, 0.4, 0}, {5, 0, 0}, {0, 0, 0}};
-    const P2pErrorResult r = p2p_error(source, tree, Eigen::Isometry3d::Identity(), {1.0, 1});
+    const P2pErrorResult r = p2p_error(source, tree, Eigen::Isometry3d::Identity(), {1.0}, 1);
     ASSERT_TRUE(r.valid);
     EXPECT_EQ(r.num_within_cutoff, 3u);
     EXPECT_EQ(r.num_source, 4u);
@@ -27,11 +27,11 @@ TEST(P2pError, TransformIsAppliedToTheSource) {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.translation() = Eigen::Vector3d(0, 0, 1);
     const std::vector<Eigen::Vector3d> source = {{1, 0, -1}, {0, 1, -1}, {0, 0, 0}};
-    const P2pErrorResult r = p2p_error(source, tree, T, {0.5, 2});
+    const P2pErrorResult r = p2p_error(source, tree, T, {0.5}, 2);
     EXPECT_EQ(r.num_within_cutoff, 3u);
     EXPECT_NEAR(r.error_m, 0.0, 1e-15);
     // Identity instead: every point is 1 m off -> none within 0.5 m.
-    const P2pErrorResult none = p2p_error(source, tree, Eigen::Isometry3d::Identity(), {0.5, 2});
+    const P2pErrorResult none = p2p_error(source, tree, Eigen::Isometry3d::Identity(), {0.5}, 2);
     EXPECT_FALSE(none.valid);
     EXPECT_EQ(none.num_within_cutoff, 0u);
     EXPECT_EQ(none.overlap_share, 0.0);
@@ -44,8 +44,8 @@ TEST(P2pError, ThreadCountAgreesAndEmptyInputs) {
     for (auto& p : a) p = {u(rng), u(rng), u(rng)};
     for (auto& p : b) p = {u(rng), u(rng), u(rng)};
     const KdTree tree(a);
-    const P2pErrorResult r1 = p2p_error(b, tree, Eigen::Isometry3d::Identity(), {0.5, 1});
-    const P2pErrorResult r2 = p2p_error(b, tree, Eigen::Isometry3d::Identity(), {0.5, 2});
+    const P2pErrorResult r1 = p2p_error(b, tree, Eigen::Isometry3d::Identity(), {0.5}, 1);
+    const P2pErrorResult r2 = p2p_error(b, tree, Eigen::Isometry3d::Identity(), {0.5}, 2);
     EXPECT_EQ(r1.num_within_cutoff, r2.num_within_cutoff);
     EXPECT_NEAR(r1.error_m, r2.error_m, 1e-12);
     EXPECT_GT(r1.num_within_cutoff, 0u);

@@ -41,8 +41,7 @@ TEST(Preprocess, StatisticalOutlierRemovalDropsIsolatedPoints) {
     PointCloud out;
     std::vector<std::uint32_t> kept;
     StatisticalOutlierParams params;
-    params.num_threads = 2;
-    remove_statistical_outliers(in, params, &out, &kept);
+    remove_statistical_outliers(in, params, &out, &kept, 2);
     for (std::size_t o = 0; o < outliers.size(); ++o) {
         EXPECT_EQ(std::count(kept.begin(), kept.end(), 5000 + o), 0) << "outlier " << o;
     }

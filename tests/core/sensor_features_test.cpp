@@ -18,8 +18,7 @@ PointCloud street_scan(std::size_t sensor) {
 TEST(SensorFeatures, StreetScanGivesKeypointsAndDescriptors) {
     const PointCloud cloud = street_scan(0);
     SensorFeatureParams params;
-    params.num_threads = 2;
-    const SensorFeatures f = compute_sensor_features(cloud, params);
+    const SensorFeatures f = compute_sensor_features(cloud, params, 8, 2);
     ASSERT_EQ(f.status, SensorFeatureStatus::kOk) << to_string(f.status);
     EXPECT_EQ(f.num_input_points, cloud.size());
     EXPECT_LE(f.num_preprocessed_points, cloud.size());
@@ -34,8 +33,7 @@ TEST(SensorFeatures, StreetScanGivesKeypointsAndDescriptors) {
     EXPECT_TRUE(f.gicp.cloud().has_covariances());
     EXPECT_GT(f.normal_spread, params.min_normal_spread);
     // Deterministic, whatever the thread count.
-    params.num_threads = 1;
-    const SensorFeatures again = compute_sensor_features(cloud, params);
+    const SensorFeatures again = compute_sensor_features(cloud, params, 8, 1);
     EXPECT_EQ(again.keypoints, f.keypoints);
     ASSERT_EQ(again.descriptors.size(), f.descriptors.size());
     for (std::size_t k = 0; k < f.descriptors.size(); ++k) {

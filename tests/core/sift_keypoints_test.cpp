@@ -62,8 +62,7 @@ TEST(SiftKeypoints, FindsBoxEdgesAndNothingOnTheGround) {
     params.min_scale_m = 0.25;
     params.octaves = 2;
     params.min_contrast = 0.005;
-    params.num_threads = 2;
-    const SiftKeypointResult r = detect_sift_keypoints(s.cloud.points, s.curvature, params);
+    const SiftKeypointResult r = detect_sift_keypoints(s.cloud.points, s.curvature, params, 2);
     ASSERT_GE(r.indices.size(), 4u);
     ASSERT_EQ(r.indices.size(), r.scale_m.size());
     const Eigen::Vector3d lo(-1, -1.5, 0), size(3, 2.5, 2);
@@ -86,10 +85,8 @@ TEST(SiftKeypoints, DeterministicAcrossThreadCounts) {
     const Scene s = box_scene(true);
     SiftKeypointParams params;
     params.min_scale_m = 0.25;
-    params.num_threads = 1;
-    const SiftKeypointResult a = detect_sift_keypoints(s.cloud.points, s.curvature, params);
-    params.num_threads = 2;
-    const SiftKeypointResult b = detect_sift_keypoints(s.cloud.points, s.curvature, params);
+    const SiftKeypointResult a = detect_sift_keypoints(s.cloud.points, s.curvature, params, 1);
+    const SiftKeypointResult b = detect_sift_keypoints(s.cloud.points, s.curvature, params, 2);
     EXPECT_EQ(a.indices, b.indices);
     EXPECT_EQ(a.scale_m, b.scale_m);
 }
