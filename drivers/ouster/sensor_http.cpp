@@ -16,6 +16,8 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "core/common/stopwatch.hpp"
+
 namespace lidarfuse::ouster {
 namespace {
 
@@ -169,14 +171,14 @@ Answer send(const SensorHttpParams& params, const std::string& method, const std
     };
     httplib::Response response;
     httplib::Error error = httplib::Error::Success;
-    const auto start = Clock::now();
+    const core::Stopwatch request_time;
     bool sent = false;
     {
         const SigpipeBlock no_sigpipe;
         sent = client.send(request, response, error);
     }
     if (!sent) {
-        const double elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
+        const double elapsed_s = request_time.seconds();
         throw SensorHttpError(describe(params, method, path) + ": " +
                               transport_failure(error, elapsed_s, params));
     }

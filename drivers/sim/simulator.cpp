@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <optional>
 #include <stdexcept>
 #include <thread>
 
+#include "core/common/stopwatch.hpp"
 #include "drivers/ouster/packet_format.hpp"
 #include "drivers/sim/packet_encoder.hpp"
 #include "drivers/sim/ray_caster.hpp"
@@ -311,14 +311,13 @@ SimStats Simulator::run(DatagramSink& sink) {
     SimNetwork network(*this);
     std::vector<MovingBox> boxes;
     for (int f = 0; f < frames_; ++f) {
-        const auto wall0 = std::chrono::steady_clock::now();
+        const core::Stopwatch render_time;
         const auto dynamic = dynamic_scenes(*this, impl_->device, f, &boxes);
         std::atomic<int> next{0};
         render_frame({this, &impl_->renderers, &impl_->formats, impl_->static_scene.get(), &dynamic,
                       f, P, &next, &packets, &task_returns},
                      threads);
-        stats.render_wall_s +=
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+        stats.render_wall_s += render_time.seconds();
         for (auto r : task_returns) stats.returns += r;
         stats.rays += static_cast<std::uint64_t>(n) *
                       static_cast<std::uint64_t>(params_.columns_per_frame) * 64u;
