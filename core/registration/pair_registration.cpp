@@ -57,13 +57,12 @@ struct CandidateSet {
 // per coarse-to-fine run.
 struct PairRefiner {
     explicit PairRefiner(const PairInputs& pair)
-        : gicp_params(pair.params.gicp), gicp(gicp_params, pair.threads), threads(pair.threads) {
+        : gicp_params(pair.params.gicp), gicp(gicp_params, pair.threads) {
         p2p_params.cutoff_radius_m = pair.params.p2p_cutoff_m;
     }
     GicpParams gicp_params;
     GicpRegistration gicp;
     P2pErrorParams p2p_params;
-    int threads = 1;  // of G-ICP and p2p
 };
 
 // True when T_target_source lies within `separation_m` (at the source origin) of one of
@@ -146,7 +145,7 @@ CandidateOutcome check_after_refinement(const PairInputs& pair, PairRefiner& ref
     }
     const Stopwatch stage;
     candidate.p2p = p2p_error(pair.source.gicp.cloud().points, pair.target.gicp.tree(),
-                              candidate.T_target_source, refiner.p2p_params, refiner.threads);
+                              candidate.T_target_source, refiner.p2p_params, pair.threads);
     timings.p2p_s += stage.seconds();
     // No overlap at all within r_c: not a candidate.
     if (!candidate.p2p.valid) return CandidateOutcome::kNoP2pOverlap;
