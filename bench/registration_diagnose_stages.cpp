@@ -15,7 +15,7 @@ namespace {
 
 // register_pair's G-ICP runs, one per correspondence bound, each from the last result.
 core::GicpResult coarse_to_fine(const core::PairRegistrationParams& p,
-                                const core::GicpTarget& target, const core::PointCloud& source,
+                                const core::GicpCloud& target, const core::GicpCloud& source,
                                 const Eigen::Isometry3d& T_start) {
     core::GicpParams gparams = p.gicp;
     core::GicpRegistration reg(gparams);
@@ -126,7 +126,7 @@ void report_truth_checks(const core::SensorFeatures& src, const core::SensorFeat
                  "target->source %zu/%zu %.3f\n",
                  a.num_violations, a.num_tested, a.violation_share, b.num_violations, b.num_tested,
                  b.violation_share);
-    const core::GicpResult gr = coarse_to_fine(p, tgt.gicp, src.gicp.cloud(), T);
+    const core::GicpResult gr = coarse_to_fine(p, tgt.gicp, src.gicp, T);
     const Eigen::Isometry3d Tc = gr.T_target_source;
     const auto pe = p2p_at(src, tgt, Tc, p);
     std::fprintf(stderr,
@@ -148,8 +148,7 @@ void refine_peaks(const core::SensorFeatures& src, const core::SensorFeatures& t
             src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points, tgt.free_space,
             c.T_target_source);
         if (coarse.violation_share > p.max_ground_coarse_free_space_violation_share) continue;
-        const core::GicpResult gr =
-            coarse_to_fine(p, tgt.gicp, src.gicp.cloud(), c.T_target_source);
+        const core::GicpResult gr = coarse_to_fine(p, tgt.gicp, src.gicp, c.T_target_source);
         const Eigen::Isometry3d Tc = gr.T_target_source;
         const auto fs = core::free_space_violations_both(
             src.gicp.cloud().points, src.free_space, tgt.gicp.cloud().points, tgt.free_space, Tc);

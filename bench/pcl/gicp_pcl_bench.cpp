@@ -35,6 +35,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -99,26 +100,35 @@ lidarfuse::core::NormalParams covariance_params() {
     return np;
 }
 
-// shared_covariances: the clouds already carry covariances (the same ones go to PCL) and
-// only the alignment is timed; otherwise the covariances are computed inside the timing.
-Outcome run_ours(const PointCloud& target_in, const PointCloud& source_in, const Pair& pair,
-                 double max_corr_m, bool shared_covariances) {
+// Both clouds of a pair with our covariances, when both sides get the same ones.
+struct SharedClouds {
+    lidarfuse::core::GicpCloud target, source;
+};
+
+// shared (not null): the clouds already carry covariances (the same ones go to PCL) and
+// only the target's tree and the alignment are timed; otherwise the covariances are
+// computed inside the timing.
+Outcome run_ours(const PointCloud& target_in, const PointCloud& source_in,
+                 const SharedClouds* shared, const Pair& pair, double max_corr_m) {
     lidarfuse::core::GicpParams gp;
     gp.max_correspondence_distance_m = max_corr_m;
     gp.max_iterations = kMaxIterations;
     gp.translation_eps_m = kTranslationEpsM;
     gp.rotation_eps_rad = kRotationEpsRad;
 
+    using lidarfuse::core::GicpCloud;
     PointCloud target = target_in, source = source_in;
+    lidarfuse::core::CovarianceByproducts target_byproducts;
+    if (shared) target_byproducts = shared->target.byproducts();
     const double start = cpu_ms();
-    if (!shared_covariances)
-        lidarfuse::core::estimate_normals_covariances(&source, covariance_params());
-    // The target's covariances on its own k-d tree (as the daemon and calibrate do).
-    const lidarfuse::core::GicpTarget gicp_target =
-        shared_covariances ? lidarfuse::core::GicpTarget(std::move(target))
-                           : lidarfuse::core::GicpTarget(std::move(target), covariance_params());
-    const lidarfuse::core::GicpResult r =
-        lidarfuse::core::align_gicp(gicp_target, source, pair.T_init, gp);
+    // Each cloud's covariances on its own k-d tree (as the daemon and calibrate do).
+    const GicpCloud gicp_target = shared
+                                      ? GicpCloud(std::move(target), std::move(target_byproducts))
+                                      : GicpCloud(std::move(target), covariance_params());
+    const GicpCloud fresh_source =
+        shared ? GicpCloud() : GicpCloud(std::move(source), covariance_params());
+    const lidarfuse::core::GicpResult r = lidarfuse::core::align_gicp(
+        gicp_target, shared ? shared->source : fresh_source, pair.T_init, gp);
     Outcome o;
     o.ms = cpu_ms() - start;
     o.iterations = r.iterations;
@@ -333,15 +343,20 @@ int main(int argc, char** argv) {
             for (const Pair& p : pairs) {
                 PointCloud target = downsample(*p.target, voxel_m);
                 PointCloud source = downsample(*p.source, voxel_m);
+                std::optional<SharedClouds> clouds;
                 if (shared) {
-                    lidarfuse::core::estimate_normals_covariances(&target, covariance_params());
-                    lidarfuse::core::estimate_normals_covariances(&source, covariance_params());
+                    using lidarfuse::core::GicpCloud;
+                    clouds = SharedClouds{GicpCloud(std::move(target), covariance_params()),
+                                          GicpCloud(std::move(source), covariance_params())};
+                    target = clouds->target.cloud();
+                    source = clouds->source.cloud();
                 }
+                const SharedClouds* ours_shared = clouds ? &*clouds : nullptr;
                 // Fastest of kRepetitions: the least disturbed by whatever else runs.
-                Outcome a = run_ours(target, source, p, max_corr_m, shared);
+                Outcome a = run_ours(target, source, ours_shared, p, max_corr_m);
                 Outcome b = run_pcl(target, source, p, max_corr_m, shared);
                 for (int r = 1; r < kRepetitions; ++r) {
-                    a.ms = std::min(a.ms, run_ours(target, source, p, max_corr_m, shared).ms);
+                    a.ms = std::min(a.ms, run_ours(target, source, ours_shared, p, max_corr_m).ms);
                     b.ms = std::min(b.ms, run_pcl(target, source, p, max_corr_m, shared).ms);
                 }
                 ours[p.kind].push_back(a);

@@ -55,8 +55,8 @@ std::vector<double> normals_and_curvature(const NormalParams& params, int thread
 
 // A G-ICP / p2p cloud: the points on a voxel grid (m), with covariances from k neighbors
 // when there are enough points for them.
-GicpTarget covariance_cloud(const std::vector<Eigen::Vector3d>& points, double voxel_size_m,
-                            int k_neighbors, int threads) {
+GicpCloud covariance_cloud(const std::vector<Eigen::Vector3d>& points, double voxel_size_m,
+                           int k_neighbors, int threads) {
     VoxelGridParams voxel;
     voxel.voxel_size_m = voxel_size_m;
     PointCloud voxels = voxel_downsample(points, voxel);
@@ -64,8 +64,8 @@ GicpTarget covariance_cloud(const std::vector<Eigen::Vector3d>& points, double v
     cov_params.k_neighbors = k_neighbors;
     cov_params.compute_normals = false;
     cov_params.compute_covariances = true;
-    if (voxels.size() < 3) return GicpTarget(std::move(voxels));
-    return GicpTarget(std::move(voxels), cov_params, 10, threads);
+    if (voxels.size() < 3) return GicpCloud(std::move(voxels));
+    return GicpCloud(std::move(voxels), cov_params, 10, threads);
 }
 
 // The G-ICP cloud and the finer polish cloud (left empty when off).

@@ -5,7 +5,7 @@
 //   normal-adaptive octree downsampling -> SIFT-3D keypoints on curvature -> FPFH at the
 //   keypoints (over the octree cloud),
 // plus the cloud the G-ICP refinement and the p2p score use: a voxel grid of the
-// pre-processed points with G-ICP covariances, wrapped as a GicpTarget.
+// pre-processed points with G-ICP covariances, wrapped as a GicpCloud.
 //
 // The cloud is in its sensor's frame (the sensor at the origin: ranges and the normal
 // orientation refer to it). Deterministic; `num_threads` OpenMP threads for the stages.
@@ -83,8 +83,8 @@ struct SensorFeatures {
     std::vector<Eigen::Vector3d> keypoint_points;   // their positions (m, sensor frame)
     std::vector<Eigen::Vector3d> keypoint_normals;  // their unit normals (sensor frame)
     std::vector<FpfhDescriptor> descriptors;        // one per keypoint
-    GicpTarget gicp;                                // voxel cloud with covariances + k-d tree
-    GicpTarget polish;                              // the finer one (empty when off)
+    GicpCloud gicp;                                 // voxel cloud with covariances + k-d tree
+    GicpCloud polish;                               // the finer one (empty when off)
     GroundPlane ground;                             // found = false when no road plane
     FreeSpaceMap free_space;                        // rays of the pre-processed cloud (kOk only)
     double normal_spread = 0.0;                     // see min_normal_spread

@@ -15,9 +15,8 @@ namespace {
 // The tight runs from the chosen transform; false when any run fails or a limit is broken.
 bool polish_one(const SensorFeatures& source, const SensorFeatures& target,
                 const EdgePolishParams& params, PairResult* pair) {
-    const GicpTarget& target_cloud = target.polish.empty() ? target.gicp : target.polish;
-    const PointCloud& source_cloud =
-        source.polish.empty() ? source.gicp.cloud() : source.polish.cloud();
+    const GicpCloud& target_cloud = target.polish.empty() ? target.gicp : target.polish;
+    const GicpCloud& source_cloud = source.polish.empty() ? source.gicp : source.polish;
     GicpParams gicp_params = params.gicp;
     GicpRegistration gicp(gicp_params);  // one thread: the edges run in parallel
     Eigen::Isometry3d T = pair->chosen.T_target_source;

@@ -188,8 +188,7 @@ void FusionEngine::Impl::register_edges(FrameWork* w) {
         auto& task = tasks[k];
         GicpRegistration& registration =
             registrations[static_cast<std::size_t>(omp_get_thread_num())];
-        task.result =
-            registration.align(*task.target, task.source->cloud(), task.T_init, task.guess);
+        task.result = registration.align(*task.target, *task.source, task.T_init, task.guess);
         // One reference edge per sensor: no two tasks write to the same track.
         if (task.kind == EdgeKind::kReference) {
             tracks[task.source_sensor]->set_reference_correspondences(
@@ -239,8 +238,8 @@ void FusionEngine::Impl::plan_inter_sensor_edges(FrameWork* w) const {
     for (std::size_t a = 0; a < active.size(); ++a) {
         for (std::size_t b = a + 1; b < active.size(); ++b) {
             const std::size_t j = active[a], i = active[b];  // target j, source i
-            const GicpTarget& tj = tracks[j]->current_target();
-            const GicpTarget& ti = tracks[i]->current_target();
+            const GicpCloud& tj = tracks[j]->current_target();
+            const GicpCloud& ti = tracks[i]->current_target();
             if (tj.size() < 3 || ti.size() < 3) continue;
             w->tasks.push_back({EdgeKind::kInterSensor,
                                 i,

@@ -44,8 +44,8 @@ struct EdgeTask {
     std::size_t source_sensor;
     std::size_t target_sensor;
     std::int64_t target_frame;
-    const GicpTarget* target;
-    const GicpTarget* source;  // its cloud is the source
+    const GicpCloud* target;
+    const GicpCloud* source;
     Eigen::Isometry3d T_init;  // T_target_source
     GicpResult result;
     const std::vector<std::int32_t>* guess = nullptr;  // GicpRegistration::align

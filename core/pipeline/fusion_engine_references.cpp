@@ -78,7 +78,7 @@ void FusionEngine::Impl::add_fine_reference_edges(const std::vector<std::size_t>
             shares = shares || tracks[f]->reference_frame() == t.reference_frame();
         if (in_fresh(s) || shares) sensors.push_back(s);
     }
-    std::vector<GicpTarget> targets(sensors.size());
+    std::vector<GicpCloud> targets(sensors.size());
     const int threads = std::max(1, params.num_threads);
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (std::size_t k = 0; k < sensors.size(); ++k) {
@@ -107,7 +107,7 @@ void FusionEngine::Impl::add_fine_reference_edges(const std::vector<std::size_t>
     for (std::size_t k = 0; k < pairs.size(); ++k) {
         auto& pair = pairs[k];
         pair.result = fine[static_cast<std::size_t>(omp_get_thread_num())].align(
-            targets[pair.a], targets[pair.b].cloud(), pair.T_init);
+            targets[pair.a], targets[pair.b], pair.T_init);
     }
     for (const auto& pair : pairs) {
         const auto& r = pair.result;

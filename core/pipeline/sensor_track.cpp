@@ -103,7 +103,7 @@ double SensorTrack::reference_voxel_size_m() const {
     return fine > 0 ? std::min(fine, params_.voxel_size_m) : params_.voxel_size_m;
 }
 
-GicpTarget SensorTrack::reference_target_at(double voxel_size_m) const {
+GicpCloud SensorTrack::reference_target_at(double voxel_size_m) const {
     std::vector<Eigen::Vector3d> points;
     const auto& flags = background_update_.reference_dynamic;
     for (std::size_t j = 0; j < reference_points_.size(); ++j) {
@@ -113,11 +113,11 @@ GicpTarget SensorTrack::reference_target_at(double voxel_size_m) const {
     VoxelGrid grid;
     downsample_in_grid(&grid, &points, voxel_size_m,
                        params_.voxel_grid_in_root_frame ? &T_root_reference_ : nullptr, &cloud);
-    if (cloud.size() < 3) return GicpTarget();
+    if (cloud.size() < 3) return GicpCloud();
     NormalParams normals;
     normals.k_neighbors = covariance_neighbors_for(params_, voxel_size_m);
     normals.compute_normals = false;
-    return GicpTarget(std::move(cloud), normals);
+    return GicpCloud(std::move(cloud), normals);
 }
 
 void SensorTrack::reanchor(const Eigen::Isometry3d& left,
@@ -161,13 +161,13 @@ void SensorTrack::build_current_target(bool static_only, const Eigen::Isometry3d
                        &twins_);
     make_guesses();
     if (cloud.size() < 3) {
-        current_target_ = GicpTarget(std::move(cloud));
+        current_target_ = GicpCloud(std::move(cloud));
         return;
     }
     NormalParams normals;
     normals.k_neighbors = covariance_neighbors_for(params_, params_.voxel_size_m);
     normals.compute_normals = false;
-    current_target_ = GicpTarget(std::move(cloud), normals);  // one thread: tracks run in parallel
+    current_target_ = GicpCloud(std::move(cloud), normals);  // one thread: tracks run in parallel
 }
 
 void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
@@ -188,7 +188,7 @@ void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
     build_current_target(false, T_root_sensor);
     // The reference target is a copy of the first frame's cloud (the current one moves on).
     if (reference_voxel_size_m() == params_.voxel_size_m) {
-        reference_target_ = GicpTarget(current_target_.cloud());
+        reference_target_ = current_target_.clone();
     } else {
         reference_target_ = reference_target_at(reference_voxel_size_m());
     }
@@ -197,14 +197,14 @@ void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
 void SensorTrack::reset() {
     initialised_ = false;
     history_.clear();
-    reference_target_ = GicpTarget();
-    previous_target_ = GicpTarget();
-    current_target_ = GicpTarget();
+    reference_target_ = GicpCloud();
+    previous_target_ = GicpCloud();
+    current_target_ = GicpCloud();
     T_root_reference_ = Eigen::Isometry3d::Identity();
 }
 
 void SensorTrack::rebuild_reference_target() {
-    GicpTarget target = reference_target_at(reference_voxel_size_m());
+    GicpCloud target = reference_target_at(reference_voxel_size_m());
     if (target.size() < 3) return;  // keep the old target rather than none
     reference_target_ = std::move(target);
     previous_in_reference_.clear();  // indices into the old target
@@ -259,7 +259,7 @@ void SensorTrack::finish_frame(std::int64_t frame, std::int64_t t_ns,
     history_.push_back({frame, t_ns, T_root_sensor});
     while (history_.size() > 3) history_.pop_front();
     previous_target_ = std::move(current_target_);
-    current_target_ = GicpTarget();
+    current_target_ = GicpCloud();
     previous_in_reference_ = std::move(current_in_reference_);
     current_in_reference_.clear();
 }

@@ -60,7 +60,7 @@ public:
     bool reference_deskewed() const { return reference_deskewed_; }
     // The reference scan's static points downsampled at `voxel_size_m`, with covariances
     // (for the fine inter-sensor edges between reference frames). Empty if fewer than 3.
-    GicpTarget reference_target_at(double voxel_size_m) const;
+    GicpCloud reference_target_at(double voxel_size_m) const;
     // Voxel size of the reference target (FusionParams::reference_target_voxel_size_m).
     double reference_voxel_size_m() const;
     // After deskew_reference(): maps the reference pose and the pose history to the deskewed
@@ -83,9 +83,9 @@ public:
     const Eigen::Isometry3d& reference_pose() const { return T_root_reference_; }
 
     // Targets for G-ICP (sensor frames of their own frames). May be empty.
-    const GicpTarget& reference_target() const { return reference_target_; }
-    const GicpTarget& previous_target() const { return previous_target_; }
-    const GicpTarget& current_target() const { return current_target_; }
+    const GicpCloud& reference_target() const { return reference_target_; }
+    const GicpCloud& previous_target() const { return previous_target_; }
+    const GicpCloud& current_target() const { return current_target_; }
     std::optional<PoseSample> previous() const;
 
     // Where each current point's G-ICP correspondence probably is (target indices, -1 for
@@ -119,9 +119,9 @@ private:
     bool initialised_ = false;
     std::int64_t reference_frame_ = 0;
     Eigen::Isometry3d T_root_reference_ = Eigen::Isometry3d::Identity();
-    GicpTarget reference_target_;
-    GicpTarget previous_target_;
-    GicpTarget current_target_;
+    GicpCloud reference_target_;
+    GicpCloud previous_target_;
+    GicpCloud current_target_;
     BackgroundModel background_;
     BackgroundUpdate background_update_;
     std::deque<PoseSample> history_;

@@ -21,9 +21,10 @@ namespace {
 // found when the k-NN stopped short of the list (every unlisted point is at least that
 // far), or infinity when the k-NN found the whole cloud.
 void record_neighbor_list(std::uint32_t i, const std::uint32_t* idx, const double* d2,
-                          std::size_t found, std::size_t cloud_size, PointCloud* cloud) {
-    constexpr std::size_t kList = PointCloud::kNeighborListSize;
-    std::uint32_t* list = cloud->neighbor_list.data() + static_cast<std::size_t>(i) * kList;
+                          std::size_t found, std::size_t cloud_size,
+                          CovarianceByproducts* byproducts) {
+    constexpr std::size_t kList = CovarianceByproducts::kListSize;
+    std::uint32_t* list = byproducts->neighbor_list.data() + static_cast<std::size_t>(i) * kList;
     std::size_t listed = 0;
     double reach = std::numeric_limits<double>::infinity();
     bool reach_set = false;
@@ -38,51 +39,48 @@ void record_neighbor_list(std::uint32_t i, const std::uint32_t* idx, const doubl
     }
     for (std::size_t r = listed; r < kList; ++r) list[r] = i;
     if (!reach_set && found < cloud_size && found > 0) reach = d2[found - 1];
-    cloud->neighbor_reach_d2[i] = reach;
+    byproducts->reach_d2[i] = reach;
 }
 
 // Where one call's per-point results go, and which of them it fills.
 struct NormalOutputs {
     const NormalParams& params;
     PointCloud* cloud;
-    std::vector<double>* curvature;  // may be null
-    bool axes;                       // covariance_axes: plane covariances (point_cloud.hpp)
-    bool lists;  // neighbor_list and neighbor_reach_d2: the tree is over this cloud
+    std::vector<double>* curvature;    // may be null
+    CovarianceByproducts* byproducts;  // may be null
+    bool axes;                         // byproducts->plane_axes: plane covariances
+    bool lists;                        // byproducts' neighbor lists: the tree is over this cloud
 };
 
-// Sizes (or clears) the cloud's outputs for n points. The plane covariances' axes come with
-// the regularisation, the neighbor lists with the k-NN when the tree is over this cloud.
+// Sizes the outputs for n points. The plane covariances' axes come with the
+// regularisation, the neighbor lists with the k-NN when the tree is over this cloud.
 NormalOutputs prepare_outputs(const NormalParams& params, std::size_t tree_size, PointCloud* cloud,
-                              std::vector<double>* curvature) {
+                              std::vector<double>* curvature, CovarianceByproducts* byproducts) {
     const std::size_t n = cloud->points.size();
     if (params.compute_normals) cloud->normals.resize(n);
     if (params.compute_covariances) cloud->covariances.resize(n);
+    if (curvature) curvature->resize(n);
+    if (!byproducts) return NormalOutputs{params, cloud, curvature, nullptr, false, false};
+    *byproducts = CovarianceByproducts();
     const bool axes = params.compute_covariances && params.regularize_covariances &&
                       params.gicp_epsilon > 0.0 && params.gicp_epsilon < 1.0;
     if (axes) {
-        cloud->covariance_axes.resize(n);
-        cloud->covariance_epsilon = params.gicp_epsilon;
-    } else if (params.compute_covariances) {
-        cloud->covariance_axes.clear();
-        cloud->covariance_epsilon = 0.0;
+        byproducts->plane_axes.resize(n);
+        byproducts->plane_epsilon = params.gicp_epsilon;
     }
     const bool lists = params.compute_covariances && tree_size == n;
     if (lists) {
-        cloud->neighbor_list.resize(n * PointCloud::kNeighborListSize);
-        cloud->neighbor_reach_d2.resize(n);
-    } else {
-        cloud->neighbor_list.clear();
-        cloud->neighbor_reach_d2.clear();
+        byproducts->neighbor_list.resize(n * CovarianceByproducts::kListSize);
+        byproducts->reach_d2.resize(n);
     }
-    if (curvature) curvature->resize(n);
-    return NormalOutputs{params, cloud, curvature, axes, lists};
+    return NormalOutputs{params, cloud, curvature, byproducts, axes, lists};
 }
 
 // Fewer than 3 neighbors: no normal, the identity covariance, isotropic curvature.
 inline void store_degenerate(const NormalOutputs& out, std::size_t i) {
     if (out.params.compute_normals) out.cloud->normals[i].setZero();
     if (out.params.compute_covariances) out.cloud->covariances[i].setIdentity();
-    if (out.axes) out.cloud->covariance_axes[i].setZero();
+    if (out.axes) out.byproducts->plane_axes[i].setZero();
     if (out.curvature) (*out.curvature)[i] = 1.0 / 3.0;
 }
 
@@ -120,7 +118,7 @@ inline void store_point(const NormalOutputs& out, std::size_t i, const Eigen::Ma
         if (params.regularize_covariances) {
             const Eigen::Vector3d d(params.gicp_epsilon, 1.0, 1.0);
             out.cloud->covariances[i] = U * d.asDiagonal() * U.transpose();
-            if (out.axes) out.cloud->covariance_axes[i] = U.col(0);
+            if (out.axes) out.byproducts->plane_axes[i] = U.col(0);
         } else {
             out.cloud->covariances[i] = C;
         }
@@ -134,16 +132,17 @@ inline void store_point(const NormalOutputs& out, std::size_t i, const Eigen::Ma
 
 }  // namespace
 
-NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
-                                         const NormalParams& params, std::vector<double>* curvature,
-                                         int num_threads) {
+namespace {
+
+// The pass itself: every point's k-NN, covariance and decomposition, into `out`.
+NormalStats estimate(const KdTree& tree, int num_threads, const NormalOutputs& out) {
     NormalStats stats;
+    PointCloud* cloud = out.cloud;
     const std::size_t n = cloud->points.size();
     stats.num_points = n;
-    const NormalOutputs out = prepare_outputs(params, tree.size(), cloud, curvature);
     if (n == 0) return stats;
 
-    const std::size_t k = static_cast<std::size_t>(std::max(3, params.k_neighbors));
+    const std::size_t k = static_cast<std::size_t>(std::max(3, out.params.k_neighbors));
     const bool own_tree = tree.size() == n;
     const std::vector<std::uint32_t>& order = tree.leaf_order();
     const long long count = static_cast<long long>(n);
@@ -161,7 +160,7 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
             const std::size_t found = tree.knn(cloud->points[i], k, idx.data(), d2.data());
             if (out.lists)
                 record_neighbor_list(static_cast<std::uint32_t>(i), idx.data(), d2.data(), found, n,
-                                     cloud);
+                                     out.byproducts);
             if (found < 3) {
                 ++degenerate;
                 store_degenerate(out, static_cast<std::size_t>(i));
@@ -174,6 +173,22 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
     }
     stats.num_degenerate = degenerate;
     return stats;
+}
+
+}  // namespace
+
+NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
+                                         const NormalParams& params, std::vector<double>* curvature,
+                                         int num_threads) {
+    return estimate(tree, num_threads,
+                    prepare_outputs(params, tree.size(), cloud, curvature, nullptr));
+}
+
+NormalStats estimate_normals_covariances(PointCloud* cloud, CovarianceByproducts* byproducts,
+                                         const KdTree& tree, const NormalParams& params,
+                                         int num_threads) {
+    return estimate(tree, num_threads,
+                    prepare_outputs(params, tree.size(), cloud, nullptr, byproducts));
 }
 
 NormalStats estimate_normals_covariances(PointCloud* cloud, const NormalParams& params,

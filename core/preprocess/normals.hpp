@@ -11,13 +11,10 @@
 //   C_i' = U diag(epsilon, 1, 1) U^T  (U = eigenvectors, smallest first),
 // i.e. unit variance in the local surface and `epsilon` along the normal. The covariances
 // are unitless shapes; the Mahalanobis distances built from them are relative, not metric.
-// As C_i' = I - (1 - epsilon) u0 u0^T, cloud->covariance_axes keeps u0 (and
-// covariance_epsilon the epsilon), from which G-ICP inverts a pair in closed form.
-//
-// With the covariances, cloud->neighbor_list and neighbor_reach_d2 get each point's nearest
-// other points and the distance within which they are all listed (point_cloud.hpp), which
-// G-ICP uses to skip searches (gicp.hpp). They cost nothing: the k-NN has them. Their reach
-// is limited by k: with k <= kNeighborListSize the list holds all k - 1 others found.
+// As C_i' = I - (1 - epsilon) u0 u0^T, the pass can keep u0, from which G-ICP inverts a
+// pair in closed form, and each point's nearest other points, with which G-ICP skips
+// searches (CovarianceByproducts below, gicp_cloud.hpp). They cost nothing: the
+// decomposition and the k-NN have them.
 //
 // Points with fewer than 3 neighbors (tiny clouds) get normal (0,0,0), curvature 1/3 and
 // the identity covariance (point-to-point behaviour in G-ICP).
@@ -26,6 +23,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "core/common/kdtree.hpp"
@@ -51,6 +49,34 @@ struct NormalStats {
     std::size_t num_degenerate = 0;  // fewer than 3 neighbors
 };
 
+// What the covariance pass knows besides the matrices, kept for G-ICP (gicp_cloud.hpp). Valid
+// only with the cloud and covariances of the pass that filled it; a filtered, merged or
+// re-sampled cloud has other neighbors and needs a pass of its own.
+struct CovarianceByproducts {
+    // Each point's kListSize nearest other points (indices, nearest first; n * kListSize
+    // entries, padded with the point's own index where the cloud has fewer points) and the
+    // squared distance (m^2) within which every other point is listed (infinity when all
+    // are). Filled only when the tree is over the cloud itself. Their reach is limited by
+    // k: with k <= kListSize the list holds all k - 1 others found.
+    static constexpr std::size_t kListSize = 8;
+    std::vector<std::uint32_t> neighbor_list;
+    std::vector<double> reach_d2;
+    // For G-ICP plane covariances, their axes: unit vectors with
+    // covariances[i] = I - (1 - plane_epsilon) a a^T (a zero axis for the identity of a
+    // degenerate point). Empty for raw covariances.
+    std::vector<Eigen::Vector3d> plane_axes;
+    double plane_epsilon = 0.0;
+
+    bool has_neighbor_lists(std::size_t num_points) const {
+        return num_points > 0 && reach_d2.size() == num_points &&
+               neighbor_list.size() == num_points * kListSize;
+    }
+    bool has_plane_axes(std::size_t num_points) const {
+        return num_points > 0 && plane_axes.size() == num_points && plane_epsilon > 0.0 &&
+               plane_epsilon < 1.0;
+    }
+};
+
 // Fills cloud->normals and/or cloud->covariances (as `params` asks) and, when `curvature`
 // is not null, the curvature per point. `tree` must be built over cloud->points.
 NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
@@ -58,7 +84,12 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
                                          std::vector<double>* curvature = nullptr,
                                          int num_threads = 1);
 
-// Same, building a temporary k-d tree over cloud->points.
+// Same (no curvature), and fills *byproducts (lists only when `tree` is over cloud->points).
+NormalStats estimate_normals_covariances(PointCloud* cloud, CovarianceByproducts* byproducts,
+                                         const KdTree& tree, const NormalParams& params,
+                                         int num_threads = 1);
+
+// Same as the first, building a temporary k-d tree over cloud->points.
 NormalStats estimate_normals_covariances(PointCloud* cloud, const NormalParams& params,
                                          std::vector<double>* curvature = nullptr,
                                          int num_threads = 1);

@@ -29,27 +29,6 @@ const char* to_string(GicpStatus status) {
 }
 
 // ---------------------------------------------------------------------------------------
-// GicpTarget
-
-GicpTarget::GicpTarget() : GicpTarget(PointCloud{}) {}
-
-GicpTarget::GicpTarget(PointCloud cloud, int leaf_max_size)
-    : cloud_(std::make_unique<PointCloud>(std::move(cloud))),
-      tree_(std::make_unique<KdTree>(cloud_->points, leaf_max_size)) {}
-
-GicpTarget::GicpTarget(PointCloud cloud, const NormalParams& covariances, int leaf_max_size,
-                       int num_threads)
-    : cloud_(std::make_unique<PointCloud>(std::move(cloud))),
-      tree_(std::make_unique<KdTree>(cloud_->points, leaf_max_size, num_threads)) {
-    // Only the covariances and lists change, never the points the tree refers to.
-    estimate_normals_covariances(cloud_.get(), *tree_, covariances, nullptr, num_threads);
-}
-
-GicpTarget::GicpTarget(GicpTarget&&) noexcept = default;
-GicpTarget& GicpTarget::operator=(GicpTarget&&) noexcept = default;
-GicpTarget::~GicpTarget() = default;
-
-// ---------------------------------------------------------------------------------------
 // Robust kernels on the squared Mahalanobis distance s: rho(s) and the IRLS weight rho'(s).
 
 namespace {
@@ -108,7 +87,7 @@ GicpRegistration::GicpRegistration(const GicpParams& params, int num_threads)
 
 namespace {
 
-// (R^T C_B R + C_A)^-1 for plane covariances C = I - beta a a^T (point_cloud.hpp), given
+// (R^T C_B R + C_A)^-1 for plane covariances C = I - beta a a^T (normals.hpp), given
 // m = R^T a_B, a_A and 1 / beta of each cloud. With U = [m, a_A] the sum is
 // 2 I - U diag(beta_B, beta_A) U^T, and by the Woodbury identity its inverse is
 //   I / 2 + U K U^T / 4,   K = (diag(1 / beta_B, 1 / beta_A) - U^T U / 2)^-1.
@@ -134,19 +113,19 @@ Eigen::Matrix3d plane_pair_information(const Eigen::Vector3d& m, const Eigen::Ve
 struct CorrespondenceSearch {
     const KdTree& tree;
     const std::vector<Eigen::Vector3d>& points;
-    const std::vector<std::uint32_t>& neighbor_list;  // kNeighborListSize per point
+    const std::vector<std::uint32_t>& neighbor_list;  // kListSize per point
     const std::vector<double>& neighbor_reach_d2;     // m^2
     bool lists;                                       // the two above are filled
     double max_d2;                                    // correspondence limit (m^2)
 };
 
-CorrespondenceSearch make_search(const GicpTarget& target, double max_distance_m) {
-    const PointCloud& cloud = target.cloud();
+CorrespondenceSearch make_search(const GicpCloud& target, double max_distance_m) {
+    const CovarianceByproducts& byproducts = target.byproducts();
     return CorrespondenceSearch{target.tree(),
-                                cloud.points,
-                                cloud.neighbor_list,
-                                cloud.neighbor_reach_d2,
-                                cloud.has_neighbor_lists(),
+                                target.points(),
+                                byproducts.neighbor_list,
+                                byproducts.reach_d2,
+                                target.has_neighbor_lists(),
                                 max_distance_m * max_distance_m};
 }
 
@@ -160,8 +139,9 @@ inline bool nearest_listed(const CorrespondenceSearch& search, const Eigen::Vect
     *j = static_cast<std::uint32_t>(prev);
     *d2 = d2_prev;
     if (!search.lists) return false;
-    const std::uint32_t* list = &search.neighbor_list[prev * PointCloud::kNeighborListSize];
-    for (std::size_t r = 0; r < PointCloud::kNeighborListSize; ++r) {
+    constexpr std::size_t kList = CovarianceByproducts::kListSize;
+    const std::uint32_t* list = &search.neighbor_list[prev * kList];
+    for (std::size_t r = 0; r < kList; ++r) {
         const double d2_r = (search.points[list[r]] - Ta).squaredNorm();
         if (d2_r < *d2) {
             *d2 = d2_r;
@@ -204,18 +184,20 @@ struct PairCovariances {
     double inv_beta_source;
 };
 
-PairCovariances make_pair_covariances(const PointCloud& target, const PointCloud& source,
+PairCovariances make_pair_covariances(const GicpCloud& target, const GicpCloud& source,
                                       const Eigen::Matrix3d& R, const Eigen::Matrix3d& Rt) {
     const bool planes = target.has_plane_covariances() && source.has_plane_covariances();
+    const CovarianceByproducts& tb = target.byproducts();
+    const CovarianceByproducts& sb = source.byproducts();
     return PairCovariances{R,
                            Rt,
-                           target.covariances,
-                           source.covariances,
+                           target.cloud().covariances,
+                           source.cloud().covariances,
                            planes,
-                           target.covariance_axes,
-                           source.covariance_axes,
-                           planes ? 1.0 / (1.0 - target.covariance_epsilon) : 0.0,
-                           planes ? 1.0 / (1.0 - source.covariance_epsilon) : 0.0};
+                           tb.plane_axes,
+                           sb.plane_axes,
+                           planes ? 1.0 / (1.0 - tb.plane_epsilon) : 0.0,
+                           planes ? 1.0 / (1.0 - sb.plane_epsilon) : 0.0};
 }
 
 // N = R^T M R = (R^T C_B R + C_A)^-1 of source point i and target point j: M in the source
@@ -255,7 +237,7 @@ inline void add_normal_equations(const Eigen::Vector3d& a, const Eigen::Matrix3d
 
 }  // namespace
 
-void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& source,
+void GicpRegistration::linearize(const GicpCloud& target, const GicpCloud& source,
                                  const Eigen::Isometry3d& T, bool reuse_correspondences,
                                  Linearization* lin) {
     const std::size_t n = source.size();
@@ -271,7 +253,8 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
     linearized_rotation_ = R;
     const Eigen::Matrix3d Rt = R.transpose();
     const CorrespondenceSearch search = make_search(target, params_.max_correspondence_distance_m);
-    const PairCovariances covariances = make_pair_covariances(target.cloud(), source, R, Rt);
+    const PairCovariances covariances = make_pair_covariances(target, source, R, Rt);
+    const std::vector<Eigen::Vector3d>& source_points = source.points();
     const long long count = static_cast<long long>(n);
 
 #pragma omp parallel num_threads(threads) if (threads > 1)
@@ -279,7 +262,7 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
         Linearization local;
 #pragma omp for schedule(static)
         for (long long i = 0; i < count; ++i) {
-            const Eigen::Vector3d& a = source.points[i];
+            const Eigen::Vector3d& a = source_points[i];
             const Eigen::Vector3d Ta = R * a + t;
             const std::int32_t prev = reuse_correspondences ? target_index_[i] : -1;
             std::uint32_t j = 0;
@@ -310,12 +293,13 @@ void GicpRegistration::linearize(const GicpTarget& target, const PointCloud& sou
     lin->H.bottomLeftCorner<3, 3>() = lin->H.topRightCorner<3, 3>().transpose();
 }
 
-double GicpRegistration::evaluate(const GicpTarget& target, const PointCloud& source,
+double GicpRegistration::evaluate(const GicpCloud& target, const GicpCloud& source,
                                   const Eigen::Isometry3d& T) {
     const int threads = num_threads_;
     partial_error_.assign(static_cast<std::size_t>(threads), 0.0);
     const Kernel kernel = make_kernel(params_);
-    const auto& target_points = target.cloud().points;
+    const auto& target_points = target.points();
+    const auto& source_points = source.points();
     const Eigen::Matrix3d R_lin_t = linearized_rotation_.transpose();
     const long long count = static_cast<long long>(source.size());
 #pragma omp parallel num_threads(threads) if (threads > 1)
@@ -326,7 +310,7 @@ double GicpRegistration::evaluate(const GicpTarget& target, const PointCloud& so
             const std::int32_t j = target_index_[i];
             if (j < 0) continue;
             // M held at the linearisation's rotation: d^T M d = d'^T N d', d' = R_lin^T d.
-            const Eigen::Vector3d d_s = R_lin_t * (target_points[j] - T * source.points[i]);
+            const Eigen::Vector3d d_s = R_lin_t * (target_points[j] - T * source_points[i]);
             local += kernel.rho(d_s.dot(mahalanobis_[i] * d_s));
         }
         partial_error_[static_cast<std::size_t>(omp_get_thread_num())] = local;
@@ -340,9 +324,9 @@ namespace {
 
 // kEmptyInput or kMissingCovariances when the pair cannot be registered, else
 // kMaxIterations: the status of a run that no other condition ends.
-GicpStatus input_status(const GicpTarget& target, const PointCloud& source) {
+GicpStatus input_status(const GicpCloud& target, const GicpCloud& source) {
     if (source.empty() || target.empty()) return GicpStatus::kEmptyInput;
-    if (!source.has_covariances() || !target.cloud().has_covariances()) {
+    if (!source.has_covariances() || !target.has_covariances()) {
         return GicpStatus::kMissingCovariances;
     }
     return GicpStatus::kMaxIterations;
@@ -383,7 +367,7 @@ void report_information(const Matrix6d& H, const Vector6d& b, GicpResult* result
 
 }  // namespace
 
-bool GicpRegistration::levenberg_marquardt_step(const GicpTarget& target, const PointCloud& source,
+bool GicpRegistration::levenberg_marquardt_step(const GicpCloud& target, const GicpCloud& source,
                                                 const Linearization& lin, double* lambda,
                                                 Eigen::Isometry3d* T, Vector6d* delta) {
     for (int inner = 0; inner < params_.lm_max_inner_iterations; ++inner) {
@@ -401,7 +385,7 @@ bool GicpRegistration::levenberg_marquardt_step(const GicpTarget& target, const 
     return false;
 }
 
-GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& source,
+GicpResult GicpRegistration::align(const GicpCloud& target, const GicpCloud& source,
                                    const Eigen::Isometry3d& T_init,
                                    const std::vector<std::int32_t>* guess) {
     GicpResult result;
@@ -458,7 +442,7 @@ GicpResult GicpRegistration::align(const GicpTarget& target, const PointCloud& s
     return result;
 }
 
-GicpResult align_gicp(const GicpTarget& target, const PointCloud& source,
+GicpResult align_gicp(const GicpCloud& target, const GicpCloud& source,
                       const Eigen::Isometry3d& T_init, const GicpParams& params, int num_threads) {
     GicpRegistration registration(params, num_threads);
     return registration.align(target, source, T_init);

@@ -24,14 +24,14 @@
 //
 // Correspondence search, exact and cheaper than a fresh k-d tree search per point: from the
 // second linearisation on, a source point looks at its previous neighbor j and j's listed
-// neighbors (PointCloud::neighbor_list, filled by the covariances' k-NN). The nearest of
+// neighbors (the target's CovarianceByproducts, filled by the covariances' k-NN). The nearest of
 // them is the nearest of all when it is closer than reach(j) - |Ta - j|, since every
 // unlisted point is at least that far (triangle inequality); otherwise the k-d tree is
 // searched, bounded by that candidate's distance. What it saves, and why the list holds 8:
 // bench/BENCHMARK.md ("Measured behind the defaults").
 //
-// M_i in closed form: when both clouds carry plane covariances (covariance_axes,
-// point_cloud.hpp), C = I - beta a a^T, and the inverse of the pair's sum is a rank-2
+// M_i in closed form: when both clouds carry plane covariances with their axes
+// (gicp_cloud.hpp), C = I - beta a a^T, and the inverse of the pair's sum is a rank-2
 // Woodbury update of I / 2 (gicp.cpp), instead of two congruences and a 3x3 inverse.
 //
 // Threading: the per-iteration reduction runs with the registration's `num_threads` OpenMP
@@ -47,13 +47,10 @@
 #include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
-#include <memory>
 #include <vector>
 
-#include "core/common/kdtree.hpp"
-#include "core/common/point_cloud.hpp"
 #include "core/common/se3.hpp"
-#include "core/preprocess/normals.hpp"
+#include "core/registration/gicp_cloud.hpp"
 
 namespace lidarfuse::core {
 
@@ -120,34 +117,6 @@ struct GicpResult {
     Eigen::Vector3d H_translation_eigenvalues = Eigen::Vector3d::Zero();
 };
 
-// A registration target: owns the points and covariances and the k-d tree over them, so
-// one target serves many sources (and many threads at once: it is immutable after
-// construction). Movable; the points stay at a fixed address inside.
-class GicpTarget {
-public:
-    GicpTarget();
-    // Takes the cloud (move it in to avoid a copy). Needs covariances for registration.
-    explicit GicpTarget(PointCloud cloud, int leaf_max_size = 10);
-    // Takes the cloud and computes its covariances (and neighbor lists) as `covariances`
-    // asks, on this target's own k-d tree: the same numbers as estimate_normals_covariances
-    // followed by the constructor above, with one tree per cloud instead of two; the tree
-    // and the covariances on `num_threads` OpenMP threads.
-    GicpTarget(PointCloud cloud, const NormalParams& covariances, int leaf_max_size = 10,
-               int num_threads = 1);
-    GicpTarget(GicpTarget&&) noexcept;
-    GicpTarget& operator=(GicpTarget&&) noexcept;
-    ~GicpTarget();
-
-    const PointCloud& cloud() const { return *cloud_; }
-    const KdTree& tree() const { return *tree_; }
-    std::size_t size() const { return cloud_->size(); }
-    bool empty() const { return cloud_->empty(); }
-
-private:
-    std::unique_ptr<PointCloud> cloud_;
-    std::unique_ptr<KdTree> tree_;
-};
-
 // Reusable registration: keeps per-correspondence and per-thread buffers between calls,
 // so a frame loop does not allocate once the buffers have grown. One object per thread.
 class GicpRegistration {
@@ -161,7 +130,7 @@ public:
     // each source point (target index, -1 for none), e.g. where it was in the previous
     // frame. It only bounds the first iteration's search, which stays exact (see
     // linearize()), so it changes the time, never the result.
-    GicpResult align(const GicpTarget& target, const PointCloud& source,
+    GicpResult align(const GicpCloud& target, const GicpCloud& source,
                      const Eigen::Isometry3d& T_init = Eigen::Isometry3d::Identity(),
                      const std::vector<std::int32_t>* guess = nullptr);
     // After align(): each source point's correspondence at the last linearisation (target
@@ -184,14 +153,14 @@ private:
     // previous iteration of the same align() (or the caller's guess); the distance to that
     // neighbor bounds the search (exact: the nearest can only be closer), which prunes
     // most of the k-d tree.
-    void linearize(const GicpTarget& target, const PointCloud& source, const Eigen::Isometry3d& T,
+    void linearize(const GicpCloud& target, const GicpCloud& source, const Eigen::Isometry3d& T,
                    bool reuse_correspondences, Linearization* lin);
     // Robust error over the stored correspondences at T (no k-d tree search).
-    double evaluate(const GicpTarget& target, const PointCloud& source, const Eigen::Isometry3d& T);
+    double evaluate(const GicpCloud& target, const GicpCloud& source, const Eigen::Isometry3d& T);
     // One Levenberg-Marquardt step over lin's correspondences: tries damped steps from
     // *lambda up (updating it) and takes the first that lowers the robust error (*T moved,
     // true). False when none does; *delta is then the last step tried (maybe not finite).
-    bool levenberg_marquardt_step(const GicpTarget& target, const PointCloud& source,
+    bool levenberg_marquardt_step(const GicpCloud& target, const GicpCloud& source,
                                   const Linearization& lin, double* lambda, Eigen::Isometry3d* T,
                                   Vector6d* delta);
     GicpParams params_;
@@ -206,7 +175,7 @@ private:
 };
 
 // One-off convenience wrapper (allocates its buffers).
-GicpResult align_gicp(const GicpTarget& target, const PointCloud& source,
+GicpResult align_gicp(const GicpCloud& target, const GicpCloud& source,
                       const Eigen::Isometry3d& T_init, const GicpParams& params = {},
                       int num_threads = 1);
 

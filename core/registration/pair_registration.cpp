@@ -95,7 +95,7 @@ CandidateOutcome check_before_refinement(const PairInputs& pair, const Candidate
         return CandidateOutcome::kSameSensorPosition;
     }
     const FreeSpaceResult coarse_free_space = free_space_violations_both(
-        pair.source.gicp.cloud().points, pair.source.free_space, pair.target.gicp.cloud().points,
+        pair.source.gicp.points(), pair.source.free_space, pair.target.gicp.points(),
         pair.target.free_space, seed.T_target_source);
     record.coarse_free_space_share = coarse_free_space.violation_share;
     if (coarse_free_space.violation_share > seed.max_coarse_free_space_share) {
@@ -116,8 +116,8 @@ bool refine_coarse_to_fine(const PairInputs& pair, PairRefiner& refiner, Candida
             last ? params.gicp.max_iterations
                  : std::min(params.gicp.max_iterations, params.gicp_coarse_max_iterations);
         refiner.gicp.set_params(refiner.gicp_params);
-        candidate.gicp = refiner.gicp.align(pair.target.gicp, pair.source.gicp.cloud(),
-                                            candidate.T_target_source);
+        candidate.gicp =
+            refiner.gicp.align(pair.target.gicp, pair.source.gicp, candidate.T_target_source);
         if (!candidate.gicp.converged && candidate.gicp.status != GicpStatus::kMaxIterations) {
             return false;
         }
@@ -144,7 +144,7 @@ CandidateOutcome check_after_refinement(const PairInputs& pair, PairRefiner& ref
         return CandidateOutcome::kLowOverlap;
     }
     const Stopwatch stage;
-    candidate.p2p = p2p_error(pair.source.gicp.cloud().points, pair.target.gicp.tree(),
+    candidate.p2p = p2p_error(pair.source.gicp.points(), pair.target.gicp.tree(),
                               candidate.T_target_source, refiner.p2p_params, pair.threads);
     timings.p2p_s += stage.seconds();
     // No overlap at all within r_c: not a candidate.
@@ -157,7 +157,7 @@ CandidateOutcome check_after_refinement(const PairInputs& pair, PairRefiner& ref
         return CandidateOutcome::kWeak;
     }
     candidate.free_space = free_space_violations_both(
-        pair.source.gicp.cloud().points, pair.source.free_space, pair.target.gicp.cloud().points,
+        pair.source.gicp.points(), pair.source.free_space, pair.target.gicp.points(),
         pair.target.free_space, candidate.T_target_source);
     record.free_space_share = candidate.free_space.violation_share;
     if (candidate.free_space.violation_share > params.max_free_space_violation_share) {

@@ -103,7 +103,7 @@ TEST(EdgePolish, FallsBackToTheGicpCloudsWithoutPolishClouds) {
     Vector6d nudge;
     nudge << 0.0, 0.0, 0.3 * kDeg, 0.04, -0.03, 0.0;
     StreetPair s = street_pair(nudge);
-    for (SensorFeatures& f : s.features) f.polish = GicpTarget();
+    for (SensorFeatures& f : s.features) f.polish = GicpCloud();
     const double before_m = translation_error_m(s.pairs[0].chosen.T_target_source, s.truth);
     const EdgePolishSummary summary =
         polish_edges(s.features, {true}, EdgePolishParams{}, &s.pairs);

@@ -12,17 +12,16 @@
 namespace lidarfuse::core {
 namespace {
 
-PointCloud with_covariances(std::vector<Eigen::Vector3d> points) {
+GicpCloud with_covariances(std::vector<Eigen::Vector3d> points) {
     PointCloud cloud;
     cloud.points = std::move(points);
     NormalParams params;
     params.k_neighbors = 15;
-    estimate_normals_covariances(&cloud, params, nullptr, 2);
-    return cloud;
+    return GicpCloud(std::move(cloud), params, 10, 2);
 }
 
 // An independent, noisy sampling of the scene seen from T_true^-1 (2 cm range-like noise).
-PointCloud noisy_resampled_source(std::mt19937& rng, const Eigen::Isometry3d& T_true) {
+GicpCloud noisy_resampled_source(std::mt19937& rng, const Eigen::Isometry3d& T_true) {
     std::vector<Eigen::Vector3d> world = test::make_structured_scene(rng);
     test::add_gaussian_noise(rng, 0.02, &world);
     return with_covariances(test::transformed(T_true.inverse(), world));
@@ -41,14 +40,14 @@ protected:
     void SetUp() override {
         std::mt19937 rng(42);
         target_points_ = test::make_structured_scene(rng);
-        target_ = GicpTarget(with_covariances(target_points_));
+        target_ = with_covariances(target_points_);
     }
     std::vector<Eigen::Vector3d> target_points_;
-    GicpTarget target_;
+    GicpCloud target_;
 };
 
 TEST_F(GicpScene, IdentityWhenSourceEqualsTarget) {
-    const PointCloud source = with_covariances(target_points_);
+    const GicpCloud source = with_covariances(target_points_);
     const GicpResult r = align_gicp(target_, source, Eigen::Isometry3d::Identity());
     ASSERT_TRUE(r.converged) << to_string(r.status);
     EXPECT_LT(r.T_target_source.translation().norm(), 1e-9);
@@ -74,7 +73,7 @@ TEST_F(GicpScene, RecoversKnownTransformsWithoutNoise) {
         const double t_m = 0.2 + 0.16 * trial;                  // up to 1 m
         const double angle = (2.0 + 1.6 * trial) * M_PI / 180;  // up to 10 degrees
         const Eigen::Isometry3d T_true = test::random_transform(rng, t_m, angle);
-        const PointCloud source =
+        const GicpCloud source =
             with_covariances(test::transformed(T_true.inverse(), target_points_));
         for (const GicpSolver solver :
              {GicpSolver::kLevenbergMarquardt, GicpSolver::kGaussNewton}) {
@@ -95,7 +94,7 @@ TEST_F(GicpScene, RecoversKnownTransformsWithoutNoise) {
 TEST_F(GicpScene, RecoversTransformWithIndependentSamplingAndNoise) {
     std::mt19937 rng(5);
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.8, 8.0 * M_PI / 180);
-    const PointCloud source = noisy_resampled_source(rng, T_true);
+    const GicpCloud source = noisy_resampled_source(rng, T_true);
     GicpParams params;
     params.max_correspondence_distance_m = 3.0;
     params.max_iterations = 60;
@@ -117,7 +116,7 @@ TEST_F(GicpScene, RobustKernelsTolerateOutliers) {
     std::uniform_real_distribution<double> u(-15.0, 15.0), h(0.0, 6.0);
     for (std::size_t i = 0; i < world.size(); i += 5)
         world[i] = Eigen::Vector3d(u(rng), u(rng), h(rng));
-    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), world));
+    const GicpCloud source = with_covariances(test::transformed(T_true.inverse(), world));
     for (const RobustKernel kernel : {RobustKernel::kHuber, RobustKernel::kGemanMcClure}) {
         GicpParams params;
         params.max_correspondence_distance_m = 1.5;
@@ -136,7 +135,7 @@ TEST_F(GicpScene, RobustKernelsTolerateOutliers) {
 TEST_F(GicpScene, ThreadCountDoesNotChangeTheResult) {
     std::mt19937 rng(13);
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
-    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), target_points_));
+    const GicpCloud source = with_covariances(test::transformed(T_true.inverse(), target_points_));
     GicpParams params;
     params.max_correspondence_distance_m = 2.0;
     const GicpResult r1 = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params, 1);
@@ -152,7 +151,7 @@ TEST_F(GicpScene, ThreadCountDoesNotChangeTheResult) {
 TEST_F(GicpScene, NestedInAParallelRegionGivesTheSameResult) {
     std::mt19937 rng(19);
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
-    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), target_points_));
+    const GicpCloud source = with_covariances(test::transformed(T_true.inverse(), target_points_));
     GicpParams params;
     params.max_correspondence_distance_m = 2.0;
     GicpRegistration registration(params, 2);
@@ -173,8 +172,8 @@ TEST_F(GicpScene, NestedInAParallelRegionGivesTheSameResult) {
 // result is the same.
 // Both solvers register `source` onto `target` and `other_source` onto `other_target` alike:
 // the same iterations and inliers, T and H within `tolerance`, and near the truth.
-void expect_same_registrations(const GicpTarget& target, const PointCloud& source,
-                               const GicpTarget& other_target, const PointCloud& other_source,
+void expect_same_registrations(const GicpCloud& target, const GicpCloud& source,
+                               const GicpCloud& other_target, const GicpCloud& other_source,
                                double tolerance, const Eigen::Isometry3d& T_true) {
     GicpParams params;
     params.max_correspondence_distance_m = 3.0;
@@ -197,12 +196,14 @@ void expect_same_registrations(const GicpTarget& target, const PointCloud& sourc
 TEST_F(GicpScene, NeighborListsChangeNothingButTheSearches) {
     std::mt19937 rng(13);
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
-    const PointCloud source = noisy_resampled_source(rng, T_true);
-    ASSERT_TRUE(target_.cloud().has_neighbor_lists());
-    PointCloud searched_cloud = target_.cloud();
-    searched_cloud.neighbor_list.clear();
-    searched_cloud.neighbor_reach_d2.clear();
-    const GicpTarget searched(std::move(searched_cloud));
+    const GicpCloud source = noisy_resampled_source(rng, T_true);
+    ASSERT_TRUE(target_.has_neighbor_lists());
+    CovarianceByproducts no_lists = target_.byproducts();
+    no_lists.neighbor_list.clear();
+    no_lists.reach_d2.clear();
+    const GicpCloud searched(PointCloud(target_.cloud()), std::move(no_lists));
+    ASSERT_FALSE(searched.has_neighbor_lists());
+    ASSERT_TRUE(searched.has_plane_covariances());
     expect_same_registrations(target_, source, searched, source, 1e-12, T_true);
 }
 
@@ -212,7 +213,7 @@ TEST_F(GicpScene, NeighborListsChangeNothingButTheSearches) {
 TEST_F(GicpScene, CorrespondenceGuessesChangeNothingButTheSearches) {
     std::mt19937 rng(17);
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
-    const PointCloud source = noisy_resampled_source(rng, T_true);
+    const GicpCloud source = noisy_resampled_source(rng, T_true);
     const Eigen::Isometry3d T_init =
         T_true * se3_exp((Vector6d() << 0.01, -0.02, 0.01, 0.1, 0.05, -0.1).finished());
     GicpRegistration plain;
@@ -244,11 +245,11 @@ TEST_F(GicpScene, CorrespondenceGuessesChangeNothingButTheSearches) {
 TEST_F(GicpScene, PlaneCovarianceAxesChangeNothingButTheInverse) {
     std::mt19937 rng(19);
     const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
-    const PointCloud source = noisy_resampled_source(rng, T_true);
+    const GicpCloud source = noisy_resampled_source(rng, T_true);
     ASSERT_TRUE(source.has_plane_covariances());
-    ASSERT_TRUE(target_.cloud().has_plane_covariances());
-    PointCloud matrices_only = source;
-    matrices_only.covariance_axes.clear();
+    ASSERT_TRUE(target_.has_plane_covariances());
+    const GicpCloud matrices_only(PointCloud(source.cloud()));
+    ASSERT_TRUE(matrices_only.has_covariances());
     ASSERT_FALSE(matrices_only.has_plane_covariances());
     expect_same_registrations(target_, source, target_, matrices_only, 1e-9, T_true);
 }
@@ -261,21 +262,24 @@ TEST_F(GicpScene, TargetComputesTheSameCovariancesOnItsOwnTree) {
     params.gicp_epsilon = 1e-2;
     PointCloud two_step;
     two_step.points = target_points_;
-    estimate_normals_covariances(&two_step, params);
+    CovarianceByproducts two_step_byproducts;
+    estimate_normals_covariances(&two_step, &two_step_byproducts, KdTree(two_step.points), params);
     PointCloud bare;
     bare.points = target_points_;
-    const GicpTarget target(std::move(bare), params);
-    ASSERT_TRUE(target.cloud().has_covariances());
-    ASSERT_TRUE(target.cloud().has_neighbor_lists());
+    const GicpCloud target(std::move(bare), params);
+    ASSERT_TRUE(target.has_covariances());
+    ASSERT_TRUE(target.has_neighbor_lists());
+    ASSERT_TRUE(target.has_plane_covariances());
     EXPECT_TRUE(target.cloud().normals.empty());
-    EXPECT_EQ(target.cloud().points, target_points_);
-    EXPECT_EQ(target.cloud().neighbor_list, two_step.neighbor_list);
-    EXPECT_EQ(target.cloud().neighbor_reach_d2, two_step.neighbor_reach_d2);
+    EXPECT_EQ(target.points(), target_points_);
+    EXPECT_EQ(target.byproducts().neighbor_list, two_step_byproducts.neighbor_list);
+    EXPECT_EQ(target.byproducts().reach_d2, two_step_byproducts.reach_d2);
+    EXPECT_EQ(target.byproducts().plane_axes, two_step_byproducts.plane_axes);
     for (std::size_t i = 0; i < target_points_.size(); ++i) {
         ASSERT_EQ(target.cloud().covariances[i], two_step.covariances[i]) << "point " << i;
     }
     // And the tree is the one registration searches: a source registers onto it.
-    const PointCloud source = with_covariances(target_points_);
+    const GicpCloud source = with_covariances(target_points_);
     const GicpResult r = align_gicp(target, source, Eigen::Isometry3d::Identity());
     EXPECT_TRUE(r.converged) << to_string(r.status);
     EXPECT_EQ(r.num_inliers, source.size());
@@ -288,7 +292,7 @@ TEST_F(GicpScene, OneTargetServesSeveralSourcesAndRegistrationIsReusable) {
     GicpRegistration registration(params);
     for (int i = 0; i < 3; ++i) {
         const Eigen::Isometry3d T_true = test::random_transform(rng, 0.4, 4.0 * M_PI / 180);
-        const PointCloud source =
+        const GicpCloud source =
             with_covariances(test::transformed(T_true.inverse(), target_points_));
         const GicpResult reused = registration.align(target_, source);
         const GicpResult fresh = align_gicp(target_, source, Eigen::Isometry3d::Identity(), params);
@@ -297,13 +301,30 @@ TEST_F(GicpScene, OneTargetServesSeveralSourcesAndRegistrationIsReusable) {
         EXPECT_EQ(reused.iterations, fresh.iterations);
     }
     // A moved target keeps working (points stay at a fixed address inside).
-    GicpTarget moved = std::move(target_);
-    const PointCloud source = with_covariances(target_points_);
+    GicpCloud moved = std::move(target_);
+    const GicpCloud source = with_covariances(target_points_);
     EXPECT_TRUE(registration.align(moved, source).converged);
 }
 
+// A clone is a cloud of its own (the original may go) that registers bit for bit alike.
+TEST_F(GicpScene, CloneRegistersTheSameAsTheOriginal) {
+    std::mt19937 rng(23);
+    const Eigen::Isometry3d T_true = test::random_transform(rng, 0.5, 5.0 * M_PI / 180);
+    const GicpCloud source = noisy_resampled_source(rng, T_true);
+    const GicpResult expected = align_gicp(target_, source, Eigen::Isometry3d::Identity());
+    GicpCloud clone = target_.clone();
+    target_ = GicpCloud();
+    ASSERT_TRUE(clone.has_neighbor_lists());
+    ASSERT_TRUE(clone.has_plane_covariances());
+    const GicpResult r = align_gicp(clone, source, Eigen::Isometry3d::Identity());
+    ASSERT_TRUE(expected.converged);
+    EXPECT_TRUE(r.T_target_source.matrix() == expected.T_target_source.matrix());
+    EXPECT_TRUE(r.H == expected.H);
+    EXPECT_EQ(r.iterations, expected.iterations);
+}
+
 TEST_F(GicpScene, HessianIsSymmetricPositiveDefiniteForStructure) {
-    const PointCloud source = with_covariances(target_points_);
+    const GicpCloud source = with_covariances(target_points_);
     const GicpResult r = align_gicp(target_, source, Eigen::Isometry3d::Identity());
     EXPECT_LT((r.H - r.H.transpose()).norm(), 1e-12 * r.H.norm());
     Eigen::SelfAdjointEigenSolver<Matrix6d> eig(r.H);
@@ -319,12 +340,12 @@ TEST(Gicp, SinglePlaneIsReportedAsDegenerate) {
     std::mt19937 rng(21);
     std::vector<Eigen::Vector3d> plane;
     test::sample_rectangle(rng, {-10, -10, 0}, {20, 0, 0}, {0, 20, 0}, 3000, &plane);
-    const GicpTarget target(with_covariances(plane));
+    const GicpCloud target = with_covariances(plane);
     Eigen::Isometry3d T_true = Eigen::Isometry3d::Identity();
     T_true.translation() = Eigen::Vector3d(0.3, -0.2, 0.1);
     std::vector<Eigen::Vector3d> other;
     test::sample_rectangle(rng, {-10, -10, 0}, {20, 0, 0}, {0, 20, 0}, 3000, &other);
-    const PointCloud source = with_covariances(test::transformed(T_true.inverse(), other));
+    const GicpCloud source = with_covariances(test::transformed(T_true.inverse(), other));
     const GicpResult r = align_gicp(target, source, Eigen::Isometry3d::Identity());
     expect_finite(r);
     // The out-of-plane parts (z, roll, pitch) are recovered ...
@@ -338,15 +359,15 @@ TEST(Gicp, SinglePlaneIsReportedAsDegenerate) {
 
 TEST(Gicp, EmptyAndTinyInputsFailCleanly) {
     std::mt19937 rng(1);
-    const GicpTarget target(with_covariances(test::make_structured_scene(rng, 1.0)));
-    const GicpTarget empty_target;
-    const PointCloud empty_source;
+    const GicpCloud target = with_covariances(test::make_structured_scene(rng, 1.0));
+    const GicpCloud empty_target;
+    const GicpCloud empty_source;
     GicpResult r = align_gicp(target, empty_source, Eigen::Isometry3d::Identity());
     EXPECT_FALSE(r.converged);
     EXPECT_EQ(r.status, GicpStatus::kEmptyInput);
     expect_finite(r);
 
-    const PointCloud three = with_covariances({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+    const GicpCloud three = with_covariances({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
     r = align_gicp(target, three, Eigen::Isometry3d::Identity());
     EXPECT_FALSE(r.converged);
     EXPECT_EQ(r.status, GicpStatus::kTooFewCorrespondences);
@@ -354,8 +375,9 @@ TEST(Gicp, EmptyAndTinyInputsFailCleanly) {
     r = align_gicp(empty_target, three, Eigen::Isometry3d::Identity());
     EXPECT_EQ(r.status, GicpStatus::kEmptyInput);
 
-    PointCloud no_cov;
-    no_cov.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    PointCloud bare;
+    bare.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+    const GicpCloud no_cov(std::move(bare));
     r = align_gicp(target, no_cov, Eigen::Isometry3d::Identity());
     EXPECT_EQ(r.status, GicpStatus::kMissingCovariances);
 

@@ -60,66 +60,85 @@ TEST(Normals, IsotropicBlobHasHighCurvatureAndRawCovarianceOption) {
     EXPECT_LT(cloud.covariances[0].trace(), 0.1);
 }
 
-TEST(Normals, ThreadCountDoesNotChangeTheResult) {
+// The covariances' byproducts, computed on a tree over `cloud` itself.
+CovarianceByproducts byproducts_of(PointCloud* cloud, const NormalParams& params) {
+    const KdTree tree(cloud->points);
+    CovarianceByproducts byproducts;
+    estimate_normals_covariances(cloud, &byproducts, tree, params, 2);
+    return byproducts;
+}
+
+// Neither the thread count nor keeping the byproducts changes the normals or covariances.
+TEST(Normals, ThreadCountAndByproductsDoNotChangeTheResult) {
     std::mt19937 rng(5);
     PointCloud a;
     a.points = test::make_structured_scene(rng, 1.0);
-    PointCloud b = a;
+    PointCloud b = a, c = a;
     NormalParams params;
     estimate_normals_covariances(&a, params, nullptr, 1);
     estimate_normals_covariances(&b, params, nullptr, 2);
+    byproducts_of(&c, params);
     for (std::size_t i = 0; i < a.size(); ++i) {
         EXPECT_EQ(a.normals[i], b.normals[i]);
         EXPECT_EQ(a.covariances[i], b.covariances[i]);
+        EXPECT_EQ(a.normals[i], c.normals[i]);
+        EXPECT_EQ(a.covariances[i], c.covariances[i]);
     }
 }
 
 // The k-NN pass records each point's nearest other points (for G-ICP's search shortcut):
 // the brute-force order, duplicates included, every unlisted point at least `reach` away,
 // the whole cloud listed (reach infinite) when it is that small; absent without
-// covariances.
+// covariances or when the tree is over other points.
 TEST(Normals, NeighborListsComeWithTheCovariances) {
-    constexpr std::size_t kList = PointCloud::kNeighborListSize;
+    constexpr std::size_t kList = CovarianceByproducts::kListSize;
     std::mt19937 rng(11);
     PointCloud cloud;
     cloud.points = test::make_structured_scene(rng, 1.0);
     cloud.points.push_back(cloud.points[7]);  // a duplicate of point 7
     NormalParams params;
-    estimate_normals_covariances(&cloud, params, nullptr, 2);
-    ASSERT_TRUE(cloud.has_neighbor_lists());
+    const CovarianceByproducts lists = byproducts_of(&cloud, params);
     const std::size_t n = cloud.size();
+    ASSERT_TRUE(lists.has_neighbor_lists(n));
     for (std::size_t i = 0; i < n; ++i) {
         std::vector<std::pair<double, std::size_t>> others;
         for (std::size_t j = 0; j < n; ++j) {
             if (j != i) others.emplace_back((cloud.points[j] - cloud.points[i]).squaredNorm(), j);
         }
         std::sort(others.begin(), others.end());
-        const std::uint32_t* list = &cloud.neighbor_list[i * kList];
+        const std::uint32_t* list = &lists.neighbor_list[i * kList];
         for (std::size_t r = 0; r < kList; ++r) {
             ASSERT_DOUBLE_EQ((cloud.points[list[r]] - cloud.points[i]).squaredNorm(),
                              others[r].first)
                 << "point " << i << " rank " << r;
         }
-        ASSERT_DOUBLE_EQ(cloud.neighbor_reach_d2[i], others[kList].first) << "point " << i;
+        ASSERT_DOUBLE_EQ(lists.reach_d2[i], others[kList].first) << "point " << i;
     }
-    EXPECT_EQ(cloud.neighbor_list[7 * kList], n - 1);  // the duplicate is 7's nearest
-    EXPECT_EQ(cloud.neighbor_list[(n - 1) * kList], 7u);
+    EXPECT_EQ(lists.neighbor_list[7 * kList], n - 1);  // the duplicate is 7's nearest
+    EXPECT_EQ(lists.neighbor_list[(n - 1) * kList], 7u);
 
     PointCloud tiny;
     tiny.points = {{0, 0, 0}, {1, 0, 0}, {0, 2, 0}, {0, 0, 3}};
-    estimate_normals_covariances(&tiny, params);
-    ASSERT_TRUE(tiny.has_neighbor_lists());
-    EXPECT_EQ(tiny.neighbor_list[0], 1u);
-    EXPECT_EQ(tiny.neighbor_list[1], 2u);
-    EXPECT_EQ(tiny.neighbor_list[2], 3u);
-    EXPECT_EQ(tiny.neighbor_list[3], 0u);  // padded with the point itself
-    EXPECT_TRUE(std::isinf(tiny.neighbor_reach_d2[0]));
+    const CovarianceByproducts tiny_lists = byproducts_of(&tiny, params);
+    ASSERT_TRUE(tiny_lists.has_neighbor_lists(tiny.size()));
+    EXPECT_EQ(tiny_lists.neighbor_list[0], 1u);
+    EXPECT_EQ(tiny_lists.neighbor_list[1], 2u);
+    EXPECT_EQ(tiny_lists.neighbor_list[2], 3u);
+    EXPECT_EQ(tiny_lists.neighbor_list[3], 0u);  // padded with the point itself
+    EXPECT_TRUE(std::isinf(tiny_lists.reach_d2[0]));
+
+    // A tree over other points gives covariances but no lists (the indices would be its).
+    PointCloud sparse;
+    sparse.points = {cloud.points.begin(), cloud.points.begin() + 100};
+    CovarianceByproducts other_tree;
+    estimate_normals_covariances(&sparse, &other_tree, KdTree(cloud.points), params);
+    EXPECT_TRUE(sparse.has_covariances());
+    EXPECT_FALSE(other_tree.has_neighbor_lists(sparse.size()));
 
     PointCloud normals_only;
     normals_only.points = cloud.points;
     params.compute_covariances = false;
-    estimate_normals_covariances(&normals_only, params);
-    EXPECT_FALSE(normals_only.has_neighbor_lists());
+    EXPECT_FALSE(byproducts_of(&normals_only, params).has_neighbor_lists(n));
 }
 
 TEST(Normals, TinyCloudsAreDegenerateButFinite) {
@@ -143,11 +162,11 @@ TEST(Normals, PlaneCovariancesComeWithTheirAxes) {
     cloud.points = test::make_structured_scene(rng, 1.0);
     NormalParams params;
     params.gicp_epsilon = 0.02;
-    estimate_normals_covariances(&cloud, params);
-    ASSERT_TRUE(cloud.has_plane_covariances());
-    EXPECT_DOUBLE_EQ(cloud.covariance_epsilon, 0.02);
+    const CovarianceByproducts planes = byproducts_of(&cloud, params);
+    ASSERT_TRUE(planes.has_plane_axes(cloud.size()));
+    EXPECT_DOUBLE_EQ(planes.plane_epsilon, 0.02);
     for (std::size_t i = 0; i < cloud.size(); ++i) {
-        const Eigen::Vector3d& a = cloud.covariance_axes[i];
+        const Eigen::Vector3d& a = planes.plane_axes[i];
         ASSERT_NEAR(a.norm(), 1.0, 1e-12) << "point " << i;
         const Eigen::Matrix3d C = Eigen::Matrix3d::Identity() - 0.98 * a * a.transpose();
         ASSERT_TRUE(C.isApprox(cloud.covariances[i], 1e-12)) << "point " << i;
@@ -156,15 +175,16 @@ TEST(Normals, PlaneCovariancesComeWithTheirAxes) {
 
     PointCloud tiny;
     tiny.points = {{0, 0, 0}, {1, 0, 0}};
-    estimate_normals_covariances(&tiny, params);
-    ASSERT_TRUE(tiny.has_plane_covariances());
-    EXPECT_EQ(tiny.covariance_axes[0], Eigen::Vector3d::Zero());
+    const CovarianceByproducts tiny_planes = byproducts_of(&tiny, params);
+    ASSERT_TRUE(tiny_planes.has_plane_axes(tiny.size()));
+    EXPECT_EQ(tiny_planes.plane_axes[0], Eigen::Vector3d::Zero());
 
     params.regularize_covariances = false;
-    estimate_normals_covariances(&cloud, params);
+    const CovarianceByproducts raw = byproducts_of(&cloud, params);
     EXPECT_TRUE(cloud.has_covariances());
-    EXPECT_FALSE(cloud.has_plane_covariances());
-    EXPECT_TRUE(cloud.covariance_axes.empty());
+    EXPECT_FALSE(raw.has_plane_axes(cloud.size()));
+    EXPECT_TRUE(raw.plane_axes.empty());
+    EXPECT_TRUE(raw.has_neighbor_lists(cloud.size()));
 }
 
 TEST(Normals, RegularizePlaneCovariance) {
