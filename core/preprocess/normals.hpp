@@ -56,8 +56,8 @@ struct CovarianceByproducts {
     // Each point's kListSize nearest other points (indices, nearest first; n * kListSize
     // entries, padded with the point's own index where the cloud has fewer points) and the
     // squared distance (m^2) within which every other point is listed (infinity when all
-    // are). Filled only when the tree is over the cloud itself. Their reach is limited by
-    // k: with k <= kListSize the list holds all k - 1 others found.
+    // are). Their reach is limited by k: with k <= kListSize the list holds all k - 1
+    // others found.
     static constexpr std::size_t kListSize = 8;
     std::vector<std::uint32_t> neighbor_list;
     std::vector<double> reach_d2;
@@ -84,7 +84,7 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
                                          std::vector<double>* curvature = nullptr,
                                          int num_threads = 1);
 
-// Same (no curvature), and fills *byproducts (lists only when `tree` is over cloud->points).
+// Same (no curvature; `tree` over cloud->points), and fills *byproducts.
 NormalStats estimate_normals_covariances(PointCloud* cloud, CovarianceByproducts* byproducts,
                                          const KdTree& tree, const NormalParams& params,
                                          int num_threads = 1);

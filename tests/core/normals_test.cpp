@@ -89,7 +89,7 @@ TEST(Normals, ThreadCountAndByproductsDoNotChangeTheResult) {
 // The k-NN pass records each point's nearest other points (for G-ICP's search shortcut):
 // the brute-force order, duplicates included, every unlisted point at least `reach` away,
 // the whole cloud listed (reach infinite) when it is that small; absent without
-// covariances or when the tree is over other points.
+// covariances.
 TEST(Normals, NeighborListsComeWithTheCovariances) {
     constexpr std::size_t kList = CovarianceByproducts::kListSize;
     std::mt19937 rng(11);
@@ -126,14 +126,6 @@ TEST(Normals, NeighborListsComeWithTheCovariances) {
     EXPECT_EQ(tiny_lists.neighbor_list[2], 3u);
     EXPECT_EQ(tiny_lists.neighbor_list[3], 0u);  // padded with the point itself
     EXPECT_TRUE(std::isinf(tiny_lists.reach_d2[0]));
-
-    // A tree over other points gives covariances but no lists (the indices would be its).
-    PointCloud sparse;
-    sparse.points = {cloud.points.begin(), cloud.points.begin() + 100};
-    CovarianceByproducts other_tree;
-    estimate_normals_covariances(&sparse, &other_tree, KdTree(cloud.points), params);
-    EXPECT_TRUE(sparse.has_covariances());
-    EXPECT_FALSE(other_tree.has_neighbor_lists(sparse.size()));
 
     PointCloud normals_only;
     normals_only.points = cloud.points;
