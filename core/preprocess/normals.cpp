@@ -130,10 +130,6 @@ inline void store_point(const NormalOutputs& out, std::size_t i, const Eigen::Ma
     }
 }
 
-}  // namespace
-
-namespace {
-
 // The pass itself: every point's k-NN, covariance and decomposition, into `out`.
 NormalStats estimate(const KdTree& tree, int num_threads, const NormalOutputs& out) {
     NormalStats stats;
