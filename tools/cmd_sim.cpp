@@ -23,7 +23,8 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: lidarfuse sim --scenario {curve|straight|intersection} --out DIR\n"
-    "                     [--sensors 4] [--seconds 10] [--mode 1024x20]\n"
+    "                     [--sensors 4 | --stations K [--sensors-per-station 4]\n"
+    "                      [--station-spacing-m 80]] [--seconds 10] [--mode 1024x20]\n"
     "                     [--profile LEGACY|RNG19_RFL8_SIG16_NIR16|RNG15_RFL8_NIR8]\n"
     "                     [--seed 1] [--no-motion] [--no-traffic] [--noise-sigma-m 0.0333]\n"
     "                     [--whole-datagrams] [--threads N] [--fault SPEC]...\n"
@@ -36,6 +37,11 @@ constexpr const char* kUsage =
     "  ground_truth.csv  frame,sensor,t_ns,x,y,z,qw,qx,qy,qz: T_world_sensor at each frame's\n"
     "                    timestamp (column 0), world z up, road surface at z = 0\n"
     "  station.yaml      station config for calibrate/fuse/lidarfused (no poses)\n"
+    "  With --stations K (straight or curve): K stations along the road, their middles\n"
+    "  --station-spacing-m apart, each laid out as one station is; DIR/station0 ..\n"
+    "  DIR/station<K-1> each hold the files above for that station's sensors (named\n"
+    "  lidar0.., sending from .11.. to 7502.. as a station simulated alone); all ground\n"
+    "  truth is in the one world frame of the road\n"
     "Options:\n"
     "  --no-motion        poles do not sway\n"
     "  --no-traffic       no road users\n"
@@ -60,6 +66,37 @@ constexpr const char* kUsage =
     "  clock-offset:SENSOR:OFFSET_S add OFFSET_S to the sensor's packet timestamps\n"
     "Prints `name value unit` lines: rays, rays_per_s, realtime_ratio.\n";
 
+// --sensors, or --stations with --sensors-per-station and --station-spacing-m.
+void parse_stations(const Args& args, sim::SimParams* p) {
+    const bool several = args.value("--stations") || args.value("--sensors-per-station") ||
+                         args.value("--station-spacing-m");
+    if (several && args.value("--sensors")) {
+        throw UsageError(
+            "--sensors counts the sensors of one station: with --stations use "
+            "--sensors-per-station");
+    }
+    if (!several) {
+        p->sensors = static_cast<int>(args.integer("--sensors", 4));
+        return;
+    }
+    const long long stations = args.integer("--stations", 1);
+    const long long per_station = args.integer("--sensors-per-station", 4);
+    if (stations < 1 || per_station < 1 || stations * per_station > 16) {
+        throw UsageError(
+            "--stations and --sensors-per-station must be at least 1, with at "
+            "most 16 sensors in all");
+    }
+    p->stations = static_cast<int>(stations);
+    p->sensors = static_cast<int>(stations * per_station);
+    p->station_spacing_m = args.number("--station-spacing-m", 80.0);
+    if (!(p->station_spacing_m >= 10.0) || p->station_spacing_m > 1000.0) {
+        throw UsageError("--station-spacing-m must be in [10, 1000] m");
+    }
+    if (p->stations > 1 && (args.value("--fault") || args.flag("--live"))) {
+        throw UsageError("--fault and --live take one station: not with --stations above 1");
+    }
+}
+
 sim::SimParams parse_params(const Args& args) {
     sim::SimParams p;
     const std::string scenario = args.required("--scenario");
@@ -68,7 +105,7 @@ sim::SimParams parse_params(const Args& args) {
         throw UsageError("--scenario must be curve, straight or intersection, got '" + scenario +
                          "'");
     p.scenario = *s;
-    p.sensors = static_cast<int>(args.integer("--sensors", 4));
+    parse_stations(args, &p);
     p.seconds = args.number("--seconds", 10.0);
     const std::string mode = args.value("--mode").value_or("1024x20");
     const auto wf = ouster::parse_lidar_mode(mode);
@@ -140,8 +177,9 @@ sim::SimStats run_live(sim::Simulator& simulator, const std::string& host,
 
 int run_sim(int argc, char** argv) {
     const Args args(argc, argv,
-                    {"--scenario", "--out", "--sensors", "--seconds", "--mode", "--profile",
-                     "--seed", "--noise-sigma-m", "--threads", "--fault", "--to", "--http"},
+                    {"--scenario", "--out", "--sensors", "--stations", "--sensors-per-station",
+                     "--station-spacing-m", "--seconds", "--mode", "--profile", "--seed",
+                     "--noise-sigma-m", "--threads", "--fault", "--to", "--http"},
                     {"--no-motion", "--no-traffic", "--whole-datagrams", "--live", "--quiet"});
     if (args.help()) {
         std::printf("%s", kUsage);

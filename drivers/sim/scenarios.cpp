@@ -14,6 +14,7 @@ namespace {
 constexpr double kPoleLateralM = 14.0;  // sensor poles stand at the back of the sidewalk
 constexpr double kAimDistanceM = 25.0;  // sensors look at a road point this far away
 constexpr double kSceneHalfSizeM = 400.0;
+constexpr double kRoadEndMarginM = 20.0;  // no pole closer to a road's end (its view ends there)
 
 double yaw_towards(const Eigen::Vector3d& from, const Eigen::Vector2d& to) {
     return std::atan2(to.y() - from.y(), to.x() - from.x());
@@ -41,23 +42,41 @@ void finish(Scene& scene) {
     for (const auto& m : scene.mounts) add_sensor_pole(scene.mesh, m);
 }
 
+// One station's n sensors around arc length s_middle: zig-zag alternates sides 25 m apart,
+// otherwise pairs face each other across the road, 40 m apart. Of several stations, none
+// may stand beyond the road's ends (one station keeps its layout at any count).
+void add_station_mounts(const Path& centre, double s_middle, int n, bool zig_zag,
+                        bool one_of_several, std::vector<SensorMount>* mounts) {
+    for (int k = 0; k < n; ++k) {
+        double s, side;
+        if (zig_zag) {
+            s = s_middle + (k - (n - 1) / 2.0) * 25.0;
+            side = (k % 2 == 0) ? -1.0 : 1.0;
+        } else {
+            const int pairs = (n + 1) / 2;
+            s = s_middle + (k / 2 - (pairs - 1) / 2.0) * 40.0;
+            side = (k % 2 == 0) ? -1.0 : 1.0;
+        }
+        if (one_of_several && (s < kRoadEndMarginM || s > centre.length() - kRoadEndMarginM)) {
+            throw std::invalid_argument(
+                "sim: the stations do not fit on the " + std::to_string(centre.length()) +
+                " m road: a pole would stand at " + std::to_string(s) +
+                " m along it, within 20 m of an end (fewer stations or sensors per station, "
+                "or a smaller --station-spacing-m)");
+        }
+        mounts->push_back(street_mount(centre, s, side, s_middle));
+    }
+}
+
 Scene build_street(const Path& centre, const SceneParams& p, bool zig_zag,
                    const RoadsideParams& roadside_in) {
     Scene scene;
     scene.scenario = p.scenario;
-    const double mid = centre.length() / 2;
-    const int n = p.sensors;
-    for (int k = 0; k < n; ++k) {
-        double s, side;
-        if (zig_zag) {  // alternate sides, 25 m apart
-            s = mid + (k - (n - 1) / 2.0) * 25.0;
-            side = (k % 2 == 0) ? -1.0 : 1.0;
-        } else {  // pairs facing each other across the road, 40 m apart
-            const int pairs = (n + 1) / 2;
-            s = mid + (k / 2 - (pairs - 1) / 2.0) * 40.0;
-            side = (k % 2 == 0) ? -1.0 : 1.0;
-        }
-        scene.mounts.push_back(street_mount(centre, s, side, mid));
+    const int per_station = p.sensors / p.stations;
+    for (int j = 0; j < p.stations; ++j) {
+        const double s_middle =
+            centre.length() / 2 + (j - (p.stations - 1) / 2.0) * p.station_spacing_m;
+        add_station_mounts(centre, s_middle, per_station, zig_zag, p.stations > 1, &scene.mounts);
     }
     CounterRng rng(p.seed, 0x7363656E65ULL /* "scene" */, static_cast<std::uint64_t>(p.scenario));
     RoadsideParams roadside = roadside_in;
@@ -227,6 +246,18 @@ Scene build_scene(const SceneParams& p) {
     if (p.sensors < 1 || p.sensors > 16) {
         throw std::invalid_argument("sim: --sensors must be in 1..16, got " +
                                     std::to_string(p.sensors));
+    }
+    if (p.stations < 1 || p.sensors % p.stations != 0) {
+        throw std::invalid_argument("sim: --stations must divide the sensors, got " +
+                                    std::to_string(p.stations) + " stations for " +
+                                    std::to_string(p.sensors) + " sensors");
+    }
+    if (p.stations > 1 && p.scenario == Scenario::kIntersection) {
+        throw std::invalid_argument(
+            "sim: several stations stand along one road: --scenario straight or curve");
+    }
+    if (p.stations > 1 && !(p.station_spacing_m > 0)) {
+        throw std::invalid_argument("sim: --station-spacing-m must be positive");
     }
     switch (p.scenario) {
         case Scenario::kCurve:

@@ -65,11 +65,17 @@ struct Scene {
 
 struct SceneParams {
     Scenario scenario = Scenario::kStraight;
-    int sensors = 4;
+    int sensors = 4;         // in all stations together
     std::uint64_t seed = 1;  // places buildings, trees, parked cars
+    // Stations along one road (straight and curve only), each with sensors / stations
+    // sensors laid out as one station is; their middles station_spacing_m apart along the
+    // road, centred on the road's middle. Mounts are station by station.
+    int stations = 1;
+    double station_spacing_m = 80.0;
 };
 
-// Throws std::invalid_argument for sensors outside 1..16.
+// Throws std::invalid_argument for sensors outside 1..16, stations that do not divide the
+// sensors, several stations at the intersection, or stations beyond the road's ends.
 Scene build_scene(const SceneParams& params);
 
 }  // namespace lidarfuse::sim

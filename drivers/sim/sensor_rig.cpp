@@ -42,7 +42,7 @@ ouster::SensorInfo make_sensor_info(const SensorRigParams& p) {
     info.lidar_to_sensor_transform(2, 3) = os1_64::kLidarToSensorZMm;
     info.imu_to_sensor_transform = Eigen::Matrix4d::Identity();
     for (int k = 0; k < 3; ++k) info.imu_to_sensor_transform(k, 3) = os1_64::kImuToSensorMm[k];
-    info.udp_port_lidar = sensor_lidar_port(p.index, p.first_lidar_port);
+    info.udp_port_lidar = sensor_lidar_port(network_index(p), p.first_lidar_port);
     info.udp_port_imu = static_cast<std::uint16_t>(info.udp_port_lidar + 1);
     info.udp_dest = "169.254.10.1";
     info.timestamp_mode = "TIME_FROM_PTP_1588";
@@ -54,7 +54,7 @@ ouster::SensorInfo make_sensor_info(const SensorRigParams& p) {
 SensorRig::SensorRig(const SensorMount& mount, const SensorRigParams& params)
     : mount_(mount),
       params_(params),
-      name_(sensor_name(params.index)),
+      name_(sensor_name(network_index(params))),
       info_(make_sensor_info(params)) {
     const auto problems = ouster::validate_sensor_info(info_);
     if (!problems.empty()) {

@@ -19,7 +19,11 @@
 namespace lidarfuse::sim {
 
 struct SensorRigParams {
-    int index = 0;
+    int index = 0;  // in the whole simulation: serial number, phase, sway, render streams
+    // Of several stations (SimParams::stations): the station and the sensor's number in it,
+    // which gives its name, address and port, as in a simulation of that station alone.
+    int station = 0;
+    int index_in_station = -1;  // -1: index (one station)
     int columns_per_frame = 1024;
     int frames_per_second = 20;
     ouster::UdpProfileLidar profile = ouster::UdpProfileLidar::kLegacy;
@@ -40,14 +44,20 @@ inline std::uint16_t sensor_lidar_port(int index, std::uint16_t first = 7502) {
 }
 inline std::string sensor_name(int index) { return "lidar" + std::to_string(index); }
 
+// The number that names the sensor and sets its address and port.
+inline int network_index(const SensorRigParams& p) {
+    return p.index_in_station >= 0 ? p.index_in_station : p.index;
+}
+
 class SensorRig {
 public:
     SensorRig(const SensorMount& mount, const SensorRigParams& params);
 
     const std::string& name() const { return name_; }
     int index() const { return params_.index; }
+    int station() const { return params_.station; }
     const ouster::SensorInfo& info() const { return info_; }
-    std::uint32_t src_ip() const { return sensor_ip(params_.index); }
+    std::uint32_t src_ip() const { return sensor_ip(network_index(params_)); }
     std::uint16_t lidar_port() const { return info_.udp_port_lidar; }
     const SensorMount& mount() const { return mount_; }
     // Start of this sensor's frame 0 after the common time origin (ns): sensors are not

@@ -1,7 +1,10 @@
 #include "drivers/sim/sim_outputs.hpp"
 
+#include <algorithm>
 #include <fstream>
+#include <memory>
 #include <stdexcept>
+#include <vector>
 
 #include "drivers/pcap/pcap_writer.hpp"
 #include "drivers/station/station_config.hpp"
@@ -36,36 +39,86 @@ void write_text(const std::filesystem::path& file, const std::string& text) {
     if (!out) throw std::runtime_error("sim: cannot write " + file.string());
 }
 
-}  // namespace
+int stations(const Simulator& sim) { return std::max(1, sim.params().stations); }
 
-void write_description(const Simulator& sim, const std::filesystem::path& dir,
-                       const OutputOptions& options) {
+std::filesystem::path station_dir(const Simulator& sim, const std::filesystem::path& dir,
+                                  int station) {
+    return stations(sim) == 1 ? dir : dir / ("station" + std::to_string(station));
+}
+
+std::string station_name(const Simulator& sim, const OutputOptions& options, int station) {
+    const std::string name = options.station_name.empty()
+                                 ? std::string("sim-") + to_string(sim.params().scenario)
+                                 : options.station_name;
+    return stations(sim) == 1 ? name : name + "-" + std::to_string(station);
+}
+
+// One station's metadata, station.yaml and ground truth (its sensors' rows only).
+void write_station(const Simulator& sim, const std::filesystem::path& dir, const std::string& name,
+                   int station) {
     std::filesystem::create_directories(dir);
-    station::StationConfig station;
-    station.station = options.station_name.empty()
-                          ? std::string("sim-") + to_string(sim.params().scenario)
-                          : options.station_name;
+    station::StationConfig config;
+    config.station = name;
     for (const auto& rig : sim.rigs()) {
+        if (rig.station() != station) continue;
         const auto json_file = dir / (rig.name() + ".json");
         write_text(json_file, ouster::to_nested_json(rig.info()));
         station::SensorConfig s;
         s.name = rig.name();
         s.udp_port = rig.lidar_port();
         s.metadata = std::filesystem::absolute(json_file).lexically_normal();
-        station.sensors.push_back(s);
+        config.sensors.push_back(s);
     }
-    station.root = sim.rigs().front().name();
+    config.root = config.sensors.front().name;
     write_text(dir / "station.yaml",
-               station::to_yaml(station, std::filesystem::absolute(dir).lexically_normal()));
-    io::write_pose_csv(dir / "ground_truth.csv", sim.ground_truth());
+               station::to_yaml(config, std::filesystem::absolute(dir).lexically_normal()));
+    // ground_truth() gives each frame's rows in the order of the rigs.
+    const auto all = sim.ground_truth();
+    std::vector<io::PoseRecord> rows;
+    for (std::size_t i = 0; i < all.size(); ++i) {
+        if (sim.rigs()[i % sim.rigs().size()].station() == station) rows.push_back(all[i]);
+    }
+    io::write_pose_csv(dir / "ground_truth.csv", rows);
+}
+
+// Each datagram into its station's capture.
+class StationPcapSinks : public DatagramSink {
+public:
+    StationPcapSinks(const Simulator& sim, const std::filesystem::path& dir, bool fragment)
+        : sim_(sim) {
+        for (int j = 0; j < stations(sim); ++j) {
+            sinks_.push_back(
+                std::make_unique<PcapSink>(station_dir(sim, dir, j) / "capture.pcap", fragment));
+        }
+    }
+    void write(const SimDatagram& d) override {
+        const int station = sim_.rigs()[static_cast<std::size_t>(d.sensor)].station();
+        sinks_[static_cast<std::size_t>(station)]->write(d);
+    }
+    void close() {
+        for (auto& sink : sinks_) sink->close();
+    }
+
+private:
+    const Simulator& sim_;
+    std::vector<std::unique_ptr<PcapSink>> sinks_;
+};
+
+}  // namespace
+
+void write_description(const Simulator& sim, const std::filesystem::path& dir,
+                       const OutputOptions& options) {
+    for (int j = 0; j < stations(sim); ++j) {
+        write_station(sim, station_dir(sim, dir, j), station_name(sim, options, j), j);
+    }
 }
 
 SimStats write_simulation(Simulator& sim, const std::filesystem::path& dir,
                           const OutputOptions& options) {
     write_description(sim, dir, options);
-    PcapSink sink(dir / "capture.pcap", options.fragment);
-    const SimStats stats = sim.run(sink);
-    sink.close();
+    StationPcapSinks sinks(sim, dir, options.fragment);
+    const SimStats stats = sim.run(sinks);
+    sinks.close();
     return stats;
 }
 

@@ -7,6 +7,9 @@
 //                       timestamp; see drivers/io/pose_csv.hpp)
 //   station.yaml        station name, root sensor, sensors (name, udp_port, metadata path
 //                       relative to the folder); no poses
+// With several stations (SimParams::stations), one such folder per station, station<j>/,
+// holding that station's sensors only, named and numbered as in a simulation of it alone;
+// every ground_truth.csv is in the one world frame of the road.
 // Not real-time code: errors throw naming the file.
 
 #include <filesystem>
@@ -18,7 +21,7 @@ namespace lidarfuse::sim {
 
 struct OutputOptions {
     bool fragment = true;      // false: whole datagrams (like a loopback capture)
-    std::string station_name;  // empty: "sim-<scenario>"
+    std::string station_name;  // empty: "sim-<scenario>"; several stations: "<name>-<j>"
 };
 
 // Metadata, station.yaml and ground_truth.csv (everything but the capture).

@@ -27,6 +27,9 @@ namespace {
 void check_params(const SimParams& p) {
     std::vector<std::string> problems;
     if (p.sensors < 1 || p.sensors > 16) problems.push_back("--sensors must be in 1..16");
+    if (p.stations < 1 || p.sensors % p.stations != 0) {
+        problems.push_back("--stations must be at least 1 and divide the sensors");
+    }
     if (!(p.seconds > 0) || p.seconds > 3600) problems.push_back("--seconds must be in (0, 3600]");
     if (!ouster::parse_lidar_mode(std::to_string(p.columns_per_frame) + "x" +
                                   std::to_string(p.frames_per_second))) {
@@ -61,11 +64,17 @@ std::uint64_t frame_key(std::uint64_t seed, int sensor, int frame) {
 
 Simulator::Simulator(const SimParams& params) : params_(params) {
     check_params(params);
-    scene_ = build_scene({params.scenario, params.sensors, params.seed});
+    scene_ = build_scene(
+        {params.scenario, params.sensors, params.seed, params.stations, params.station_spacing_m});
+    const int per_station = params.sensors / params.stations;
     frames_ = std::max(1, static_cast<int>(std::lround(params.seconds * params.frames_per_second)));
     for (int k = 0; k < params.sensors; ++k) {
         SensorRigParams rp;
         rp.index = k;
+        if (params.stations > 1) {
+            rp.station = k / per_station;
+            rp.index_in_station = k % per_station;
+        }
         rp.columns_per_frame = params.columns_per_frame;
         rp.frames_per_second = params.frames_per_second;
         rp.profile = params.profile;

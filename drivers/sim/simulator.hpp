@@ -32,7 +32,11 @@ constexpr std::int64_t kEpochNs = 1'763'700'000'000'000'000LL;  // 2025-11-21, P
 
 struct SimParams {
     Scenario scenario = Scenario::kStraight;
-    int sensors = 4;
+    int sensors = 4;  // in all stations together
+    // Several stations along one road (SceneParams): sensors / stations each, station by
+    // station; a sensor's name, address and port are those of its number in its station.
+    int stations = 1;
+    double station_spacing_m = 80.0;
     double seconds = 10.0;
     int columns_per_frame = 1024;
     int frames_per_second = 20;

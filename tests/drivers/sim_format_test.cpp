@@ -141,5 +141,78 @@ TEST(SimFormat, BadArgumentsAreRejectedWithAMessage) {
     EXPECT_NE(log.find("clock-offset:SENSOR:OFFSET_S"), std::string::npos) << log;
 }
 
+// `--stations 2 --sensors-per-station 2`: one folder per station, each exactly what a
+// 2-sensor station simulated alone writes (names, ports, a capture of its own sensors'
+// packets only), with identities distinct across the road and the stations' middles
+// --station-spacing-m apart; on the straight road, station 1 is station 0 moved along it.
+TEST(SimFormat, StationsAlongARoadEachWriteAStationOfTheirOwn) {
+    test::TempDir dir("sim_stations");
+    std::string log;
+    ASSERT_EQ(test::run_command(test::tool_path() +
+                                    " sim --scenario straight --stations 2 --sensors-per-station 2"
+                                    " --station-spacing-m 90 --seconds 0.1 --mode 512x20"
+                                    " --no-motion --no-traffic --out " +
+                                    dir.path().string(),
+                                &log),
+              0)
+        << log;
+    std::set<std::string> serials;
+    std::vector<simtest::DecodedCapture> caps;
+    for (int j = 0; j < 2; ++j) {
+        const auto folder = dir.path() / ("station" + std::to_string(j));
+        SCOPED_TRACE(folder.string());
+        EXPECT_EQ(read_text(folder / "station.yaml"),
+                  "station: sim-straight-" + std::to_string(j) +
+                      "\nroot: lidar0\nsensors:\n"
+                      "  - name: lidar0\n    udp_port: 7502\n    metadata: lidar0.json\n"
+                      "  - name: lidar1\n    udp_port: 7504\n    metadata: lidar1.json\n");
+        caps.push_back(simtest::decode_sim_output(folder));
+        const auto& cap = caps.back();
+        ASSERT_EQ(cap.truth.size(), 2u * 2u);
+        for (const auto& s : cap.station.sensors) {
+            serials.insert(cap.infos.at(s.name).prod_sn);
+            const auto& c = cap.counters.at(s.name);
+            EXPECT_EQ(c.lidar_packets, 2u * 32u) << s.name;  // its own packets, no one else's
+            EXPECT_EQ(c.duplicate_packets + c.late_packets + c.resets + c.frames_incomplete, 0u);
+            EXPECT_EQ(cap.scans.at(s.name).size(), 2u) << s.name;
+        }
+    }
+    EXPECT_EQ(serials.size(), 4u);
+    ASSERT_EQ(caps.size(), 2u);
+    for (std::size_t i = 0; i < caps[0].truth.size(); ++i) {
+        const auto& a = caps[0].truth[i];
+        const auto& b = caps[1].truth[i];
+        EXPECT_EQ(a.sensor, b.sensor);
+        EXPECT_TRUE((b.pose.translation() - a.pose.translation())
+                        .isApprox(Eigen::Vector3d(90.0, 0.0, 0.0), 1e-9))
+            << a.sensor << ": " << a.pose.translation().transpose() << " -> "
+            << b.pose.translation().transpose();
+        EXPECT_TRUE(b.pose.linear().isApprox(a.pose.linear(), 1e-9)) << a.sensor;
+    }
+}
+
+TEST(SimFormat, StationsThatDoNotFitOrCannotBeLaidOutAreRejectedWithAMessage) {
+    const std::string sim = test::tool_path() + " sim --out /tmp/lidarfuse-never-written ";
+    std::string log;
+    EXPECT_NE(test::run_command(sim + "--scenario intersection --stations 2", &log), 0);
+    EXPECT_NE(log.find("straight or curve"), std::string::npos) << log;
+    EXPECT_NE(
+        test::run_command(sim + "--scenario straight --stations 3 --station-spacing-m 150", &log),
+        0);
+    EXPECT_NE(log.find("do not fit"), std::string::npos) << log;
+    EXPECT_NE(test::run_command(sim + "--scenario straight --stations 2 --sensors 4", &log), 0);
+    EXPECT_NE(log.find("--sensors-per-station"), std::string::npos) << log;
+    EXPECT_NE(
+        test::run_command(sim + "--scenario straight --stations 3 --sensors-per-station 6", &log),
+        0);
+    EXPECT_NE(log.find("at most 16"), std::string::npos) << log;
+    EXPECT_NE(test::run_command(sim + "--scenario straight --stations 2 --fault drop:0.1", &log),
+              0);
+    EXPECT_NE(log.find("--fault"), std::string::npos) << log;
+    EXPECT_NE(test::run_command(sim + "--scenario straight --station-spacing-m 5", &log), 0);
+    EXPECT_NE(log.find("--station-spacing-m"), std::string::npos) << log;
+    EXPECT_FALSE(std::filesystem::exists("/tmp/lidarfuse-never-written"));
+}
+
 }  // namespace
 }  // namespace lidarfuse

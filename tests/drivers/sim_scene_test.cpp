@@ -87,6 +87,45 @@ INSTANTIATE_TEST_SUITE_P(All, SimScenes,
                          ::testing::Values(Scenario::kCurve, Scenario::kStraight,
                                            Scenario::kIntersection));
 
+// Two 4-sensor stations along one road (`sim --stations 2`), 80 m apart: the middles are
+// 80 m apart along the road, and some sensor of one station shares at least as much of its
+// view with one of the other as neighbors within a station must (0.1 both ways, above),
+// which a segment's station-to-station registration needs.
+class SimStationsAlongARoad : public ::testing::TestWithParam<Scenario> {};
+
+TEST_P(SimStationsAlongARoad, NeighboringStationsShareTheirView) {
+    const Scene scene = build_scene({GetParam(), 8, 1, 2, 80.0});
+    ASSERT_EQ(scene.mounts.size(), 8u);
+    Eigen::Vector3d middle[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    for (std::size_t k = 0; k < 8; ++k) middle[k / 4] += scene.mounts[k].pole_base / 4.0;
+    // Along the road: 80 m on the straight road, the chord of an 80 m arc on the curve.
+    const double expected = GetParam() == Scenario::kStraight ? 80.0 : 2 * 90 * std::sin(40.0 / 90);
+    EXPECT_NEAR((middle[1] - middle[0]).norm(), expected, 2.0);
+    const RayDevice device;
+    const StaticScene caster(device, scene.mesh);
+    const auto rigs = rigs_for(scene);
+    // The stations' best-shared pair of sensors: what a station's fused cloud shares with
+    // the next one's at least.
+    double best = 0.0;
+    std::string pair;
+    for (std::size_t a = 0; a < 4; ++a) {
+        for (std::size_t b = 4; b < 8; ++b) {
+            const double shared = std::min(view_overlap(caster, rigs[a], rigs[b]),
+                                           view_overlap(caster, rigs[b], rigs[a]));
+            if (shared > best) {
+                best = shared;
+                pair = rigs[a].name() + "-" + rigs[b].name();
+            }
+        }
+    }
+    std::printf("%s, two stations: best shared view %s %.2f\n", to_string(GetParam()), pair.c_str(),
+                best);
+    EXPECT_GT(best, 0.1);
+}
+
+INSTANTIATE_TEST_SUITE_P(StreetScenes, SimStationsAlongARoad,
+                         ::testing::Values(Scenario::kCurve, Scenario::kStraight));
+
 TEST(SimScene, IntersectionCornerBuildingsBlockNeighboringSensors) {
     const Scene scene = build_scene({Scenario::kIntersection, 4, 1});
     const RayDevice device;

@@ -37,31 +37,24 @@ struct Outcome {
     std::string detail;
 };
 
-// Simulates `sim_args`, calibrates, and compares every registered sensor with the truth.
-Outcome simulate_and_calibrate(const std::string& sim_args) {
-    test::TempDir dir("calibrate");
-    const std::string d = dir.path().string();
-    const std::string tool = test::tool_path();
+// Calibrates the simulated station in folder `sim` and compares every registered sensor
+// with its ground truth.
+Outcome calibrate_station(const std::string& sim) {
     Outcome outcome;
     std::string out;
-    if (test::run_command(tool + " sim " + sim_args + " --out " + d + "/sim", &out) != 0) {
-        ADD_FAILURE() << out;
-        return outcome;
-    }
-    out.clear();
     // Exit status 2 means "some sensors not registered"; the file is written either way.
     const int status =
-        test::run_command(tool + " calibrate " + d + "/sim/capture.pcap --config " + d +
-                              "/sim/station.yaml --out " + d + "/extrinsics.yaml",
+        test::run_command(test::tool_path() + " calibrate " + sim + "/capture.pcap --config " +
+                              sim + "/station.yaml --out " + sim + "/extrinsics.yaml",
                           &out);
     EXPECT_TRUE(status == 0 || status == 2) << out;
-    const auto estimates = read_extrinsics(d + "/extrinsics.yaml");
+    const auto estimates = read_extrinsics(sim + "/extrinsics.yaml");
     // A rigid fit of a whole sweep of a swaying sensor measures its pose near the middle of
     // the sweep, not at column 0 (the scan's timestamp): the truth is taken half-way
     // between frames 0 and 1 (one sweep apart). With pole motion, column-0 truth differs
     // from it by up to ~8 cm; without motion the two are equal.
     std::map<std::string, Eigen::Isometry3d> frame0, frame1, truth;
-    for (const auto& record : io::read_pose_csv(d + "/sim/ground_truth.csv")) {
+    for (const auto& record : io::read_pose_csv(sim + "/ground_truth.csv")) {
         if (record.frame == 0) frame0[record.sensor] = record.pose;
         if (record.frame == 1) frame1[record.sensor] = record.pose;
     }
@@ -96,6 +89,19 @@ Outcome simulate_and_calibrate(const std::string& sim_args) {
     return outcome;
 }
 
+// Simulates `sim_args`, calibrates, and compares every registered sensor with the truth.
+Outcome simulate_and_calibrate(const std::string& sim_args) {
+    test::TempDir dir("calibrate");
+    const std::string d = dir.path().string();
+    std::string out;
+    if (test::run_command(test::tool_path() + " sim " + sim_args + " --out " + d + "/sim", &out) !=
+        0) {
+        ADD_FAILURE() << out;
+        return {};
+    }
+    return calibrate_station(d + "/sim");
+}
+
 // The intersection's four arms look alike: with FPFH + RANSAC alone only the root was
 // registered, and a look-alike once placed lidar1 onto the root's own position (54 m
 // off). Seed 2 with pole motion is a station where the look-alikes pass every pairwise
@@ -115,6 +121,27 @@ TEST(CalibrateCommand, CurveRegistersEverySensorAccurately) {
     EXPECT_EQ(o.sensors, 2);
     EXPECT_EQ(o.registered, 2) << o.detail;
     EXPECT_EQ(o.wrong, 0) << o.detail;
+}
+
+// A road segment of two 4-sensor stations 80 m apart (`sim --stations`): each station's
+// folder is a station of its own, and registers as one.
+TEST(CalibrateCommand, EveryStationOfARoadSegmentRegistersOnItsOwn) {
+    test::TempDir dir("calibrate_segment");
+    const std::string d = dir.path().string();
+    std::string out;
+    ASSERT_EQ(test::run_command(test::tool_path() +
+                                    " sim --scenario straight --stations 2 --sensors-per-station "
+                                    "4 --seconds 0.1 --seed 1 --out " +
+                                    d,
+                                &out),
+              0)
+        << out;
+    for (const char* station : {"station0", "station1"}) {
+        const Outcome o = calibrate_station(d + "/" + station);
+        EXPECT_EQ(o.sensors, 4) << station;
+        EXPECT_EQ(o.registered, 4) << station << "\n" << o.detail;
+        EXPECT_EQ(o.wrong, 0) << station << "\n" << o.detail;
+    }
 }
 
 TEST(CalibrateCommand, MissingCaptureFailsWithItsName) {
