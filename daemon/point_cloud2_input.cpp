@@ -8,8 +8,9 @@ namespace lidarfuse::daemon {
 
 namespace {
 
-constexpr std::uint8_t kFloat32 = sensor_msgs_msg_dds__PointField_Constants_FLOAT32;
-constexpr std::uint8_t kFloat64 = sensor_msgs_msg_dds__PointField_Constants_FLOAT64;
+// sensor_msgs/PointField's datatypes.
+constexpr std::uint8_t kFloat32 = 7;
+constexpr std::uint8_t kFloat64 = 8;
 
 // Where one coordinate lies in a point, and how it is stored.
 struct Coordinate {
@@ -40,8 +41,7 @@ std::optional<std::string> find_coordinate(const PointCloud2View& cloud, const s
         const std::uint64_t end = std::uint64_t{f.offset} + (out->is_double ? 8u : 4u);
         if (end > cloud.point_step) {
             return field_error(name, "ends at byte " + std::to_string(end) +
-                                         ", beyond point_step " +
-                                         std::to_string(cloud.point_step));
+                                         ", beyond point_step " + std::to_string(cloud.point_step));
         }
         out->offset = f.offset;
     }
@@ -58,10 +58,9 @@ std::optional<std::string> check_sizes(const PointCloud2View& cloud) {
                std::to_string(cloud.point_step);
     }
     // The last row needs its points only, not its padding up to row_step.
-    const std::uint64_t needed =
-        cloud.height == 0 || cloud.width == 0
-            ? 0
-            : std::uint64_t{cloud.height - 1} * cloud.row_step + row_bytes;
+    const std::uint64_t needed = cloud.height == 0 || cloud.width == 0
+                                     ? 0
+                                     : std::uint64_t{cloud.height - 1} * cloud.row_step + row_bytes;
     if (needed > cloud.data_size) {
         return "PointCloud2 data holds " + std::to_string(cloud.data_size) + " bytes, " +
                std::to_string(cloud.height) + " x " + std::to_string(cloud.width) +
@@ -94,24 +93,6 @@ bool host_is_big_endian() {
 
 }  // namespace
 
-PointCloud2View view_of(const sensor_msgs_msg_dds__PointCloud2_& m) {
-    PointCloud2View v;
-    v.stamp_ns = std::int64_t{m.header.stamp.sec} * 1'000'000'000 + m.header.stamp.nanosec;
-    v.frame_id = m.header.frame_id ? m.header.frame_id : "";
-    v.height = m.height;
-    v.width = m.width;
-    for (std::uint32_t i = 0; i < m.fields._length; ++i) {
-        const auto& f = m.fields._buffer[i];
-        v.fields.push_back({f.name ? f.name : "", f.offset, f.datatype, f.count});
-    }
-    v.is_bigendian = m.is_bigendian;
-    v.point_step = m.point_step;
-    v.row_step = m.row_step;
-    v.data = m.data._buffer;
-    v.data_size = m.data._length;
-    return v;
-}
-
 std::optional<std::string> read_point_cloud2(const PointCloud2View& cloud, PointCloud2Points* out) {
     out->points.clear();
     out->non_finite = 0;
@@ -127,7 +108,8 @@ std::optional<std::string> read_point_cloud2(const PointCloud2View& cloud, Point
         const std::uint8_t* row = cloud.data + std::size_t{r} * cloud.row_step;
         for (std::uint32_t i = 0; i < cloud.width; ++i) {
             const std::uint8_t* point = row + std::size_t{i} * cloud.point_step;
-            const Eigen::Vector3d p(read_value(point, xyz[0], swap), read_value(point, xyz[1], swap),
+            const Eigen::Vector3d p(read_value(point, xyz[0], swap),
+                                    read_value(point, xyz[1], swap),
                                     read_value(point, xyz[2], swap));
             if (p.allFinite())
                 out->points.push_back(p);

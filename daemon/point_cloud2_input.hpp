@@ -17,7 +17,9 @@
 #include <string>
 #include <vector>
 
-#include "sensor_msgs.h"
+// The message as Cyclone DDS's generated C type (sensor_msgs.h); only view_of() reads it,
+// so the reader itself builds without the generated types (fuzzers, tests).
+struct sensor_msgs_msg_dds__PointCloud2_;
 
 namespace lidarfuse::daemon {
 
@@ -44,7 +46,8 @@ struct PointCloud2View {
     std::size_t data_size = 0;
 };
 
-// The view of a message as Cyclone DDS hands it to a reader; valid while `message` is.
+// The view of a message as Cyclone DDS hands it to a reader; valid while `message` is
+// (daemon/point_cloud2_view.cpp).
 PointCloud2View view_of(const sensor_msgs_msg_dds__PointCloud2_& message);
 
 struct PointCloud2Points {
