@@ -3,7 +3,7 @@
 # the sample captures, and runs each harness for a fixed time with a fixed seed.
 #   fuzz/run_fuzzers.sh BUILD_DIR SECONDS_PER_HARNESS [harness ...]
 # Harnesses: ouster_packets ouster_metadata pcap_reader ipv4_reassembler station_config
-# pcd_reader ply_reader sensor_http (default: all). Data: $LIDARFUSE_DATA_DIR/ouster (default
+# pcd_reader ply_reader sensor_http point_cloud2 (default: all). Data: $LIDARFUSE_DATA_DIR/ouster (default
 # ../shared/data/ouster beside the checkout; the point-cloud seeds come from ../real beside
 # it); without it the harnesses start from an empty corpus (said so below).
 # New inputs go to BUILD_DIR/fuzz-corpus/<harness>/ (kept between runs), crashes to
@@ -14,7 +14,7 @@ top="$(cd "$(dirname "$0")/.." && pwd)"
 dir="$1"; seconds="$2"; shift 2
 harnesses=("$@")
 [ ${#harnesses[@]} -eq 0 ] && harnesses=(ouster_packets ouster_metadata pcap_reader ipv4_reassembler station_config
-                                         pcd_reader ply_reader sensor_http)
+                                         pcd_reader ply_reader sensor_http point_cloud2)
 data="${LIDARFUSE_DATA_DIR:-$top/../shared/data}/ouster"
 
 export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$top}"
@@ -41,7 +41,7 @@ fi
 
 declare -A max_len=([ouster_packets]=65536 [ouster_metadata]=16384 [pcap_reader]=65536
                     [ipv4_reassembler]=16384 [station_config]=4096 [pcd_reader]=262144
-                    [ply_reader]=262144 [sensor_http]=32768)
+                    [ply_reader]=262144 [sensor_http]=32768 [point_cloud2]=4096)
 mkdir -p "$dir/fuzz-findings"
 # One harness: its log in fuzz-findings/<harness>.log, non-zero on a finding.
 fuzz_one() {

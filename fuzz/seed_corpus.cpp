@@ -19,6 +19,8 @@
 //                     the vertices
 //   sensor_http       every metadata JSON of DATA_DIR as one body, and each one that loads
 //                     written by to_nested_json() as its parts joined by '\0' (forms 2/3)
+//   point_cloud2      two layouts with their data: the daemon's fused cloud and a driver's
+//                     (float64, big endian, padded rows)
 // Prints one line per corpus with its number of files.
 #include <pcap/pcap.h>
 
@@ -399,6 +401,43 @@ int ply_seeds(const std::string& small_pcd, const fs::path& out) {
     return 5;
 }
 
+// PointCloud2 layouts in fuzz_point_cloud2's form: the daemon's own (x, y, z, intensity
+// float32, 20-byte points, one row) and a ROS driver's (2 rows, float64 z x y after a
+// uint16 ring, big endian, padded rows), each with its data.
+int point_cloud2_seeds(const fs::path& out) {
+    const auto header = [](std::uint8_t height, std::uint16_t width, std::uint8_t step,
+                           std::uint16_t row_step, bool big_endian) {
+        std::string h;
+        h.push_back(static_cast<char>(height));
+        h.push_back(static_cast<char>(width & 0xFF));
+        h.push_back(static_cast<char>(width >> 8));
+        h.push_back(static_cast<char>(step));
+        h.push_back(static_cast<char>(row_step & 0xFF));
+        h.push_back(static_cast<char>(row_step >> 8));
+        h.push_back(static_cast<char>(big_endian ? 1 : 0));
+        return h;
+    };
+    // name index (x 0, y 1, z 2, intensity 3, ring 4), offset, datatype, count
+    const auto field = [](int name, int offset, int datatype) {
+        return std::string{static_cast<char>(name), static_cast<char>(offset),
+                           static_cast<char>(datatype), 1};
+    };
+    std::string own = header(1, 8, 20, 160, false);
+    own.push_back(4);
+    own += field(0, 0, 7) + field(1, 4, 7) + field(2, 8, 7) + field(3, 12, 7);
+    for (int i = 0; i < 8; ++i) {
+        const float v[5] = {0.5f * static_cast<float>(i), -1.0f, 2.0f, 10.0f, 0.0f};
+        own.append(reinterpret_cast<const char*>(v), 20);
+    }
+    write_file(out / "fused_float32", own);
+    std::string driver = header(2, 3, 28, 96, true);
+    driver.push_back(4);
+    driver += field(4, 0, 4) + field(2, 2, 8) + field(0, 10, 8) + field(1, 18, 8);
+    driver.append(std::string(2 * 96, '\x3f'));
+    write_file(out / "driver_float64_big_endian", driver);
+    return 2;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -432,6 +471,7 @@ int main(int argc, char** argv) {
         std::printf("seeds pcd_reader %d\n", pcds);
         std::printf("seeds ply_reader %d\n", ply_seeds(small_pcd, dir("ply_reader")));
         std::printf("seeds sensor_http %d\n", sensor_http_seeds(data_dir, dir("sensor_http")));
+        std::printf("seeds point_cloud2 %d\n", point_cloud2_seeds(dir("point_cloud2")));
     } catch (const std::exception& error) {
         std::fprintf(stderr, "fuzz_seed_corpus: %s\n", error.what());
         return 1;
