@@ -1,8 +1,6 @@
 #include "daemon/point_cloud2_input.hpp"
 
-#include <algorithm>
-#include <cmath>
-#include <cstring>
+#include "drivers/io/cloud_scalar.hpp"
 
 namespace lidarfuse::daemon {
 
@@ -15,7 +13,7 @@ constexpr std::uint8_t kFloat64 = 8;
 // Where one coordinate lies in a point, and how it is stored.
 struct Coordinate {
     std::uint32_t offset = 0;
-    bool is_double = false;
+    io::ScalarType type;
 };
 
 std::string field_error(const std::string& name, const std::string& what) {
@@ -37,8 +35,8 @@ std::optional<std::string> find_coordinate(const PointCloud2View& cloud, const s
         if (f.count > 1) {
             return field_error(name, "count " + std::to_string(f.count) + ", expected 1");
         }
-        out->is_double = f.datatype == kFloat64;
-        const std::uint64_t end = std::uint64_t{f.offset} + (out->is_double ? 8u : 4u);
+        out->type = {io::ScalarKind::kFloat, f.datatype == kFloat64 ? 8u : 4u};
+        const std::uint64_t end = std::uint64_t{f.offset} + out->type.size;
         if (end > cloud.point_step) {
             return field_error(name, "ends at byte " + std::to_string(end) +
                                          ", beyond point_step " + std::to_string(cloud.point_step));
@@ -69,28 +67,6 @@ std::optional<std::string> check_sizes(const PointCloud2View& cloud) {
     return std::nullopt;
 }
 
-double read_value(const std::uint8_t* at, const Coordinate& c, bool swap) {
-    std::uint8_t bytes[8];
-    const std::size_t n = c.is_double ? 8 : 4;
-    std::memcpy(bytes, at + c.offset, n);
-    if (swap) std::reverse(bytes, bytes + n);
-    if (c.is_double) {
-        double v;
-        std::memcpy(&v, bytes, 8);
-        return v;
-    }
-    float v;
-    std::memcpy(&v, bytes, 4);
-    return static_cast<double>(v);
-}
-
-bool host_is_big_endian() {
-    const std::uint16_t one = 1;
-    std::uint8_t first;
-    std::memcpy(&first, &one, 1);
-    return first == 0;
-}
-
 }  // namespace
 
 std::optional<std::string> read_point_cloud2(const PointCloud2View& cloud, PointCloud2Points* out) {
@@ -102,15 +78,15 @@ std::optional<std::string> read_point_cloud2(const PointCloud2View& cloud, Point
         if (auto error = find_coordinate(cloud, names[k], &xyz[k])) return error;
     }
     if (auto error = check_sizes(cloud)) return error;
-    const bool swap = cloud.is_bigendian != host_is_big_endian();
+    const auto read = [&](const std::uint8_t* point, const Coordinate& c) {
+        return io::decode_scalar(point + c.offset, c.type, cloud.is_bigendian);
+    };
     out->points.reserve(std::size_t{cloud.height} * cloud.width);
     for (std::uint32_t r = 0; r < cloud.height; ++r) {
         const std::uint8_t* row = cloud.data + std::size_t{r} * cloud.row_step;
         for (std::uint32_t i = 0; i < cloud.width; ++i) {
             const std::uint8_t* point = row + std::size_t{i} * cloud.point_step;
-            const Eigen::Vector3d p(read_value(point, xyz[0], swap),
-                                    read_value(point, xyz[1], swap),
-                                    read_value(point, xyz[2], swap));
+            const Eigen::Vector3d p(read(point, xyz[0]), read(point, xyz[1]), read(point, xyz[2]));
             if (p.allFinite())
                 out->points.push_back(p);
             else
