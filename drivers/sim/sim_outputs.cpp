@@ -1,6 +1,5 @@
 #include "drivers/sim/sim_outputs.hpp"
 
-#include <algorithm>
 #include <fstream>
 #include <memory>
 #include <stdexcept>
@@ -39,7 +38,7 @@ void write_text(const std::filesystem::path& file, const std::string& text) {
     if (!out) throw std::runtime_error("sim: cannot write " + file.string());
 }
 
-int stations(const Simulator& sim) { return std::max(1, sim.params().stations); }
+int stations(const Simulator& sim) { return sim.params().stations; }
 
 std::filesystem::path station_dir(const Simulator& sim, const std::filesystem::path& dir,
                                   int station) {
@@ -53,9 +52,10 @@ std::string station_name(const Simulator& sim, const OutputOptions& options, int
     return stations(sim) == 1 ? name : name + "-" + std::to_string(station);
 }
 
-// One station's metadata, station.yaml and ground truth (its sensors' rows only).
-void write_station(const Simulator& sim, const std::filesystem::path& dir, const std::string& name,
-                   int station) {
+// One station's metadata, station.yaml and ground truth: its sensors' rows of `truth`
+// (Simulator::ground_truth(), each frame's rows in the order of the rigs).
+void write_station(const Simulator& sim, const std::vector<io::PoseRecord>& truth,
+                   const std::filesystem::path& dir, const std::string& name, int station) {
     std::filesystem::create_directories(dir);
     station::StationConfig config;
     config.station = name;
@@ -72,11 +72,9 @@ void write_station(const Simulator& sim, const std::filesystem::path& dir, const
     config.root = config.sensors.front().name;
     write_text(dir / "station.yaml",
                station::to_yaml(config, std::filesystem::absolute(dir).lexically_normal()));
-    // ground_truth() gives each frame's rows in the order of the rigs.
-    const auto all = sim.ground_truth();
     std::vector<io::PoseRecord> rows;
-    for (std::size_t i = 0; i < all.size(); ++i) {
-        if (sim.rigs()[i % sim.rigs().size()].station() == station) rows.push_back(all[i]);
+    for (std::size_t i = 0; i < truth.size(); ++i) {
+        if (sim.rigs()[i % sim.rigs().size()].station() == station) rows.push_back(truth[i]);
     }
     io::write_pose_csv(dir / "ground_truth.csv", rows);
 }
@@ -108,8 +106,9 @@ private:
 
 void write_description(const Simulator& sim, const std::filesystem::path& dir,
                        const OutputOptions& options) {
+    const auto truth = sim.ground_truth();  // every sensor's, computed once
     for (int j = 0; j < stations(sim); ++j) {
-        write_station(sim, station_dir(sim, dir, j), station_name(sim, options, j), j);
+        write_station(sim, truth, station_dir(sim, dir, j), station_name(sim, options, j), j);
     }
 }
 
