@@ -58,11 +58,13 @@ void add_station_mounts(const Path& centre, double s_middle, int n, bool zig_zag
             side = (k % 2 == 0) ? -1.0 : 1.0;
         }
         if (one_of_several && (s < kRoadEndMarginM || s > centre.length() - kRoadEndMarginM)) {
+            const auto metres = [](double m) { return std::to_string(std::lround(m)) + " m"; };
             throw std::invalid_argument(
-                "sim: the stations do not fit on the " + std::to_string(centre.length()) +
-                " m road: a pole would stand at " + std::to_string(s) +
-                " m along it, within 20 m of an end (fewer stations or sensors per station, "
-                "or a smaller --station-spacing-m)");
+                "sim: the stations do not fit on the " + metres(centre.length()) +
+                " road: a pole would stand at " + metres(s) + " along it, within " +
+                metres(kRoadEndMarginM) +
+                " of an end (fewer stations or sensors per station, or a smaller "
+                "--station-spacing-m)");
         }
         mounts->push_back(street_mount(centre, s, side, s_middle));
     }
