@@ -7,6 +7,7 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "drivers/sim/os1_intrinsics.hpp"
 #include "tests/drivers/sim_decode.hpp"
@@ -193,24 +194,19 @@ TEST(SimFormat, StationsAlongARoadEachWriteAStationOfTheirOwn) {
 
 TEST(SimFormat, StationsThatDoNotFitOrCannotBeLaidOutAreRejectedWithAMessage) {
     const std::string sim = test::tool_path() + " sim --out /tmp/lidarfuse-never-written ";
-    std::string log;
-    EXPECT_NE(test::run_command(sim + "--scenario intersection --stations 2", &log), 0);
-    EXPECT_NE(log.find("straight or curve"), std::string::npos) << log;
-    EXPECT_NE(
-        test::run_command(sim + "--scenario straight --stations 3 --station-spacing-m 150", &log),
-        0);
-    EXPECT_NE(log.find("do not fit"), std::string::npos) << log;
-    EXPECT_NE(test::run_command(sim + "--scenario straight --stations 2 --sensors 4", &log), 0);
-    EXPECT_NE(log.find("--sensors-per-station"), std::string::npos) << log;
-    EXPECT_NE(
-        test::run_command(sim + "--scenario straight --stations 3 --sensors-per-station 6", &log),
-        0);
-    EXPECT_NE(log.find("at most 16"), std::string::npos) << log;
-    EXPECT_NE(test::run_command(sim + "--scenario straight --stations 2 --fault drop:0.1", &log),
-              0);
-    EXPECT_NE(log.find("--fault"), std::string::npos) << log;
-    EXPECT_NE(test::run_command(sim + "--scenario straight --station-spacing-m 5", &log), 0);
-    EXPECT_NE(log.find("--station-spacing-m"), std::string::npos) << log;
+    const std::pair<const char*, const char*> cases[] = {
+        {"--scenario intersection --stations 2", "straight or curve"},
+        {"--scenario straight --stations 3 --station-spacing-m 150", "do not fit"},
+        {"--scenario straight --stations 2 --sensors 4", "--sensors-per-station"},
+        {"--scenario straight --stations 3 --sensors-per-station 6", "at most 16"},
+        {"--scenario straight --stations 2 --fault drop:0.1", "--fault"},
+        {"--scenario straight --station-spacing-m 5", "--station-spacing-m"},
+    };
+    for (const auto& [args, message] : cases) {
+        std::string log;
+        EXPECT_NE(test::run_command(sim + args, &log), 0) << args;
+        EXPECT_NE(log.find(message), std::string::npos) << args << "\n" << log;
+    }
     EXPECT_FALSE(std::filesystem::exists("/tmp/lidarfuse-never-written"));
 }
 
