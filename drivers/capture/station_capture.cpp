@@ -25,6 +25,12 @@ StationCapture::StationCapture(const station::StationConfig& station,
         const auto& config = station_.sensors[i];
         ouster::SensorInfo info;
         try {
+            if (config.dds) {
+                throw std::runtime_error(
+                    "takes its clouds from DDS (source.dds: " + config.dds->topic +
+                    "), which only lidarfused reads; a capture holds "
+                    "Ouster packets only");
+            }
             if (config.metadata.empty()) {
                 // Only lidarfused talks to sensors; a recording keeps their metadata.
                 throw std::runtime_error(

@@ -26,9 +26,11 @@ std::string join_problems(const std::string& source, const std::vector<std::stri
 const std::set<std::string> kTopLevelKeys = {"station", "root",         "sensors",  "sync",
                                              "network", "registration", "dynamics", "output",
                                              "dds",     "logging",      "health",   "world"};
-const std::set<std::string> kSensorKeys = {"name",           "udp_port",       "metadata",
-                                           "hostname",       "http_port",      "configure",
-                                           "source_address", "time_offset_ns", "enabled"};
+const std::set<std::string> kSensorKeys = {
+    "name",      "udp_port",       "metadata",       "hostname", "http_port",
+    "configure", "source_address", "time_offset_ns", "enabled",  "source"};
+const std::set<std::string> kSourceKeys = {"dds"};
+const std::set<std::string> kDdsSourceKeys = {"topic", "domain_id"};
 const std::set<std::string> kConfigureKeys = {"udp_dest", "lidar_mode", "timestamp_mode"};
 
 // A sensor name ends up unquoted in poses.csv, as a key in extrinsics.yaml and as a ROS tf
@@ -151,16 +153,67 @@ void read_configure(const YAML::Node& node, const std::string& path, YamlReader*
     }
 }
 
-// Exactly one of sensors[i].metadata (a file that exists) and sensors[i].hostname.
+// A DDS topic name as Cyclone and ROS 2 accept it on the wire (rt/<namespace>/<name>):
+// 1..255 characters of [A-Za-z0-9_/], no empty segment, not starting with a digit.
+bool valid_dds_topic(const std::string& topic) {
+    if (topic.empty() || topic.size() > 255 || topic.front() == '/' || topic.back() == '/' ||
+        (topic.front() >= '0' && topic.front() <= '9') || topic.find("//") != std::string::npos) {
+        return false;
+    }
+    for (const char c : topic) {
+        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                        (c >= '0' && c <= '9') || c == '_' || c == '/';
+        if (!ok) return false;
+    }
+    return true;
+}
+
+// sensors[i].source: {dds: {topic, domain_id}}.
+void read_source(const YAML::Node& node, const std::string& path, YamlReader* r,
+                 SensorConfig* sensor) {
+    if (!node.IsMap() || !node["dds"].IsDefined() || !node["dds"].IsMap()) {
+        r->problems.push_back(path +
+                              ": expected a mapping {dds: {topic: rt/<ns>/points, "
+                              "domain_id: N}}");
+        return;
+    }
+    r->only_keys(node, path, kSourceKeys);
+    const YAML::Node dds = node["dds"];
+    r->only_keys(dds, path + ".dds", kDdsSourceKeys);
+    DdsSource source;
+    if (auto t = r->string(dds["topic"], path + ".dds.topic", true)) {
+        source.topic = *t;
+        if (!valid_dds_topic(*t)) {
+            r->problems.push_back(path +
+                                  ".dds.topic: expected a DDS topic name (1..255 of "
+                                  "[A-Za-z0-9_/], e.g. rt/station1/points), got \"" +
+                                  printable(*t) + "\"");
+        }
+    }
+    if (auto d = r->integer(dds["domain_id"], path + ".dds.domain_id", 0, 232, false)) {
+        source.domain_id = static_cast<int>(*d);
+    }
+    sensor->dds = source;
+}
+
+// Exactly one of sensors[i].metadata (a file that exists), sensors[i].hostname and
+// sensors[i].source.
 void read_metadata_source(const YAML::Node& node, const std::string& path,
                           const std::filesystem::path& base_dir, YamlReader* r,
                           SensorConfig* sensor) {
-    const bool has_file = node["metadata"].IsDefined(), has_host = node["hostname"].IsDefined();
-    if (has_file == has_host) {
+    const bool has_host = node["hostname"].IsDefined(), has_source = node["source"].IsDefined();
+    std::vector<std::string> given;
+    for (const char* key : {"metadata", "hostname", "source"}) {
+        if (node[key].IsDefined()) given.push_back(key);
+    }
+    if (given.size() != 1) {
+        std::string got = given.empty() ? "none" : given[0];
+        for (std::size_t k = 1; k < given.size(); ++k) got += " and " + given[k];
         r->problems.push_back(path +
-                              ": expected exactly one of metadata (a JSON file) and "
-                              "hostname (the sensor's HTTP API), got " +
-                              std::string(has_file ? "both" : "neither"));
+                              ": expected exactly one of metadata (a JSON file), "
+                              "hostname (the sensor's HTTP API) and source (clouds from DDS), "
+                              "got " +
+                              got);
     }
     if (auto m = r->string(node["metadata"], path + ".metadata", false)) {
         std::filesystem::path file = *m;
@@ -183,6 +236,12 @@ void read_metadata_source(const YAML::Node& node, const std::string& path,
     read_configure(node["configure"], path + ".configure", r, &sensor->configure);
     if (!has_host && (node["http_port"].IsDefined() || node["configure"].IsDefined())) {
         r->problems.push_back(path + ": http_port and configure need hostname");
+    }
+    if (has_source) read_source(node["source"], path + ".source", r, sensor);
+    if (has_source && (node["udp_port"].IsDefined() || node["source_address"].IsDefined())) {
+        r->problems.push_back(path +
+                              ": udp_port and source_address are for Ouster packets, "
+                              "not for a source");
     }
 }
 
@@ -215,6 +274,7 @@ void read_station_name(YamlReader& r, const YAML::Node& doc, StationConfig* conf
 struct SensorsSeen {
     std::set<std::string> names;
     std::set<std::pair<std::uint16_t, std::string>> endpoints;  // udp port, source address
+    std::set<std::string> dds_topics;                           // "domain/topic"
 };
 
 void read_sensor_name(YamlReader& r, const YAML::Node& node, const std::string& path,
@@ -239,7 +299,8 @@ SensorConfig read_sensor(YamlReader& r, const YAML::Node& node, const std::strin
     r.only_keys(node, path, kSensorKeys);
     SensorConfig sensor;
     read_sensor_name(r, node, path, seen, &sensor);
-    if (auto p = r.integer(node["udp_port"], path + ".udp_port", 1, 65535, true)) {
+    const bool packets = !node["source"].IsDefined();  // Ouster UDP, not a DDS source
+    if (auto p = r.integer(node["udp_port"], path + ".udp_port", 1, 65535, packets)) {
         sensor.udp_port = static_cast<std::uint16_t>(*p);
     }
     read_metadata_source(node, path, base_dir, &r, &sensor);
@@ -256,6 +317,14 @@ SensorConfig read_sensor(YamlReader& r, const YAML::Node& node, const std::strin
         endpoint.second != "*") {
         r.problems.push_back(path + ".source_address: port " + std::to_string(sensor.udp_port) +
                              " and address " + endpoint.second + " are used by another sensor");
+    }
+    if (sensor.dds) {
+        const std::string key = std::to_string(sensor.dds->domain_id) + "/" + sensor.dds->topic;
+        if (!seen->dds_topics.insert(key).second) {
+            r.problems.push_back(path + ".source.dds: topic " + sensor.dds->topic + " in domain " +
+                                 std::to_string(sensor.dds->domain_id) +
+                                 " is used by another sensor");
+        }
     }
     return sensor;
 }
@@ -349,11 +418,16 @@ std::string to_yaml(const StationConfig& config, const std::filesystem::path& ba
     for (const auto& s : config.sensors) {
         out << YAML::BeginMap;
         out << YAML::Key << "name" << YAML::Value << s.name;
-        out << YAML::Key << "udp_port" << YAML::Value << s.udp_port;
+        if (!s.dds) out << YAML::Key << "udp_port" << YAML::Value << s.udp_port;
         std::filesystem::path meta = s.metadata;
         const auto relative = s.metadata.lexically_relative(base_dir);
         if (!base_dir.empty() && !relative.empty() && *relative.begin() != "..") meta = relative;
-        if (s.hostname) {
+        if (s.dds) {
+            out << YAML::Key << "source" << YAML::Value << YAML::BeginMap << YAML::Key << "dds"
+                << YAML::Value << YAML::BeginMap << YAML::Key << "topic" << YAML::Value
+                << s.dds->topic << YAML::Key << "domain_id" << YAML::Value << s.dds->domain_id
+                << YAML::EndMap << YAML::EndMap;
+        } else if (s.hostname) {
             out << YAML::Key << "hostname" << YAML::Value << *s.hostname;
             if (s.http_port != 80) out << YAML::Key << "http_port" << YAML::Value << s.http_port;
             write_configure(s.configure, &out);

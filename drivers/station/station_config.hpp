@@ -26,12 +26,20 @@ struct SensorConfigure {
     std::optional<std::string> timestamp_mode;  // "TIME_FROM_PTP_1588", ...; absent: left
 };
 
+// sensors[].source: {dds: {topic, domain_id}}: the sensor's scans are sensor_msgs/PointCloud2
+// clouds on a DDS topic (another station's fused cloud, or a ROS 2 LiDAR driver's), not
+// Ouster packets. lidarfused only; the offline tools read Ouster captures.
+struct DdsSource {
+    std::string topic;  // the DDS topic name as on the wire, e.g. rt/station1/points
+    int domain_id = 0;  // 0..232
+};
+
 struct SensorConfig {
     std::string name;            // unique; used in poses.csv, tf frames, logs
-    std::uint16_t udp_port = 0;  // lidar data port
-    // Where the metadata comes from: exactly one of a file (absolute after loading) and the
-    // sensor's HTTP API at hostname:http_port (below; lidarfused only, offline tools need
-    // a file).
+    std::uint16_t udp_port = 0;  // lidar data port (0 for a DDS source)
+    // Where the data and its metadata come from: exactly one of a metadata file (absolute
+    // after loading), the sensor's HTTP API at hostname:http_port (below; lidarfused only,
+    // offline tools need a file) and a DDS source (`dds`, last; no metadata).
     std::filesystem::path metadata;             // Ouster metadata JSON
     std::optional<std::string> source_address;  // IPv4 dotted quad; tells apart shared ports
     std::int64_t time_offset_ns = 0;            // added to this sensor's timestamps
@@ -39,6 +47,7 @@ struct SensorConfig {
     std::optional<std::string> hostname;  // host name or IPv4 dotted quad
     int http_port = 80;
     SensorConfigure configure;  // only with hostname
+    std::optional<DdsSource> dds;
 };
 
 struct StationConfig {

@@ -17,7 +17,8 @@ TEST(StationCapture, DecodesTheRealOs1Capture) {
     LIDARFUSE_REQUIRE_OUSTER_FILE(meta, "OS-1-64_sensor_config_reduced.json");
     station::StationConfig config;
     config.root = "pole";
-    config.sensors.push_back({"pole", 7502, meta, std::nullopt, 1000, true, std::nullopt, 80, {}});
+    config.sensors.push_back(
+        {"pole", 7502, meta, std::nullopt, 1000, true, std::nullopt, 80, {}, std::nullopt});
     StationCapture capture(config, pcap);
     std::vector<std::uint32_t> frames;
     std::size_t points = 0;
@@ -52,10 +53,26 @@ TEST(StationCapture, SharedPortSensorsAreToldApart) {
     LIDARFUSE_REQUIRE_OUSTER_FILE(meta2, "same_ports_legacy.2.json");
     station::StationConfig config;
     config.root = "os0";
-    config.sensors.push_back(
-        {"os0", 7502, meta1, std::string("169.254.92.158"), 0, true, std::nullopt, 80, {}});
-    config.sensors.push_back(
-        {"os1", 7502, meta2, std::string("169.254.238.111"), 0, true, std::nullopt, 80, {}});
+    config.sensors.push_back({"os0",
+                              7502,
+                              meta1,
+                              std::string("169.254.92.158"),
+                              0,
+                              true,
+                              std::nullopt,
+                              80,
+                              {},
+                              std::nullopt});
+    config.sensors.push_back({"os1",
+                              7502,
+                              meta2,
+                              std::string("169.254.238.111"),
+                              0,
+                              true,
+                              std::nullopt,
+                              80,
+                              {},
+                              std::nullopt});
     StationCapture capture(config, pcap);
     std::vector<std::pair<std::size_t, std::uint32_t>> seen;
     capture.run([&](const CaptureScan& scan) {
@@ -69,14 +86,40 @@ TEST(StationCapture, SharedPortSensorsAreToldApart) {
 TEST(StationCapture, MissingMetadataNamesTheSensor) {
     test::TempDir dir("capture");
     station::StationConfig config;
-    config.sensors.push_back(
-        {"north", 7502, dir.path() / "north.json", std::nullopt, 0, true, std::nullopt, 80, {}});
+    config.sensors.push_back({"north",
+                              7502,
+                              dir.path() / "north.json",
+                              std::nullopt,
+                              0,
+                              true,
+                              std::nullopt,
+                              80,
+                              {},
+                              std::nullopt});
     std::ofstream(dir.path() / "north.json") << "{ not json";
     try {
         StationCapture capture(config, dir.path() / "none.pcap");
         FAIL();
     } catch (const std::exception& error) {
         EXPECT_THAT(error.what(), ::testing::HasSubstr("sensor \"north\""));
+    }
+}
+
+// A sensor whose clouds come from DDS has nothing in a capture: the offline tools say so.
+TEST(StationCapture, ADdsSourceIsRefusedNamingTheSensorAndTopic) {
+    test::TempDir dir("capture");
+    station::StationConfig config;
+    station::SensorConfig sensor;
+    sensor.name = "station1";
+    sensor.dds = station::DdsSource{"rt/station1/points", 0};
+    config.sensors.push_back(sensor);
+    try {
+        StationCapture capture(config, dir.path() / "none.pcap");
+        FAIL();
+    } catch (const std::exception& error) {
+        EXPECT_THAT(error.what(),
+                    ::testing::HasSubstr("sensor \"station1\": takes its clouds "
+                                         "from DDS (source.dds: rt/station1/points)"));
     }
 }
 

@@ -202,10 +202,11 @@ sensors:
         FAIL() << "expected ConfigError";
     } catch (const ConfigError& error) {
         const std::string text = error.what();
-        EXPECT_THAT(text, HasSubstr("sensors[0]: expected exactly one of metadata (a JSON file) "
-                                    "and hostname (the sensor's HTTP API), got both"));
+        EXPECT_THAT(text, HasSubstr("sensors[0]: expected exactly one of metadata (a JSON file), "
+                                    "hostname (the sensor's HTTP API) and source (clouds from "
+                                    "DDS), got metadata and hostname"));
         EXPECT_THAT(text, HasSubstr("sensors[1]: expected exactly one of metadata"));
-        EXPECT_THAT(text, HasSubstr("got neither"));
+        EXPECT_THAT(text, HasSubstr("got none"));
         EXPECT_THAT(text, HasSubstr("sensors[2].hostname: expected a host name or IPv4 address, "
                                     "got \"http://10.0.0.3/\""));
         EXPECT_THAT(text, HasSubstr("sensors[3]: http_port and configure need hostname"));
@@ -216,6 +217,73 @@ sensors:
         EXPECT_THAT(text, HasSubstr("sensors[6].http_port: expected an integer in 1..65535"));
         EXPECT_THAT(text, HasSubstr("sensors[6].configure: expected true or false"));
         EXPECT_EQ(error.problems().size(), 10u) << text;
+    }
+}
+
+// A sensor whose clouds come from DDS: no port, no metadata; its topic and domain read,
+// written back, and used by one sensor only.
+TEST_F(StationConfigTest, SensorsFromDdsTopics) {
+    const auto config = parse_station_config(R"(
+sensors:
+  - {name: station0, source: {dds: {topic: rt/station0/lidarfuse/points, domain_id: 7}}}
+  - {name: station1, source: {dds: {topic: rt/station1/lidarfuse/points}}, time_offset_ns: -5}
+  - {name: lidar, udp_port: 7502, metadata: a.json}
+)",
+                                             "segment.yaml", dir_.path());
+    ASSERT_EQ(config.sensors.size(), 3u);
+    ASSERT_TRUE(config.sensors[0].dds);
+    EXPECT_EQ(config.sensors[0].dds->topic, "rt/station0/lidarfuse/points");
+    EXPECT_EQ(config.sensors[0].dds->domain_id, 7);
+    EXPECT_EQ(config.sensors[0].udp_port, 0);
+    EXPECT_TRUE(config.sensors[0].metadata.empty());
+    ASSERT_TRUE(config.sensors[1].dds);
+    EXPECT_EQ(config.sensors[1].dds->domain_id, 0);
+    EXPECT_EQ(config.sensors[1].time_offset_ns, -5);
+    EXPECT_FALSE(config.sensors[2].dds);
+    const auto back = parse_station_config(to_yaml(config, dir_.path()), "back.yaml", dir_.path());
+    ASSERT_EQ(back.sensors.size(), 3u);
+    for (std::size_t i = 0; i < 3; ++i) {
+        ASSERT_EQ(back.sensors[i].dds.has_value(), config.sensors[i].dds.has_value());
+        if (!config.sensors[i].dds) continue;
+        EXPECT_EQ(back.sensors[i].dds->topic, config.sensors[i].dds->topic);
+        EXPECT_EQ(back.sensors[i].dds->domain_id, config.sensors[i].dds->domain_id);
+    }
+    EXPECT_EQ(back.sensors[2].udp_port, 7502);
+}
+
+TEST_F(StationConfigTest, DdsSourceProblemsAreEachNamed) {
+    try {
+        parse_station_config(R"(
+sensors:
+  - {name: both, metadata: a.json, source: {dds: {topic: rt/a/points}}}
+  - {name: port, udp_port: 7502, source: {dds: {topic: rt/b/points}}}
+  - {name: topic, source: {dds: {topic: "rt//points"}}}
+  - {name: domain, source: {dds: {topic: rt/c/points, domain_id: 233}}}
+  - {name: kind, source: {udp: {port: 7502}}}
+  - {name: key, source: {dds: {topic: rt/d/points, qos: fast}}}
+  - {name: twice, source: {dds: {topic: rt/d/points}}}
+  - {name: notopic, source: {dds: {domain_id: 1}}}
+)",
+                             "dds.yaml", dir_.path());
+        FAIL() << "expected ConfigError";
+    } catch (const ConfigError& error) {
+        const std::string text = error.what();
+        EXPECT_THAT(text, HasSubstr("sensors[0]: expected exactly one of metadata (a JSON file), "
+                                    "hostname (the sensor's HTTP API) and source (clouds from "
+                                    "DDS), got metadata and source"));
+        EXPECT_THAT(text, HasSubstr("sensors[1]: udp_port and source_address are for Ouster "
+                                    "packets, not for a source"));
+        EXPECT_THAT(text, HasSubstr("sensors[2].source.dds.topic: expected a DDS topic name"));
+        EXPECT_THAT(text, HasSubstr("got \"rt//points\""));
+        EXPECT_THAT(text, HasSubstr("sensors[3].source.dds.domain_id: expected an integer in "
+                                    "0..232"));
+        EXPECT_THAT(text, HasSubstr("sensors[4].source: expected a mapping {dds: {topic: "
+                                    "rt/<ns>/points, domain_id: N}}"));
+        EXPECT_THAT(text, HasSubstr("sensors[5].source.dds.qos: unknown key"));
+        EXPECT_THAT(text, HasSubstr("sensors[6].source.dds: topic rt/d/points in domain 0 is "
+                                    "used by another sensor"));
+        EXPECT_THAT(text, HasSubstr("sensors[7].source.dds.topic"));
+        EXPECT_EQ(error.problems().size(), 8u) << text;
     }
 }
 
@@ -231,9 +299,18 @@ TEST_F(StationConfigTest, YamlRoundTrip) {
                               true,
                               std::nullopt,
                               80,
-                              {}});
-    config.sensors.push_back(
-        {"b", 7504, dir_.path() / "b.json", std::nullopt, 0, false, std::nullopt, 80, {}});
+                              {},
+                              std::nullopt});
+    config.sensors.push_back({"b",
+                              7504,
+                              dir_.path() / "b.json",
+                              std::nullopt,
+                              0,
+                              false,
+                              std::nullopt,
+                              80,
+                              {},
+                              std::nullopt});
     const auto yaml = to_yaml(config, dir_.path());
     EXPECT_THAT(yaml, HasSubstr("metadata: a.json"));
     std::ofstream(dir_.path() / "station.yaml") << yaml;
