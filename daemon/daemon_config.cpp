@@ -216,6 +216,19 @@ void check_frame_names(const station::StationConfig& station, const DdsConfig& d
     }
 }
 
+// A recording holds Ouster datagrams and their metadata; a DDS source's clouds are neither.
+void check_record_sources(const station::StationConfig& station, const OutputConfig& output,
+                          std::vector<std::string>* problems) {
+    if (!output.record.enabled) return;
+    for (std::size_t i = 0; i < station.sensors.size(); ++i) {
+        if (!station.sensors[i].dds) continue;
+        problems->push_back("output.record.enabled: records Ouster packets, and sensors[" +
+                            std::to_string(i) + "] (\"" + station.sensors[i].name +
+                            "\") takes its clouds from DDS; record them where they are made, "
+                            "or disable output.record");
+    }
+}
+
 void read_health(YamlReader& r, const YAML::Node& n, HealthConfig* c) {
     if (!n || !r.optional_map(n, "health")) return;
     r.only_keys(n, "health", {"stale_after_ms", "lost_after_ms", "min_completeness"});
@@ -271,6 +284,7 @@ DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string
     }
     problems.insert(problems.end(), r.problems.begin(), r.problems.end());
     check_frame_names(config.station, config.output.dds, config.world, &problems);
+    check_record_sources(config.station, config.output, &problems);
     if (!problems.empty()) throw station::ConfigError(source_name, problems);
     config.fusion.root_sensor = config.station.root_index();
     return config;

@@ -241,6 +241,19 @@ void DiagnosticsBuilder::add_sensor_values(KeyValues* v, const SensorStats& s) {
     add(v, "track_state", s.track_state);
     add(v, "pose_valid", s.pose_valid ? "true" : "false");
     add(v, "fitness", number(s.fitness, "%.4f"));
+    if (s.dds) add_dds_input_values(v, *s.dds);
+}
+
+// Only for a sensor whose clouds come from DDS; an Ouster sensor's keys stay as they were.
+void DiagnosticsBuilder::add_dds_input_values(KeyValues* v, const DdsInputStatus& d) {
+    add(v, "dds_topic", d.topic);
+    add(v, "dds_domain_id", std::to_string(d.domain_id));
+    add(v, "dds_publishers", std::to_string(d.publishers));
+    add(v, "dds_clouds", std::to_string(d.clouds));
+    add(v, "dds_clouds_refused", std::to_string(d.refused));
+    add(v, "dds_non_finite_points", std::to_string(d.non_finite_points));
+    add(v, "dds_frame_id", d.frame_id);
+    add(v, "dds_last_error", d.last_error);
 }
 
 // WARN when packets or scans were dropped or the recording has a problem.

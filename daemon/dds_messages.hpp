@@ -105,6 +105,7 @@ private:
     void add_sensor(diagnostic_msgs_msg_dds__DiagnosticStatus_* status, KeyValues* values,
                     const SensorStats& sensor, bool fusing);
     void add_sensor_values(KeyValues* values, const SensorStats& sensor);
+    void add_dds_input_values(KeyValues* values, const DdsInputStatus& input);
     void add_pipeline(diagnostic_msgs_msg_dds__DiagnosticStatus_* status, KeyValues* values,
                       const PipelineStats& stats);
     void add_record(KeyValues* values, const RecorderStats& record);

@@ -75,6 +75,7 @@ Pipeline::Impl::Impl(const DaemonConfig& c)
     make_receivers(by_port);
     make_fusion();
     make_publishers();
+    make_dds_inputs();
     heartbeat_ns = steady_ns();
 }
 
@@ -90,7 +91,9 @@ Pipeline::Impl::PortMembers Pipeline::Impl::make_sensors() {
         s->name = sc.name;
         s->time_offset_ns = sc.time_offset_ns;
         s->udp_port = sc.udp_port;
-        if (sc.enabled && sc.hostname) {
+        if (sc.dds) {
+            // Its DdsInput (make_dds_inputs) brings its clouds; no port, no metadata.
+        } else if (sc.enabled && sc.hostname) {
             by_port[sc.udp_port].push_back(s.get());  // its fetcher brings the metadata
         } else if (sc.enabled) {
             try {
@@ -172,6 +175,26 @@ void Pipeline::Impl::make_publishers() {
     dds->mirror_to(foxglove.get());
 }
 
+// One per enabled sensor with source.dds. A source that is one of this daemon's own cloud
+// topics in its domain would feed the fused cloud back as a scan: refused.
+void Pipeline::Impl::make_dds_inputs() {
+    for (std::size_t i = 0; i < config.station.sensors.size(); ++i) {
+        const auto& sc = config.station.sensors[i];
+        if (!sc.enabled || !sc.dds) continue;
+        if (dds && sc.dds->domain_id == dds->domain_id()) {
+            const std::string& ns = config.output.dds.topic_namespace;
+            for (const char* leaf : {"points", "points_voxel"}) {
+                if (sc.dds->topic != ros_topic_name(ns, leaf)) continue;
+                throw std::runtime_error("cannot start: sensors[" + std::to_string(i) + "] (\"" +
+                                         sc.name + "\"): source.dds.topic " + sc.dds->topic +
+                                         " is this daemon's own output in domain " +
+                                         std::to_string(sc.dds->domain_id));
+            }
+        }
+        dds_inputs.push_back(std::make_unique<DdsInput>(sensors[i].get(), *sc.dds, ingest_log));
+    }
+}
+
 std::shared_ptr<spdlog::logger> Pipeline::Impl::logger(const std::string& name) {
     auto existing = spdlog::get(name);
     if (existing) return existing;
@@ -197,6 +220,7 @@ void Pipeline::start() {
         });
     }
     for (auto& f : m.fetchers) f->start();
+    for (auto& d : m.dds_inputs) d->start();
     if (m.foxglove) m.foxglove->start();
     m.sync_thread = std::thread([&m] {
         ::pthread_setname_np(::pthread_self(), "lf-sync");
@@ -221,6 +245,7 @@ void Pipeline::stop() {
     }
     for (auto& f : m.fetchers) f->stop();  // before the recorder they write into
     for (auto& r : m.receivers) r->socket->stop();
+    for (auto& d : m.dds_inputs) d->stop();
     for (auto& r : m.receivers) {
         if (r->thread.joinable()) r->thread.join();
         for (auto* s : r->sensors) publish_counters(s);

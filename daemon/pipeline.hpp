@@ -24,10 +24,12 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "daemon/daemon_config.hpp"
+#include "daemon/dds_input_status.hpp"
 #include "daemon/foxglove_server.hpp"
 #include "daemon/metadata_status.hpp"
 #include "daemon/recorder.hpp"
@@ -61,6 +63,7 @@ struct SensorStats {
     // last fused scan's time minus the root's in the same frame.
     double clock_offset_ms = 0.0, offset_to_root_ms = 0.0;
     MetadataStatus metadata;
+    std::optional<DdsInputStatus> dds;  // a sensor whose clouds come from DDS (source.dds)
     bool pose_valid = false;
     std::string track_state;
     double fitness = 0.0;

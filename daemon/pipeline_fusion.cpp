@@ -31,14 +31,16 @@ void Pipeline::Impl::sync_loop() {
                            static_cast<double>(sync.max_offset_ns()) * 1e-6);
         }
         bool any = false;
-        for (auto& r : receivers) {
-            while (auto m = r->queue.try_pop()) {
+        const auto take = [&](DropOldestQueue<ScanMessage>& queue) {
+            while (auto m = queue.try_pop()) {
                 any = true;
                 const std::size_t sensor = m->sensor;
                 const std::int64_t t = m->t_ns;
                 sync.push(sensor, t, steady_ns(), std::move(*m));
             }
-        }
+        };
+        for (auto& r : receivers) take(r->queue);
+        for (auto& d : dds_inputs) take(d->queue());
         while (auto frame = sync.poll(steady_ns())) {
             record_frame_time(*frame);
             frames.push(std::move(*frame));

@@ -17,6 +17,7 @@
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/fusion_engine.hpp"
 #include "core/pipeline/world_frame.hpp"
+#include "daemon/dds_input.hpp"
 #include "daemon/dds_publisher.hpp"
 #include "daemon/frame_stamps.hpp"
 #include "daemon/metadata_fetcher.hpp"
@@ -30,6 +31,7 @@ struct Pipeline::Impl {
     DaemonConfig config;
     std::vector<std::unique_ptr<SensorIngest>> sensors;
     std::vector<std::unique_ptr<Receiver>> receivers;
+    std::vector<std::unique_ptr<DdsInput>> dds_inputs;  // sensors with source.dds
     DropOldestQueue<core::SyncedFrame<ScanMessage>> frames;
     DropOldestQueue<core::FrameOutput> results;
     std::unique_ptr<core::FusionEngine> engine;
@@ -84,6 +86,7 @@ struct Pipeline::Impl {
     void make_receivers(const PortMembers& by_port);
     void make_fusion();
     void make_publishers();
+    void make_dds_inputs();
 
     // pipeline_fusion.cpp
     std::int64_t max_offset_ns() const;

@@ -136,6 +136,7 @@ void Pipeline::Impl::add_receiver_stats(PipelineStats* out) const {
         out->scan_queue_drops += r->queue.dropped();
         out->granted_receive_buffers.push_back(r->socket->sockets().front().granted_rcvbuf_bytes);
     }
+    for (const auto& d : dds_inputs) out->scan_queue_drops += d->queue().dropped();
 }
 
 void Pipeline::Impl::add_fusion_stats(PipelineStats* out) const {
@@ -205,6 +206,9 @@ SensorStats Pipeline::Impl::sensor_stats(std::size_t i, std::int64_t now) const 
     ss.pose_valid = last_health[i].pose_valid;
     ss.track_state = core::to_string(last_health[i].state);
     ss.fitness = last_health[i].fitness_reference;
+    for (const auto& d : dds_inputs) {
+        if (d->sensor_index() == i) ss.dds = d->status();
+    }
     return ss;
 }
 

@@ -2,8 +2,8 @@
 // Clouds from DDS: a reader of sensor_msgs/PointCloud2 on one topic and domain (another
 // station's fused cloud, or any ROS 2 LiDAR driver's), on a thread of its own that hands
 // each readable cloud to a callback as points (daemon/point_cloud2_input.hpp) and counts
-// what it could not read. The input side of issue 20's `source: {dds: ...}`; the pipeline
-// does not use it yet.
+// what it could not read. Each sensor with `source: {dds: ...}` has one, in its DdsInput
+// (daemon/dds_input.hpp).
 //
 // QoS as a ROS 2 subscriber of sensor data that must not miss a cloud while it keeps up:
 // reliable, volatile, keep-last `depth`; a publisher that floods it replaces the oldest

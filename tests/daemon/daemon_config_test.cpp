@@ -285,6 +285,24 @@ TEST_F(DaemonConfigTest, FoxgloveWithoutDdsIsRefused) {
         dir_.path()));
 }
 
+// A recording keeps Ouster datagrams: a station with a DDS source cannot record.
+TEST_F(DaemonConfigTest, RecordingWithADdsSourceIsRefused) {
+    const std::string sensors = sensors_ +
+                                "  - {name: station1, source: {dds: {topic: "
+                                "rt/station1/lidarfuse/points}}}\n";
+    try {
+        parse_daemon_config(sensors + "output: {record: {enabled: true}}\n", "s.yaml", dir_.path());
+        FAIL() << "no error";
+    } catch (const station::ConfigError& error) {
+        EXPECT_THAT(error.what(), HasSubstr("output.record.enabled: records Ouster packets, and "
+                                            "sensors[1] (\"station1\") takes its clouds from DDS"));
+        EXPECT_EQ(error.problems().size(), 1u);
+    }
+    const auto c = parse_daemon_config(sensors, "s.yaml", dir_.path());
+    ASSERT_TRUE(c.station.sensors[1].dds);
+    EXPECT_EQ(c.station.sensors[1].dds->topic, "rt/station1/lidarfuse/points");
+}
+
 // config/station.example.yaml says it lists every key with its default: its registration
 // and dynamics sections read back as exactly lidarfused's defaults.
 TEST(DaemonConfigExample, RegistrationAndDynamicsHoldTheDefaults) {
