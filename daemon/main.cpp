@@ -122,8 +122,15 @@ void print_check_passed(const std::string& config_path, const DaemonConfig& conf
 std::string log_started(spdlog::logger& log, const Pipeline& pipeline, const DaemonConfig& config) {
     std::string ports;
     for (auto p : pipeline.bound_ports()) ports += (ports.empty() ? "" : ",") + std::to_string(p);
+    if (ports.empty()) ports = "(no port: every sensor is a DDS source)";
     log.info("station {}: {} sensors, listening on UDP {}, output to {}", config.station.station,
              config.station.sensors.size(), ports, config.output.directory.string());
+    for (const auto& s : config.station.sensors) {
+        if (s.enabled && s.dds) {
+            log.info("sensor \"{}\": clouds from DDS topic {} in domain {}", s.name, s.dds->topic,
+                     s.dds->domain_id);
+        }
+    }
     if (config.output.record.enabled)
         log.info("recording every datagram to {}", pipeline.stats().record.folder);
     if (pipeline.dds_domain_id() >= 0) {
