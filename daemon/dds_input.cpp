@@ -1,5 +1,6 @@
 #include "daemon/dds_input.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -46,16 +47,21 @@ void DdsInput::refuse(const std::string& why) {
     }
 }
 
-// The input's frame rate from its stamps (a running mean of the period), for the
-// synchroniser's default window when it is the root: frames_per_second as for an Ouster
-// sensor's metadata. Gaps above 1 s (a restart) do not count.
+// The input's frame rate from its stamps, for the synchroniser's default window when it is
+// the root (frames_per_second, as an Ouster sensor's metadata gives it). A publisher that
+// drops frames (a station whose fusion falls behind) leaves gaps of several periods, so the
+// rate comes from the shortest of the last kPeriods periods, not their mean; gaps above 1 s
+// (a restart) do not count.
 void DdsInput::note_rate(std::int64_t t_ns) {
     const std::int64_t period = t_ns - last_t_ns_;
     last_t_ns_ = t_ns;
     if (period <= 0 || period > 1'000'000'000) return;
-    const double p = static_cast<double>(period);
-    mean_period_ns_ = mean_period_ns_ > 0.0 ? 0.9 * mean_period_ns_ + 0.1 * p : p;
-    const int rate = static_cast<int>(std::lround(1e9 / mean_period_ns_));
+    periods_[next_period_++ % kPeriods] = period;
+    std::int64_t shortest = period;
+    for (const std::int64_t p : periods_) {
+        if (p > 0) shortest = std::min(shortest, p);
+    }
+    const int rate = static_cast<int>(std::lround(1e9 / static_cast<double>(shortest)));
     sensor_->frames_per_second.store(std::max(1, std::min(rate, 100)));
 }
 

@@ -15,6 +15,8 @@
 
 #include <spdlog/logger.h>
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -53,8 +55,10 @@ private:
     std::shared_ptr<spdlog::logger> log_;
     DropOldestQueue<ScanMessage> queue_{8};
     // Reader thread only (status() reads frame_id_ and the refusals under mutex_).
+    static constexpr std::size_t kPeriods = 16;
     std::int64_t last_t_ns_ = 0;
-    double mean_period_ns_ = 0.0;
+    std::array<std::int64_t, kPeriods> periods_{};  // ns; 0 = not yet seen
+    std::size_t next_period_ = 0;
     mutable std::mutex mutex_;
     std::string frame_id_;
     std::uint64_t refused_ = 0;
