@@ -15,7 +15,9 @@ struct DdsInputStatus {
     std::uint64_t refused = 0;            // layout, frame, stamp or no points (last_error says)
     std::uint64_t non_finite_points = 0;  // skipped in the clouds taken
     std::string frame_id;                 // the first cloud's; "" before it
-    std::string last_error;               // the newest refusal, naming the sensor and topic
+    // Why a cloud was refused, naming the sensor and topic: the newest of this input's own
+    // refusals (stamp, frame, no finite point), else the reader's newest (layout).
+    std::string last_error;
 };
 
 }  // namespace lidarfuse::daemon

@@ -33,14 +33,16 @@ const std::set<std::string> kSourceKeys = {"dds"};
 const std::set<std::string> kDdsSourceKeys = {"topic", "domain_id"};
 const std::set<std::string> kConfigureKeys = {"udp_dest", "lidar_mode", "timestamp_mode"};
 
+bool ascii_alnum(char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9');
+}
+
 // A sensor name ends up unquoted in poses.csv, as a key in extrinsics.yaml and as a ROS tf
 // frame id: a comma, newline, colon or non-ASCII byte would corrupt those files.
 bool valid_sensor_name(const std::string& name) {
     if (name.empty() || name.size() > 64) return false;
     for (const char c : name) {
-        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
-                        (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '-';
-        if (!ok) return false;
+        if (!ascii_alnum(c) && c != '_' && c != '.' && c != '-') return false;
     }
     return true;
 }
@@ -161,9 +163,7 @@ bool valid_dds_topic(const std::string& topic) {
         return false;
     }
     for (const char c : topic) {
-        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
-                        (c >= '0' && c <= '9') || c == '_' || c == '/';
-        if (!ok) return false;
+        if (!ascii_alnum(c) && c != '_' && c != '/') return false;
     }
     return true;
 }
