@@ -19,6 +19,8 @@
 //                             [--foxglove off|server|client]  (output.foxglove: off; the live
 //                                 view's server on with no client; or with a Node client
 //                                 subscribed to every channel, bench/foxglove_bench_client.hpp)
+//                             [--when-behind predict|drop]  (sync.when_behind; default: the
+//                                 daemon's, predict)
 //                             [--keep 1]          (leave the folder: daemon logs, outputs)
 //                             [--cyclonedds bench|default|FILE]  (Cyclone's configuration of the
 //                                 daemon and the reader: bench = loopback with 64 kB fragments,
@@ -169,8 +171,20 @@ void set_cyclone_uri(const std::string& uri) {
         ::setenv("CYCLONEDDS_URI", uri.c_str(), 1);
 }
 
+// The poses the daemon wrote (poses.csv: every fused frame after the world frame, predicted
+// ones included) against the simulator's truth, as `lidarfuse eval` prints them.
+void print_accuracy(const fs::path& sim, const fs::path& out_dir, const std::string& tag) {
+    const std::string cmd =
+        tool_dir() + "/lidarfuse eval --gt " + (sim / "ground_truth.csv").string() + " --poses " +
+        (out_dir / "poses.csv").string() +
+        " 2>/dev/null | grep -E 'mean_(strict_)?rmse_(trans|rot)' | sed 's/^/daemon_" + tag + "_/'";
+    if (std::system(cmd.c_str()) != 0) std::printf("daemon_eval_failed_%s 1 run\n", tag.c_str());
+    std::fflush(stdout);
+}
+
 RunResult run(const fs::path& sim, int n, int domain, int queue_depth, int fusion_threads,
-              bool record, FoxgloveMode foxglove, const Delivery& delivery) {
+              const std::string& when_behind, bool record, FoxgloveMode foxglove,
+              const Delivery& delivery) {
     RunResult result;
     const fs::path out_dir = sim / ("out" + std::to_string(n));
     std::ofstream config(sim / ("daemon" + std::to_string(n) + ".yaml"));
@@ -189,6 +203,7 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, int fusio
                                        0});
     }
     config << "network: {bind_address: 127.0.0.1}\nsync: {queue_depth: " << queue_depth
+           << (when_behind.empty() ? "" : ", when_behind: " + when_behind)
            << "}\noutput:\n  directory: " << out_dir.string() << "\n  dds: {domain_id: " << domain
            << ", frame_id: station, diagnostics_period_ms: 500}\n";
     if (record)
@@ -306,6 +321,8 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, int fusio
     const std::size_t fused = std::stoull(value("frames_fused"));
     std::printf("daemon_frames_in_capture_%s %zu frames\n", tag.c_str(), capture_frames);
     std::printf("daemon_frames_fused_%s %zu frames\n", tag.c_str(), fused);
+    std::printf("daemon_frames_predicted_%s %s frames\n", tag.c_str(),
+                value("frames_predicted").c_str());
     std::printf("daemon_frames_dropped_before_fusion_%s %s frames\n", tag.c_str(),
                 value("frame_queue_drops").c_str());
     std::printf("daemon_initial_registration_%s %s ms\n", tag.c_str(),
@@ -340,6 +357,7 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, int fusio
                     value("record_queue_drops").c_str());
     }
     std::fflush(stdout);
+    print_accuracy(sim, out_dir, tag);
     result.ok = WIFEXITED(status) && WEXITSTATUS(status) == 0 && received_packets > 0;
     result.lost = lost + std::stoull(value("kernel_drops"));
     result.fused_share =
@@ -363,9 +381,10 @@ int main(int argc, char** argv) {
     std::vector<int> counts = {2, 4, 6, 8};
     double seconds = 5.0;
     std::string scenario = "curve";
-    int queue_depth = 1;     // the daemon's default
-    int fusion_threads = 0;  // 0: the daemon's default (registration.threads)
-    bool record = false;     // --record 1: output.record on (into the bench's folder)
+    int queue_depth = 1;      // the daemon's default
+    int fusion_threads = 0;   // 0: the daemon's default (registration.threads)
+    std::string when_behind;  // "": the daemon's default (sync.when_behind)
+    bool record = false;      // --record 1: output.record on (into the bench's folder)
     FoxgloveMode foxglove = FoxgloveMode::kOff;
     bool keep = false;  // --keep 1: leave the capture, configs, daemon logs and outputs
     Delivery delivery;
@@ -383,6 +402,8 @@ int main(int argc, char** argv) {
             queue_depth = std::stoi(argv[i + 1]);
         } else if (arg == "--fusion-threads") {
             fusion_threads = std::stoi(argv[i + 1]);
+        } else if (arg == "--when-behind") {
+            when_behind = argv[i + 1];
         } else if (arg == "--scenario") {
             scenario = argv[i + 1];
         } else if (arg == "--record") {
@@ -419,7 +440,8 @@ int main(int argc, char** argv) {
     const int domain = 1 + static_cast<int>(::getpid() % 230);
     int max_zero_loss = 0, max_realtime = 0;
     for (int n : counts) {
-        const auto r = run(sim, n, domain, queue_depth, fusion_threads, record, foxglove, delivery);
+        const auto r = run(sim, n, domain, queue_depth, fusion_threads, when_behind, record,
+                           foxglove, delivery);
         if (r.ok && r.lost == 0) max_zero_loss = std::max(max_zero_loss, n);
         if (r.ok && r.lost == 0 && r.fused_share >= 0.95) max_realtime = std::max(max_realtime, n);
     }

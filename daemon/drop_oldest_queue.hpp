@@ -84,6 +84,11 @@ public:
     }
     bool closed() const { return closed_.load(std::memory_order_acquire); }
 
+    // Consumer: whether nothing waits (a producer may push right after: a hint).
+    bool empty() const {
+        return head_.load(std::memory_order_acquire) == tail_.load(std::memory_order_acquire);
+    }
+
     std::uint64_t pushed() const { return pushed_.load(std::memory_order_relaxed); }
     std::uint64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
 

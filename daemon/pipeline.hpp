@@ -108,6 +108,9 @@ struct PipelineStats {
     std::uint64_t scan_queue_drops = 0, frame_queue_drops = 0, result_queue_drops = 0;
     std::uint64_t frames_synchronised = 0, frames_partial = 0, scans_late = 0;
     std::uint64_t frames_fused = 0;
+    // Of the frames fused, those fused at the poses predicted from the registered frames
+    // (sync.when_behind: predict, while fusion was behind).
+    std::uint64_t frames_predicted = 0;
     double last_fusion_ms = 0.0, mean_fusion_ms = 0.0;
     // Steady clock from the frame's last scan completing (its last packet) to its cloud
     // having been written to DDS (when DDS is off: to the output thread taking it).
@@ -152,7 +155,7 @@ struct PipelineFigure {
 
 // Every published figure of PipelineStats once, in the order of the pipeline's diagnostics
 // values (the recorder's and the live view's follow them, when on).
-inline constexpr std::array<PipelineFigure, 21> kPipelineFigures{{
+inline constexpr std::array<PipelineFigure, 22> kPipelineFigures{{
     {"datagrams", &PipelineStats::datagrams, "datagrams"},
     {"unassigned_datagrams", &PipelineStats::unassigned_datagrams, "datagrams"},
     {"kernel_drops", &PipelineStats::kernel_drops, "datagrams"},
@@ -163,6 +166,7 @@ inline constexpr std::array<PipelineFigure, 21> kPipelineFigures{{
     {"frames_partial", &PipelineStats::frames_partial, "frames"},
     {"scans_late", &PipelineStats::scans_late, "scans"},
     {"frames_fused", &PipelineStats::frames_fused, "frames"},
+    {"frames_predicted", &PipelineStats::frames_predicted, "frames"},
     {"last_fusion_ms", &PipelineStats::last_fusion_ms, "%.2f", "ms"},
     {"mean_fusion_ms", &PipelineStats::mean_fusion_ms, "%.2f", "ms"},
     {"last_latency_ms", &PipelineStats::last_latency_ms, "%.2f", "ms"},

@@ -93,12 +93,19 @@ void Pipeline::Impl::fusion_loop() {
     InitialJobs init_jobs(2);
     std::thread init_worker(&Impl::initial_registration_loop, this, &init_jobs);
     std::shared_ptr<core::InitialRegistrationJob> last_job;
+    core::FrameMode mode = core::FrameMode::kRegister;
     while (!stopping.load(std::memory_order_acquire)) {
         heartbeat_ns.store(steady_ns(), std::memory_order_release);
         auto frame = frames.pop_wait(std::chrono::milliseconds(100));
         if (!frame) continue;
         const core::FrameInput input = core::frame_input(&*frame, sensors.size());
-        auto out = engine->process(input);
+        auto out = engine->process(input, mode);
+        // Behind (a frame already waits): the next one at its predicted poses, which costs a
+        // fraction of a registered one, rather than a frame dropped (sync.when_behind).
+        const bool behind = !frames.empty();
+        mode = config.sync.predict_when_behind && out.registered && behind
+                   ? core::FrameMode::kPredict
+                   : core::FrameMode::kRegister;
         if (out.initial_job) {
             last_job = std::move(out.initial_job);
             init_jobs.push(last_job);
@@ -153,6 +160,7 @@ void Pipeline::Impl::log_sensor_events(const core::FrameOutput& out) {
 void Pipeline::Impl::note_fused(const core::FrameOutput& out, bool world_fixed_now) {
     std::lock_guard<std::mutex> lock(stats_mutex);
     ++frames_fused;
+    if (!out.registered) ++frames_predicted;
     last_fusion_ms = out.timings.total_ms;
     sum_fusion_ms += out.timings.total_ms;
     last_health = out.health;

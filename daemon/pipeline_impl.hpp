@@ -65,6 +65,7 @@ struct Pipeline::Impl {
     mutable std::mutex stats_mutex;  // guards the fields below (written by sync/fusion/output)
     core::SyncCounters sync_counters;
     std::uint64_t frames_fused = 0;
+    std::uint64_t frames_predicted = 0;  // of those, fused at predicted poses
     double last_fusion_ms = 0, sum_fusion_ms = 0;
     std::vector<core::SensorHealth> last_health;
     double last_latency_ms = 0;

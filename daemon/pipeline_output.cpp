@@ -144,6 +144,7 @@ void Pipeline::Impl::add_fusion_stats(PipelineStats* out) const {
     out->frames_partial = sync_counters.frames_partial;
     out->scans_late = sync_counters.late_dropped;
     out->frames_fused = frames_fused;
+    out->frames_predicted = frames_predicted;
     out->last_fusion_ms = last_fusion_ms;
     out->mean_fusion_ms = frames_fused ? sum_fusion_ms / static_cast<double>(frames_fused) : 0.0;
     out->last_latency_ms = last_latency_ms;

@@ -58,13 +58,14 @@ std::string status_line(const PipelineStats& st) {
     char buffer[320];
     // Frames fused before the world frame was known (road: the initial registration) are
     // not published: "N unpublished" says how many.
-    std::snprintf(
-        buffer, sizeof(buffer),
-        "fused %llu frames, %.1f ms/frame, %llu dropped, %llu unpublished (before the %s world "
-        "frame); sensors: ",
-        static_cast<unsigned long long>(st.frames_fused), st.mean_fusion_ms,
-        static_cast<unsigned long long>(st.frame_queue_drops + st.scan_queue_drops),
-        static_cast<unsigned long long>(st.frames_before_world_frame), st.world_frame.c_str());
+    std::snprintf(buffer, sizeof(buffer),
+                  "fused %llu frames (%llu at predicted poses), %.1f ms/frame, %llu dropped, %llu "
+                  "unpublished (before the %s world frame); sensors: ",
+                  static_cast<unsigned long long>(st.frames_fused),
+                  static_cast<unsigned long long>(st.frames_predicted), st.mean_fusion_ms,
+                  static_cast<unsigned long long>(st.frame_queue_drops + st.scan_queue_drops),
+                  static_cast<unsigned long long>(st.frames_before_world_frame),
+                  st.world_frame.c_str());
     return buffer + sensors_summary(st.sensors);
 }
 

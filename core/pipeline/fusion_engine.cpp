@@ -18,6 +18,8 @@ const char* to_string(TrackState state) {
             return "missing";
         case TrackState::kReinitialised:
             return "reinitialised";
+        case TrackState::kPredicted:
+            return "predicted";
     }
     return "unknown";
 }
@@ -66,6 +68,7 @@ FrameOutput FusionEngine::Impl::process(const FrameInput& in) {
     report_edges(&w);
     detect_divergence(&w);
     slide_window(in, w);
+    last_registered_health = w.out.health;
     build_fused_cloud(&w);  // 6. the fused cloud
     w.out.timings.total_ms = frame_time.milliseconds();
     return std::move(w.out);
@@ -73,11 +76,12 @@ FrameOutput FusionEngine::Impl::process(const FrameInput& in) {
 
 // The frame's index and output shape; which scans are usable (there and holding enough
 // points: an empty one counts as missing).
-FrameWork FusionEngine::Impl::begin_frame(const FrameInput& in) {
+FrameWork FusionEngine::Impl::begin_frame(const FrameInput& in, bool registered) {
     FrameWork w;
-    w.frame = frame_counter++;
+    w.frame = registered ? frame_counter++ : frame_counter - 1;
     FrameOutput& out = w.out;
-    out.frame_index = w.frame;
+    out.frame_index = output_counter++;
+    out.registered = registered;
     out.T_root_sensor.assign(n, Eigen::Isometry3d::Identity());
     out.t_ns.assign(n, 0);
     out.health.assign(n, SensorHealth{});
@@ -256,7 +260,11 @@ void FusionEngine::Impl::plan_inter_sensor_edges(FrameWork* w) const {
 FusionEngine::FusionEngine(std::size_t num_sensors, const FusionParams& params)
     : impl_(std::make_unique<Impl>(num_sensors, params)) {}
 FusionEngine::~FusionEngine() = default;
-FrameOutput FusionEngine::process(const FrameInput& frame) { return impl_->process(frame); }
+FrameOutput FusionEngine::process(const FrameInput& frame, FrameMode mode) {
+    if (mode == FrameMode::kPredict && impl_->can_predict(frame))
+        return impl_->process_predicted(frame);
+    return impl_->process(frame);
+}
 const FusionParams& FusionEngine::params() const { return impl_->params; }
 std::size_t FusionEngine::num_sensors() const { return impl_->n; }
 

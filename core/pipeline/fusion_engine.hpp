@@ -35,6 +35,16 @@
 // run on a thread of its choice, unless FusionParams::initial_registration_inline is set;
 // see initial_registration_job.hpp. core/ starts no thread of its own.
 //
+// A caller that cannot keep up with the frame rate (lidarfused on a busy machine) may ask
+// for a frame to be fused at its predicted poses instead (FrameMode::kPredict): each
+// sensor's scan is deskewed, cropped and put through the background model, and placed at
+// the constant-velocity prediction from its last registered poses; no target, no edge, no
+// solve. Registration goes on from the registered frames exactly as if the predicted ones
+// had not been there, except that the background model has seen them. Where a frame must
+// be registered (the root not tracked yet, an initial registration to apply, a sensor to
+// register again, a sensor without three registered poses within deskew_max_span_s),
+// kPredict registers it.
+//
 // Not thread safe: one thread calls process(). Internally it runs `num_threads` OpenMP
 // threads over sensors and edges. Deterministic for a given input and thread count.
 
@@ -47,6 +57,11 @@
 
 namespace lidarfuse::core {
 
+enum class FrameMode {
+    kRegister,  // the continuous registration above
+    kPredict,   // fused at the predicted poses, if the engine can (FrameOutput::registered)
+};
+
 class FusionEngine {
 public:
     FusionEngine(std::size_t num_sensors, const FusionParams& params);
@@ -54,7 +69,7 @@ public:
     FusionEngine(const FusionEngine&) = delete;
     FusionEngine& operator=(const FusionEngine&) = delete;
 
-    FrameOutput process(const FrameInput& frame);
+    FrameOutput process(const FrameInput& frame, FrameMode mode = FrameMode::kRegister);
 
     const FusionParams& params() const;
     std::size_t num_sensors() const;

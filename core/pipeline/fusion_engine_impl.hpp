@@ -7,6 +7,7 @@
 //   fusion_engine_initialisation.cpp   initial registrations handed out and applied
 //   fusion_engine_references.cpp       reference frames: deskew re-anchoring, fine edges,
 //                                      removing a sensor's nodes
+//   fusion_engine_prediction.cpp       a frame fused at its predicted poses (FrameMode)
 // Not thread safe, like FusionEngine.
 
 #include <algorithm>
@@ -74,7 +75,11 @@ struct FusionEngine::Impl {
     std::vector<std::unique_ptr<SensorTrack>> tracks;
     PoseGraph graph;
     std::vector<GicpRegistration> registrations;  // one per thread
-    std::int64_t frame_counter = 0;
+    std::int64_t frame_counter = 0;               // registered frames: the graph's frame index
+    std::int64_t output_counter = 0;              // every frame: FrameOutput::frame_index
+    // Each sensor's health in the last registered frame: a predicted frame reports its
+    // registration figures.
+    std::vector<SensorHealth> last_registered_health;
     std::int64_t last_retry_frame = -1'000'000;
     std::vector<int> suspicious;  // consecutive suspicious frames per sensor
     std::vector<bool> needs_reinit;
@@ -98,9 +103,15 @@ struct FusionEngine::Impl {
     ~Impl();
 
     FrameOutput process(const FrameInput& in);
+    // FrameMode::kPredict (fusion_engine_prediction.cpp): whether this frame can be fused at
+    // its predicted poses, and doing so.
+    bool can_predict(const FrameInput& in) const;
+    FrameOutput process_predicted(const FrameInput& in);
+    void report_predicted_poses(FrameWork* w) const;
 
-    // The steps of process(), in order (fusion_engine.cpp, fusion_engine_graph.cpp).
-    FrameWork begin_frame(const FrameInput& in);
+    // The steps of process(), in order (fusion_engine.cpp, fusion_engine_graph.cpp). A
+    // predicted frame takes no graph frame index (FrameWork::frame: the last registered).
+    FrameWork begin_frame(const FrameInput& in, bool registered = true);
     bool initialise(const FrameInput& in, FrameWork* w);
     void reinitialise_due_sensors(const FrameInput& in, FrameWork* w);
     void prepare_tracks(const FrameInput& in, FrameWork* w);

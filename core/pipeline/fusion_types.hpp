@@ -127,6 +127,8 @@ enum class TrackState {
     kTracking,       // continuous registration
     kMissing,        // no scan in this frame: pose predicted, not measured
     kReinitialised,  // registered again from scratch in this frame
+    kPredicted,      // scan fused at the pose predicted from the frames registered before
+                     // (FrameMode::kPredict: the caller was behind), not registered
 };
 
 const char* to_string(TrackState state);
@@ -179,6 +181,10 @@ struct FrameOutput {
     FusedCloud cloud;
     FrameTimings timings;
     bool graph_usable = false;
+    // False: fused at the poses predicted from the frames registered before it
+    // (FrameMode::kPredict); no G-ICP edge, no pose-graph solve, and the registration
+    // figures of each sensor's health are those of its last registered frame.
+    bool registered = true;
     // Non-null when this frame started an initial registration that the caller must run
     // (see FusionParams::initial_registration_inline). The engine keeps its own reference.
     std::shared_ptr<InitialRegistrationJob> initial_job;

@@ -64,6 +64,23 @@ Eigen::Isometry3d SensorTrack::predict(std::int64_t t_ns) const {
            se3_exp(body_twist_per_s(before.T_root_sensor, last.T_root_sensor, dt) * ahead);
 }
 
+bool SensorTrack::velocity_known() const {
+    if (history_.size() < 3) return false;
+    const double span_s =
+        static_cast<double>(history_.back().t_ns - history_[history_.size() - 3].t_ns) * kNsToS;
+    return span_s > 0 && span_s <= params_.deskew_max_span_s;
+}
+
+Eigen::Isometry3d SensorTrack::predict_smoothed(std::int64_t t_ns) const {
+    const PoseSample& last = history_.empty() ? PoseSample{} : history_.back();
+    const double ahead = static_cast<double>(t_ns - last.t_ns) * kNsToS;
+    if (!velocity_known() || ahead < 0 || ahead > 1.0) return predict(t_ns);
+    const PoseSample& a = history_[history_.size() - 3];
+    const double span_s = static_cast<double>(last.t_ns - a.t_ns) * kNsToS;
+    return last.T_root_sensor *
+           se3_exp(body_twist_per_s(a.T_root_sensor, last.T_root_sensor, span_s) * ahead);
+}
+
 Vector6d SensorTrack::deskew_twist() const {
     if (!params_.deskew || history_.size() < 3) return Vector6d::Zero();
     const PoseSample& a = history_[history_.size() - 3];
@@ -231,6 +248,12 @@ void SensorTrack::set_reference_correspondences(const std::vector<std::int32_t>&
 }
 
 void SensorTrack::prepare(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted) {
+    prepare_points(scan, T_root_predicted);
+    build_current_target(params_.remove_dynamic, T_root_predicted);
+}
+
+void SensorTrack::prepare_points(const SensorScanInput& scan,
+                                 const Eigen::Isometry3d& T_root_predicted) {
     crop_and_deskew(scan, deskew_twist());
     dynamic_.assign(points_.size(), 0);
     dynamic_count_ = 0;
@@ -251,7 +274,6 @@ void SensorTrack::prepare(const SensorScanInput& scan, const Eigen::Isometry3d& 
                                         : reference_dynamic_at_build_ - flagged;
         if (changed > reference_points_.size() / 100 + 50) rebuild_reference_target();
     }
-    build_current_target(params_.remove_dynamic, T_root_predicted);
 }
 
 void SensorTrack::finish_frame(std::int64_t frame, std::int64_t t_ns,

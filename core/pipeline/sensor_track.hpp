@@ -39,6 +39,16 @@ public:
 
     // Constant-velocity prediction of the pose at t_ns from the last two poses.
     Eigen::Isometry3d predict(std::int64_t t_ns) const;
+    // The pose at t_ns for a frame fused without registration (FrameMode::kPredict): the
+    // last pose moved on with the mean velocity over the last three poses (two periods, as
+    // in deskew_twist). That velocity carries less of the poses' registration noise than the
+    // last two poses' difference: extrapolated one period, with independent noise sigma per
+    // pose, 1.6 sigma against 2.2 sigma. predict() where three poses within
+    // FusionParams::deskew_max_span_s are not known.
+    Eigen::Isometry3d predict_smoothed(std::int64_t t_ns) const;
+    // Whether predict_smoothed() has its three poses: known within deskew_max_span_s, the
+    // span over which a velocity is trusted (as for deskew).
+    bool velocity_known() const;
     // The body twist (per second) used to deskew the current scan: the mean velocity over
     // the last three poses (two frame periods), clamped. Zero until three poses are known,
     // across gaps longer than FusionParams::deskew_max_span_s, and above the rate bounds.
@@ -72,6 +82,10 @@ public:
     // reference (pre-aligned with T_root_predicted), downsamples the static points and
     // computes their covariances. Fills the "current" members below.
     void prepare(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted);
+    // The first half of prepare(): deskewed, cropped points and their dynamic flags (the
+    // background model takes the scan), no G-ICP target. For a frame fused at its predicted
+    // pose (FrameMode::kPredict): the current and previous targets stay as they were.
+    void prepare_points(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted);
 
     // Records the estimated pose of the current frame and makes it the previous frame.
     void finish_frame(std::int64_t frame, std::int64_t t_ns,

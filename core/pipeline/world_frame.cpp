@@ -324,6 +324,7 @@ bool WorldFrameTracker::update_geo(const FrameOutput& out) {
         registration_applied_ || out.applied_registration.has_value() ||
         (num_sensors_ == 1 && root < out.health.size() && out.health[root].pose_valid);
     if (!registration_applied_ || out.initial_registration_pending) return false;
+    if (!out.registered) return false;  // the positions averaged are measured ones
     for (std::size_t i = 0; i < params_.anchors.size(); ++i) {
         const std::size_t s = params_.anchors[i].sensor;
         if (s >= out.health.size() || !out.health[s].pose_valid) continue;

@@ -69,7 +69,8 @@ struct WorldFrameParams {
     // frame. The average has to span at least one whole sway period to cancel: the paper's
     // pole (an inverted pendulum, 6 m) swings with 2 pi sqrt(6 m / 9.81 m/s^2) = 4.9 s, so
     // 100 frames (5 s at 20 Hz, 10 s at 10 Hz; bench/BENCHMARK.md). An anchor counts when it
-    // had a pose in at least half of the frames; 1: one frame's poses.
+    // had a pose in at least half of the frames; 1: one frame's poses. Registered frames
+    // only (FrameOutput::registered): a predicted pose adds no measurement.
     int geo_average_frames = 100;
     // road: the plane is estimated on the fused cloud of a frame at least this many frames
     // after the root's first: with deskew, FusionEngine re-anchors the root's reference

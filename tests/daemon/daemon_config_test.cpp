@@ -69,6 +69,23 @@ output:
     }
 }
 
+TEST_F(DaemonConfigTest, FramesAreDroppedWhenBehindUnlessTheConfigSaysPredict) {
+    EXPECT_FALSE(parse_daemon_config(sensors_, "s.yaml", dir_.path()).sync.predict_when_behind);
+    const auto drop =
+        parse_daemon_config(sensors_ + "sync: {when_behind: drop}\n", "s.yaml", dir_.path());
+    EXPECT_FALSE(drop.sync.predict_when_behind);
+    const auto predict =
+        parse_daemon_config(sensors_ + "sync: {when_behind: predict}\n", "s.yaml", dir_.path());
+    EXPECT_TRUE(predict.sync.predict_when_behind);
+    try {
+        parse_daemon_config(sensors_ + "sync: {when_behind: skip}\n", "s.yaml", dir_.path());
+        FAIL() << "no error";
+    } catch (const station::ConfigError& error) {
+        EXPECT_THAT(error.what(),
+                    HasSubstr("sync.when_behind: expected predict or drop, got \"skip\""));
+    }
+}
+
 TEST_F(DaemonConfigTest, EveryPaperParameterIsAKey) {
     const auto c = parse_daemon_config(sensors_ + R"(
 registration:

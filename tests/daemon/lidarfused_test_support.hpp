@@ -51,6 +51,8 @@ struct PosesSeen {
 // What the test's DDS readers saw of one run.
 struct DdsSeen {
     std::set<std::int64_t> cloud_stamps, pose_frames;
+    // Frames whose poses message calls a sensor "predicted" (sync.when_behind: predict).
+    std::set<std::int64_t> predicted_frames;
     std::size_t clouds = 0, poses = 0, tf_messages = 0, points = 0;
     std::size_t sampled_points = 0, sampled_with_intensity = 0;  // every 97th point
     std::set<int> cloud_sensor_ids;
@@ -115,6 +117,8 @@ struct DaemonReaders {
                 const auto& s = m.sensors._buffer[i];
                 seen->note_stamp(daemon::from_ros_time(s.stamp));
                 if (s.included && s.pose_valid) p.stamped.push_back(s.name);
+                if (std::string(s.track_state) == "predicted")
+                    seen->predicted_frames.insert(m.frame_index);
             }
             seen->frames.push_back(std::move(p));
         });

@@ -58,6 +58,7 @@ TEST(StatusLine, ASensorWithoutMetadataSaysWhyOrWhereItIsFetchedFrom) {
 TEST(StatusLine, TheWholeLineKeepsItsCountersFirst) {
     PipelineStats st;
     st.frames_fused = 173;
+    st.frames_predicted = 40;
     st.mean_fusion_ms = 50.04;
     st.frame_queue_drops = 20;
     st.scan_queue_drops = 7;
@@ -65,8 +66,8 @@ TEST(StatusLine, TheWholeLineKeepsItsCountersFirst) {
     st.world_frame = "road";
     st.sensors = {sensor("lidar0", SensorState::kOk, 5)};
     EXPECT_EQ(status_line(st),
-              "fused 173 frames, 50.0 ms/frame, 27 dropped, 75 unpublished (before the road world "
-              "frame); sensors: 1 OK");
+              "fused 173 frames (40 at predicted poses), 50.0 ms/frame, 27 dropped, 75 unpublished "
+              "(before the road world frame); sensors: 1 OK");
 }
 
 }  // namespace

@@ -1,0 +1,83 @@
+// FusionEngine::process with FrameMode::kPredict: a frame fused at each sensor's pose
+// predicted from its registered frames (see fusion_engine.hpp), for a caller that is behind.
+// What a prediction costs in accuracy: the sway moves a pose by its acceleration times half
+// the square of the time since the last registered frame, a small share of a voxel at sensor
+// rate; measured against the simulator's truth in bench/BENCHMARK.md ("Frames fused at
+// predicted poses").
+#include <omp.h>
+
+#include <algorithm>
+
+#include "core/pipeline/fusion_engine_impl.hpp"
+
+namespace lidarfuse::core {
+
+// A frame can be predicted when registering it would do nothing that cannot wait (no
+// initial registration waits to be applied, no sensor to register again) and every tracked
+// sensor's velocity is known from three registered poses within deskew_max_span_s. On a
+// machine so busy that registered frames lie further apart, a prediction would carry the
+// sway's acceleration over that whole gap: the frame is registered (or dropped) instead.
+bool FusionEngine::Impl::can_predict(const FrameInput& in) const {
+    if (in.sensors.size() != n || !tracks[params.root_sensor]->initialised()) return false;
+    if (pending && pending->job->done()) return false;
+    for (std::size_t s = 0; s < n; ++s) {
+        if (needs_reinit[s]) return false;
+        if (tracks[s]->initialised() && !tracks[s]->velocity_known()) return false;
+    }
+    return last_registered_health.size() == n;
+}
+
+// Each tracked sensor with a scan: its points deskewed, cropped and flagged (the background
+// model sees every frame, as in a registered one), placed at its predicted pose.
+FrameOutput FusionEngine::Impl::process_predicted(const FrameInput& in) {
+    const Stopwatch frame_time;
+    FrameWork w = begin_frame(in, false);
+    const Stopwatch prep_time;
+    w.predicted.assign(n, Eigen::Isometry3d::Identity());
+    for (std::size_t s = 0; s < n; ++s) {
+        if (!tracks[s]->initialised()) continue;
+        w.predicted[s] = tracks[s]->predict_smoothed(in.sensors[s].t_ns);
+        if (w.usable[s]) w.active.push_back(s);
+    }
+    const int threads = std::max(1, params.num_threads);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+    for (std::size_t k = 0; k < w.active.size(); ++k) {
+        const std::size_t s = w.active[k];
+        tracks[s]->prepare_points(in.sensors[s], w.predicted[s]);
+    }
+    w.out.timings.preprocess_ms = prep_time.milliseconds();
+    w.out.initial_registration_pending = pending.has_value();
+    report_predicted_poses(&w);
+    build_fused_cloud(&w);
+    w.out.timings.total_ms = frame_time.milliseconds();
+    return std::move(w.out);
+}
+
+// Poses as predicted; the registration figures (fitness, inliers, conditioning, residual)
+// of the last registered frame, as nothing was measured in this one.
+void FusionEngine::Impl::report_predicted_poses(FrameWork* w) const {
+    FrameOutput& out = w->out;
+    for (std::size_t s = 0; s < n; ++s) {
+        SensorHealth& h = out.health[s];
+        const SensorTrack& track = *tracks[s];
+        if (!track.initialised()) {
+            h.state = TrackState::kUninitialised;
+            continue;
+        }
+        const SensorHealth& last = last_registered_health[s];
+        h.fitness_previous = last.fitness_previous;
+        h.fitness_reference = last.fitness_reference;
+        h.inliers_reference = last.inliers_reference;
+        h.min_hessian_eigenvalue = last.min_hessian_eigenvalue;
+        h.max_edge_residual_sigma = last.max_edge_residual_sigma;
+        h.registration_points = last.registration_points;
+        h.pose_valid = true;
+        out.T_root_sensor[s] = w->predicted[s];
+        h.state = w->usable[s] ? TrackState::kPredicted : TrackState::kMissing;
+        if (!w->usable[s]) continue;
+        h.static_points = track.current_points().size() - track.current_dynamic_count();
+        h.dynamic_points = track.current_dynamic_count();
+    }
+}
+
+}  // namespace lidarfuse::core
