@@ -178,11 +178,10 @@ TEST(LidarfusedRecord, FuseOnTheRecordingFolderEqualsFuseOnTheCaptureSent) {
     DaemonReaders readers(domain);
     DdsSeen seen;
     FedRun run;
-    ASSERT_NO_FATAL_FAILURE(run_fed_daemon(
-        d / "sim" / "daemon.yaml", d / "daemon.log",
-        test::tool_path() + " replay --quiet " + (d / "sim" / "capture.pcap").string() +
-            " --port-map 7502:" + std::to_string(p0) + " --port-map 7504:" + std::to_string(p0 + 2),
-        12000, &readers, &seen, &run));
+    ASSERT_NO_FATAL_FAILURE(
+        run_fed_daemon(d / "sim" / "daemon.yaml", d / "daemon.log",
+                       replay_two_sensors("--quiet", d / "sim" / "capture.pcap", p0), 12000,
+                       &readers, &seen, &run));
     EXPECT_EQ(
         std::stoul(seen.last_pipeline["record_datagrams"]),
         std::stoul(test::line_after(run.feed_output, "replay_datagrams_sent ").value_or("0")));

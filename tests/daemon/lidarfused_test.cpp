@@ -262,6 +262,62 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
     EXPECT_THAT(out, HasSubstr("eval_mean_strict_rmse_trans 0.0"));  // centimetres, not metres
 }
 
+// Fusion far behind the sensors: a capture replayed at 4x into a frame queue deep enough
+// for all of it (sync.queue_depth 64), so a frame always waits when fusion finishes one.
+// With sync.when_behind: predict the frames alternate registered / predicted once every
+// sensor has three registered poses, none is dropped, every one is published, and the
+// predicted poses are in the run's accuracy.
+TEST(Lidarfused, FramesThatWaitWhileFusionIsBehindAreFusedAtPredictedPoses) {
+    test::use_loopback_dds();
+    test::TempDir dir("lfd-predict");
+    const auto d = dir.path();
+    ASSERT_NO_FATAL_FAILURE(simulate_two_sensors(d / "sim", 3.0));
+    const auto p0 = static_cast<std::uint16_t>(base_port() + 12);  // beside the other tests'
+    const int domain = test::unique_domain_id();
+    std::ofstream(d / "sim" / "daemon.yaml")
+        << "station: test\nroot: lidar0\nsensors:\n"
+        << "  - {name: lidar0, udp_port: " << p0 << ", metadata: lidar0.json}\n"
+        << "  - {name: lidar1, udp_port: " << p0 + 2 << ", metadata: lidar1.json}\n"
+        << "network: {bind_address: 127.0.0.1}\nsync: {queue_depth: 64, when_behind: predict}\n"
+        << "world: {frame: sensor}\noutput:\n  directory: " << (d / "out").string() << "\n"
+        << "  dds: {domain_id: " << domain << ", frame_id: station_world}\n";
+    DaemonReaders readers(domain);
+    DdsSeen seen;
+    FedRun run;
+    ASSERT_NO_FATAL_FAILURE(
+        run_fed_daemon(d / "sim" / "daemon.yaml", d / "daemon.log",
+                       replay_two_sensors("--rate 4", d / "sim" / "capture.pcap", p0), 3000,
+                       &readers, &seen, &run));
+    const std::string log = read_text(d / "daemon.log");
+    const std::size_t fused = std::stoul(seen.last_pipeline["frames_fused"]);
+    const std::size_t predicted = std::stoul(seen.last_pipeline["frames_predicted"]);
+    std::printf("lidarfused behind: %zu frames fused, %zu at predicted poses, %s dropped\n", fused,
+                predicted, seen.last_pipeline["frame_queue_drops"].c_str());
+    EXPECT_EQ(seen.last_pipeline["frame_queue_drops"], "0") << log;
+    // Three registered root frames, then one predicted, at the least (the sanitizers' fusion
+    // on a loaded machine fuses about a dozen in the test's time).
+    if (fused < 5) GTEST_SKIP() << "fusion too slow for the run: " << fused << " frames fused";
+    EXPECT_GT(predicted, 0u) << log;
+    EXPECT_LE(predicted, fused / 2 + 1)
+        << "a predicted frame is always followed by a registered one";
+    EXPECT_EQ(seen.poses, fused) << "every frame published, predicted or not";
+    EXPECT_EQ(seen.predicted_frames.size(), predicted);
+    for (const std::int64_t f : seen.predicted_frames)
+        EXPECT_EQ(seen.predicted_frames.count(f + 1), 0u) << "frames " << f << " and " << f + 1;
+    EXPECT_THAT(log, HasSubstr("at predicted poses)"));  // the stop line says how many
+    std::string eval;
+    ASSERT_EQ(test::run_command(test::tool_path() + " eval --gt " +
+                                    (d / "sim" / "ground_truth.csv").string() + " --poses " +
+                                    (d / "out" / "poses.csv").string() + " --root lidar0",
+                                &eval),
+              0)
+        << eval;
+    const double rmse_m =
+        std::stod(test::line_after(eval, "eval_mean_strict_rmse_trans ").value_or("1e9"));
+    std::printf("lidarfused behind: strict RMSE %.4f m over every pose written\n", rmse_m);
+    EXPECT_LT(rmse_m, 0.02) << eval;
+}
+
 // `lidarfuse sim --live` sends a station's packets in real time while it simulates them
 // (no capture file): the daemon fuses them and publishes every fused frame on DDS.
 TEST(Lidarfused, FusesALiveSimulatedStationOntoDds) {

@@ -244,6 +244,14 @@ inline void simulate_two_sensors(const std::filesystem::path& out, double second
         << text;
 }
 
+// `lidarfuse replay OPTIONS CAPTURE` of simulate_two_sensors' capture into ports p0 and
+// p0 + 2 (the simulator's sensors send to 7502 and 7504).
+inline std::string replay_two_sensors(const std::string& options,
+                                      const std::filesystem::path& capture, std::uint16_t p0) {
+    return test::tool_path() + " replay " + options + " " + capture.string() +
+           " --port-map 7502:" + std::to_string(p0) + " --port-map 7504:" + std::to_string(p0 + 2);
+}
+
 inline std::string read_text(const std::filesystem::path& file) {
     std::ifstream in(file);
     return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
