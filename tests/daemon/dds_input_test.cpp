@@ -191,12 +191,14 @@ std::size_t publish_as_driver_clouds(const station::StationConfig& station, cons
 // A station whose two sensors are ROS 2 driver topics: lidarfused registers them from
 // nothing and tracks them as it would Ouster sensors. Without per-point times there is no
 // deskew, so the bound is looser than an Ouster station's (1.5 cm strict in the daemon's
-// replay tests); measured 0.6 cm / 0.05 deg.
+// replay tests); measured 0.7 cm / 0.05 deg over 5 s.
 TEST(DdsInputPipeline, SensorsFromDdsTopicsAreRegisteredAndFused) {
     test::use_loopback_dds();
     test::TempDir dir("ddsin");
     const fs::path sim = dir.path() / "sim";
-    ASSERT_NO_FATAL_FAILURE(lidarfused_test::simulate_two_sensors(sim, 3.0));
+    // 5 s: the initial registration (about 1 s idle, 3 s and more under a parallel ctest) is
+    // applied on the first frame after it finishes, so frames must still come then.
+    ASSERT_NO_FATAL_FAILURE(lidarfused_test::simulate_two_sensors(sim, 5.0));
     const int domain = test::unique_domain_id();
     const std::string prefix = "rt/ddsin" + std::to_string(domain) + "/";
     std::ofstream(dir.path() / "station.yaml")
@@ -221,7 +223,7 @@ TEST(DdsInputPipeline, SensorsFromDdsTopicsAreRegisteredAndFused) {
     const station::StationConfig sim_station = station::load_station_config(sim / "station.yaml");
     const std::size_t written =
         publish_as_driver_clouds(sim_station, sim / "capture.pcap", prefix, &writers);
-    EXPECT_EQ(written, 120u);  // 2 sensors x 3 s x 20 Hz
+    EXPECT_EQ(written, 200u);  // 2 sensors x 5 s x 20 Hz
     // Fusion catches up (the initial registration ran beside it), then the pipeline stops.
     std::uint64_t fused = 0;
     test::eventually(
@@ -238,19 +240,19 @@ TEST(DdsInputPipeline, SensorsFromDdsTopicsAreRegisteredAndFused) {
         ASSERT_TRUE(stats.sensors[s].dds);
         // The reader keeps the last 8 clouds: on a loaded machine (a parallel ctest) its
         // thread can be late long enough to lose one, by design. Every cloud taken is a scan.
-        EXPECT_GE(stats.sensors[s].dds->clouds, 54u) << s;
-        EXPECT_LE(stats.sensors[s].dds->clouds, 60u) << s;
+        EXPECT_GE(stats.sensors[s].dds->clouds, 90u) << s;
+        EXPECT_LE(stats.sensors[s].dds->clouds, 100u) << s;
         EXPECT_EQ(stats.sensors[s].dds->refused, 0u) << s;
         EXPECT_EQ(stats.sensors[s].dds->frame_id, stats.sensors[s].name);
         EXPECT_EQ(stats.sensors[s].scans, stats.sensors[s].dds->clouds) << s;
     }
     if (!stats.sensors[1].pose_valid) {
-        // Under the sanitizers the initial registration can outlast the 3 s of clouds.
+        // Under the sanitizers the initial registration can outlast the 5 s of clouds.
         GTEST_SKIP() << "the initial registration did not finish within the run ("
                      << stats.frames_fused << " frames fused): a loaded machine or a sanitizer";
     }
     EXPECT_TRUE(stats.sensors[0].pose_valid);
-    EXPECT_GE(stats.frames_synchronised, 50u);
+    EXPECT_GE(stats.frames_synchronised, 85u);
     std::printf("ROS 2 driver topics: %llu frames synchronised, %llu fused\n",
                 static_cast<unsigned long long>(stats.frames_synchronised),
                 static_cast<unsigned long long>(stats.frames_fused));
