@@ -6,22 +6,24 @@
 
 #include <cmath>
 #include <cstdio>
-#include <optional>
-#include <random>
 #include <thread>
 
 #include "core/common/se3.hpp"
 #include "core/pipeline/initial_registration_job.hpp"
+#include "tests/core/fusion_engine_scenes.hpp"
 #include "tests/core/synthetic_lidar_scene.hpp"
 
 namespace lidarfuse::core {
 namespace {
 
+using engine_scenes::Errors;
+using engine_scenes::fast_sway_frame;
+using engine_scenes::fast_sway_truth;
+using engine_scenes::kFramePeriodS;
+using engine_scenes::kSensors;
+using engine_scenes::test_params;
 using testing::ScanPattern;
 using testing::Scene;
-
-constexpr int kSensors = 3;
-constexpr double kFramePeriodS = 0.05;
 
 // Each pole head sways a few centimetres and a fraction of a degree (PAPER.md's pendulum,
 // simplified to sines with distinct phases).
@@ -66,19 +68,6 @@ FrameInput make_frame(int frame, const std::vector<Eigen::Isometry3d>& poses,
     }
     return in;
 }
-
-FusionParams test_params() {
-    FusionParams p;
-    p.voxel_size_m = 0.5;
-    p.window_frames = 5;
-    p.num_threads = 2;
-    p.initial_registration_inline = true;
-    return p;
-}
-
-struct Errors {
-    double trans_m = 0, rot_deg = 0;
-};
 
 // Strict error: estimate against ground truth relative to the root at frame 0.
 Errors error_of(const Eigen::Isometry3d& T_root_sensor, int sensor, int frame) {
@@ -136,57 +125,11 @@ TEST(FusionEngine, MissingSensorFallsBackAndRejoins) {
     }
 }
 
-// Deskew: poles swaying fast (~0.45 m/s, ~4 deg/s) and every column cast from the pose of
-// its own instant, as a spinning sensor measures. The rigid fit of an uncompensated sweep
+// Deskew: the fast sway (fusion_engine_scenes.hpp). The rigid fit of an uncompensated sweep
 // lands near the mid-sweep pose, so the pose at the scan timestamp is off by the motion over
 // half a sweep; with deskew (and the reference frame deskewed once its motion is known) the
 // error drops to the registration's own.
-Eigen::Isometry3d fast_pose(int sensor, double t) {
-    static const int kPick[kSensors] = {0, 2, 3};
-    const auto nominal = testing::street_sensor_poses()[static_cast<std::size_t>(kPick[sensor])];
-    Eigen::Isometry3d sway = Eigen::Isometry3d::Identity();
-    sway.translation() = Eigen::Vector3d(0.15 * std::sin(3.0 * t + sensor),
-                                         0.1 * std::cos(2.5 * t + 2 * sensor), 0.0);
-    sway.linear() =
-        (Eigen::AngleAxisd(0.03 * std::sin(2.5 * t + sensor), Eigen::Vector3d::UnitX()) *
-         Eigen::AngleAxisd(0.02 * std::cos(2.2 * t + sensor), Eigen::Vector3d::UnitY()))
-            .toRotationMatrix();
-    return nominal * sway;
-}
-
-// One sweep starting at t0_s: column c fires at t0_s + c * period / columns from the pose of
-// that instant; points in the sensor frame of that instant, with their time offsets.
-SensorScanInput moving_scan(const Scene& scene, int sensor, double t0_s, std::uint32_t seed) {
-    ScanPattern pattern;
-    pattern.columns = 512;
-    std::mt19937 rng(seed);
-    std::normal_distribution<double> noise(0.0, pattern.range_noise_sigma_m);
-    SensorScanInput scan;
-    scan.present = true;
-    scan.t_ns = static_cast<std::int64_t>(std::llround(t0_s * 1e9));
-    const double d = M_PI / 180.0;
-    for (int c = 0; c < pattern.columns; ++c) {
-        const double dt = kFramePeriodS * c / pattern.columns;
-        const Eigen::Isometry3d T = fast_pose(sensor, t0_s + dt);
-        const double az = 2.0 * M_PI * c / pattern.columns;
-        for (int b = 0; b < pattern.beams; ++b) {
-            const double el = (pattern.min_elevation_deg +
-                               (pattern.max_elevation_deg - pattern.min_elevation_deg) * b /
-                                   (pattern.beams - 1)) *
-                              d;
-            const Eigen::Vector3d dir(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
-                                      std::sin(el));
-            const double hit = testing::cast_ray(scene, T.translation(), T.linear() * dir);
-            const double range = hit + noise(rng);
-            if (!std::isfinite(hit) || hit > pattern.max_range_m || range < pattern.min_range_m)
-                continue;
-            scan.points.push_back(range * dir);
-            scan.point_dt_s.push_back(static_cast<float>(dt));
-        }
-    }
-    return scan;
-}
-
+//
 // Strict RMSE (translation m, rotation deg) of `frames` frames of the fast sway with
 // per-column timing, over frames first_scored.., against the pose at each scan's timestamp.
 // A handed-out initial registration (initial_registration_inline off) runs at job_frame.
@@ -196,16 +139,9 @@ Errors fast_sway_rmse(const FusionParams& params, int first_scored, int frames =
     double sum_t = 0, sum_r = 0;
     int count = 0;
     const Scene scene = testing::street_scene();
-    const Eigen::Isometry3d root0 = fast_pose(0, 1.0);
     std::shared_ptr<InitialRegistrationJob> job;
     for (int f = 0; f < frames; ++f) {
-        FrameInput in;
-        for (int s = 0; s < kSensors; ++s) {
-            const double t0 = 1.0 + f * kFramePeriodS + s * 0.011;
-            in.sensors.push_back(
-                moving_scan(scene, s, t0, static_cast<std::uint32_t>(1000 * f + s)));
-        }
-        const auto out = engine.process(in);
+        const auto out = engine.process(fast_sway_frame(scene, f));
         EXPECT_TRUE(out.graph_usable) << "frame " << f;
         if (out.initial_job) job = out.initial_job;
         if (job && f >= job_frame) {
@@ -216,8 +152,7 @@ Errors fast_sway_rmse(const FusionParams& params, int first_scored, int frames =
         for (int s = 0; s < kSensors; ++s) {
             const auto k = static_cast<std::size_t>(s);
             EXPECT_TRUE(out.health[k].pose_valid);
-            const Eigen::Isometry3d truth =
-                root0.inverse() * fast_pose(s, 1.0 + f * kFramePeriodS + s * 0.011);
+            const Eigen::Isometry3d truth = fast_sway_truth(f, s);
             const double et = translation_error_m(out.T_root_sensor[k], truth);
             const double er = rotation_error_deg(out.T_root_sensor[k], truth);
             sum_t += et * et;
@@ -341,107 +276,6 @@ TEST(FusionEngine, LateRegisteredSensorsAreAsAccurateAsInline) {
                 handed_out.trans_m, handed_out.rot_deg);
     EXPECT_LT(handed_out.trans_m, 1.5 * inline_registration.trans_m + 0.002);
     EXPECT_LT(handed_out.rot_deg, 1.5 * inline_registration.rot_deg + 0.005);
-}
-
-// The fast sway, `frames` frames, frame f asked for in mode_of(f) or not given at all
-// (nullopt: a frame dropped); the outputs by frame, an empty one for a dropped frame.
-template <typename ModeOf>
-std::vector<FrameOutput> fast_sway_run(const FusionParams& params, int frames, ModeOf mode_of) {
-    FusionEngine engine(kSensors, params);
-    const Scene scene = testing::street_scene();
-    std::vector<FrameOutput> outs(static_cast<std::size_t>(frames));
-    for (int f = 0; f < frames; ++f) {
-        const std::optional<FrameMode> mode = mode_of(f);
-        if (!mode) continue;
-        FrameInput in;
-        for (int s = 0; s < kSensors; ++s) {
-            const double t0 = 1.0 + f * kFramePeriodS + s * 0.011;
-            in.sensors.push_back(
-                moving_scan(scene, s, t0, static_cast<std::uint32_t>(1000 * f + s)));
-        }
-        outs[static_cast<std::size_t>(f)] = engine.process(in, *mode);
-    }
-    return outs;
-}
-
-// Strict RMSE of the fast sway's frames first_scored.. that `pick` selects.
-template <typename Pick>
-Errors fast_sway_errors(const std::vector<FrameOutput>& outs, int first_scored, Pick pick) {
-    const Eigen::Isometry3d root0 = fast_pose(0, 1.0);
-    double sum_t = 0, sum_r = 0;
-    int count = 0;
-    for (int f = first_scored; f < static_cast<int>(outs.size()); ++f) {
-        const FrameOutput& out = outs[static_cast<std::size_t>(f)];
-        if (out.T_root_sensor.empty() || !pick(out)) continue;
-        for (int s = 0; s < kSensors; ++s) {
-            const auto k = static_cast<std::size_t>(s);
-            const Eigen::Isometry3d truth =
-                root0.inverse() * fast_pose(s, 1.0 + f * kFramePeriodS + s * 0.011);
-            const Eigen::Isometry3d& T = out.T_root_sensor[k];
-            sum_t += std::pow(translation_error_m(T, truth), 2);
-            sum_r += std::pow(rotation_error_deg(T, truth), 2);
-            ++count;
-        }
-    }
-    return count ? Errors{std::sqrt(sum_t / count), std::sqrt(sum_r / count)} : Errors{};
-}
-
-// A caller that is behind asks for every other frame at its predicted poses. The engine
-// registers where it must (the first frames: no root, no velocity), fuses the others at
-// the constant-velocity prediction with the last registered frame's figures, and the
-// registered frames stay as accurate as when every frame is registered.
-TEST(FusionEngine, FramesFusedAtPredictedPosesStayCloseToTheSway) {
-    const FusionParams params = test_params();
-    constexpr int kFrames = 24, kFirstScored = 6;
-    const auto behind = [](int f) { return f >= kFirstScored && f % 2 == 1; };
-    using Mode = std::optional<FrameMode>;
-    const auto every =
-        fast_sway_run(params, kFrames, [](int) { return Mode(FrameMode::kRegister); });
-    const auto halved = fast_sway_run(params, kFrames, [&](int f) {
-        return Mode(f <= 1 || behind(f) ? FrameMode::kPredict : FrameMode::kRegister);
-    });
-    const auto dropped = fast_sway_run(
-        params, kFrames, [&](int f) { return behind(f) ? Mode() : Mode(FrameMode::kRegister); });
-    for (int f = 0; f < kFrames; ++f) {
-        const FrameOutput& out = halved[static_cast<std::size_t>(f)];
-        const bool predicted = f >= kFirstScored && f % 2 == 1;
-        ASSERT_EQ(out.registered, !predicted) << "frame " << f;
-        EXPECT_EQ(out.frame_index, f);
-        EXPECT_GT(out.cloud.points.size(), 1000u) << "frame " << f;
-        if (!predicted) continue;
-        EXPECT_EQ(out.timings.registration_ms, 0.0);
-        const FrameOutput& before = halved[static_cast<std::size_t>(f - 1)];
-        for (std::size_t s = 0; s < kSensors; ++s) {
-            const SensorHealth& h = out.health[s];
-            EXPECT_TRUE(h.pose_valid);
-            EXPECT_EQ(h.state, TrackState::kPredicted) << "frame " << f << " sensor " << s;
-            EXPECT_EQ(h.fitness_reference, before.health[s].fitness_reference);
-            EXPECT_GT(h.static_points, 1000u);
-        }
-    }
-    const auto registered = [](const FrameOutput& o) { return o.registered; };
-    const auto predicted = [](const FrameOutput& o) { return !o.registered; };
-    const auto all = [](const FrameOutput&) { return true; };
-    const Errors reference = fast_sway_errors(every, kFirstScored, all);
-    const Errors halved_registered = fast_sway_errors(halved, kFirstScored, registered);
-    const Errors halved_predicted = fast_sway_errors(halved, kFirstScored, predicted);
-    const Errors halved_dropped = fast_sway_errors(dropped, kFirstScored, all);
-    std::printf("fusion_engine_test_fast_sway_rmse_half_dropped %.4f m %.4f deg\n",
-                halved_dropped.trans_m, halved_dropped.rot_deg);
-    // Registered around predicted frames as accurately as with those frames dropped (the
-    // background model is the one thing the predicted frames change).
-    EXPECT_LT(halved_registered.trans_m, 1.1 * halved_dropped.trans_m + 0.001);
-    EXPECT_LT(halved_registered.rot_deg, 1.1 * halved_dropped.rot_deg + 0.005);
-    // The predicted frames about as close as the registered ones (a pose held instead of
-    // predicted would be 2 cm off here: the poles move at up to 0.45 m/s).
-    EXPECT_LT(halved_predicted.trans_m, 1.5 * halved_registered.trans_m);
-    EXPECT_LT(halved_predicted.rot_deg, 1.5 * halved_registered.rot_deg);
-    std::printf("fusion_engine_test_fast_sway_rmse_every_frame %.4f m %.4f deg\n",
-                reference.trans_m, reference.rot_deg);
-    std::printf("fusion_engine_test_fast_sway_rmse_half_registered %.4f m %.4f deg\n",
-                halved_registered.trans_m, halved_registered.rot_deg);
-    std::printf("fusion_engine_test_fast_sway_rmse_half_predicted %.4f m %.4f deg\n",
-                halved_predicted.trans_m, halved_predicted.rot_deg);
 }
 
 TEST(FusionParams, CovarianceNeighborsFollowTheVoxelSizeUnlessSet) {
