@@ -22,7 +22,7 @@ export CYCLONEDDS_URI='<General><Interfaces><NetworkInterface name="lo"/></Inter
 "$tool" sim --scenario straight --stations "$stations" --sensors-per-station "$sensors" \
     --station-spacing-m "$spacing" --seconds "$seconds" --quiet --out "$work/sim" >/dev/null
 
-# Station j's config: its sensors on ports 7502 + 100 j + 2 k, its cloud on rt/station<j>.
+# The segment's config: its sensors are the stations' clouds.
 {
     echo "station: segment"; echo "root: station0"; echo "sensors:"
     for j in $(seq 0 $((stations - 1))); do
@@ -34,6 +34,7 @@ export CYCLONEDDS_URI='<General><Interfaces><NetworkInterface name="lo"/></Inter
 pids=()
 "$daemon" --config "$work/segment.yaml" >"$work/segment.log" 2>&1 &
 segment_pid=$!
+# Station j's config: its sensors on ports 7502 + 100 j + 2 k, its cloud on rt/station<j>.
 for j in $(seq 0 $((stations - 1))); do
     {
         echo "station: station$j"; echo "root: lidar0"; echo "sensors:"

@@ -1,11 +1,8 @@
 // FusionEngine::process with FrameMode::kPredict: a frame fused at each sensor's pose
 // predicted from its registered frames (see fusion_engine.hpp), for a caller that is behind.
-// What a prediction costs in accuracy: the sway moves a pose by its acceleration times half
-// the square of the time since the last registered frame, a small share of a voxel at sensor
-// rate; measured against the simulator's truth in bench/BENCHMARK.md ("Frames fused at
-// predicted poses").
-#include <omp.h>
-
+// A prediction's error grows with the sway's acceleration times the square of the time
+// since the registered poses it comes from; measured against the simulator's truth in
+// bench/BENCHMARK.md ("Frames fused at predicted poses").
 #include <algorithm>
 
 #include "core/pipeline/fusion_engine_impl.hpp"

@@ -64,31 +64,30 @@ Eigen::Isometry3d SensorTrack::predict(std::int64_t t_ns) const {
            se3_exp(body_twist_per_s(before.T_root_sensor, last.T_root_sensor, dt) * ahead);
 }
 
-bool SensorTrack::velocity_known() const {
-    if (history_.size() < 3) return false;
-    const double span_s =
-        static_cast<double>(history_.back().t_ns - history_[history_.size() - 3].t_ns) * kNsToS;
-    return span_s > 0 && span_s <= params_.deskew_max_span_s;
-}
-
-Eigen::Isometry3d SensorTrack::predict_smoothed(std::int64_t t_ns) const {
-    const PoseSample& last = history_.empty() ? PoseSample{} : history_.back();
-    const double ahead = static_cast<double>(t_ns - last.t_ns) * kNsToS;
-    if (!velocity_known() || ahead < 0 || ahead > 1.0) return predict(t_ns);
-    const PoseSample& a = history_[history_.size() - 3];
-    const double span_s = static_cast<double>(last.t_ns - a.t_ns) * kNsToS;
-    return last.T_root_sensor *
-           se3_exp(body_twist_per_s(a.T_root_sensor, last.T_root_sensor, span_s) * ahead);
-}
-
-Vector6d SensorTrack::deskew_twist() const {
-    if (!params_.deskew || history_.size() < 3) return Vector6d::Zero();
+std::optional<Vector6d> SensorTrack::recent_twist() const {
+    if (history_.size() < 3) return std::nullopt;
     const PoseSample& a = history_[history_.size() - 3];
     const PoseSample& b = history_.back();
     const double span_s = static_cast<double>(b.t_ns - a.t_ns) * kNsToS;
-    if (!(span_s > 0) || span_s > params_.deskew_max_span_s) return Vector6d::Zero();
-    const Vector6d twist = body_twist_per_s(a.T_root_sensor, b.T_root_sensor, span_s);
-    return within_sway_limits(twist, params_) ? twist : Vector6d::Zero();
+    if (!(span_s > 0) || span_s > params_.deskew_max_span_s) return std::nullopt;
+    return body_twist_per_s(a.T_root_sensor, b.T_root_sensor, span_s);
+}
+
+bool SensorTrack::velocity_known() const { return recent_twist().has_value(); }
+
+Eigen::Isometry3d SensorTrack::predict_smoothed(std::int64_t t_ns) const {
+    const std::optional<Vector6d> twist = recent_twist();
+    if (!twist) return predict(t_ns);
+    const PoseSample& last = history_.back();
+    const double ahead = static_cast<double>(t_ns - last.t_ns) * kNsToS;
+    if (ahead < 0 || ahead > 1.0) return predict(t_ns);
+    return last.T_root_sensor * se3_exp(*twist * ahead);
+}
+
+Vector6d SensorTrack::deskew_twist() const {
+    if (!params_.deskew) return Vector6d::Zero();
+    const std::optional<Vector6d> twist = recent_twist();
+    return twist && within_sway_limits(*twist, params_) ? *twist : Vector6d::Zero();
 }
 
 std::optional<Eigen::Isometry3d> SensorTrack::deskew_reference(std::int64_t frame) {

@@ -120,6 +120,9 @@ public:
     std::size_t current_dynamic_count() const { return dynamic_count_; }
 
 private:
+    // The mean body twist (per second) over the last three poses, when they lie within
+    // FusionParams::deskew_max_span_s: what deskew_twist() and predict_smoothed() move by.
+    std::optional<Vector6d> recent_twist() const;
     void crop_and_deskew(const SensorScanInput& scan, const Vector6d& twist_per_s);
     // Downsamples on the grid of FusionParams::voxel_grid_in_root_frame, at T_root_sensor.
     void build_current_target(bool static_only, const Eigen::Isometry3d& T_root_sensor);
