@@ -89,7 +89,7 @@ FrameWork FusionEngine::Impl::begin_frame(const FrameInput& in, bool registered)
     w.usable.assign(n, 0);
     for (std::size_t s = 0; s < n; ++s) {
         const auto& scan = in.sensors[s];
-        w.usable[s] = scan.present && scan.points.size() >= params.min_scan_points;
+        w.usable[s] = usable(scan);
         out.t_ns[s] = scan.t_ns;
         out.health[s].included = w.usable[s] != 0;
         out.health[s].points_in = scan.points.size();

@@ -38,12 +38,12 @@
 // A caller that cannot keep up with the frame rate (lidarfused on a busy machine) may ask
 // for a frame to be fused at its predicted poses instead (FrameMode::kPredict): each
 // sensor's scan is deskewed, cropped and put through the background model, and placed at
-// the constant-velocity prediction from its last registered poses; no target, no edge, no
+// a constant-acceleration fit over its recent registered poses; no target, no edge, no
 // solve. Registration goes on from the registered frames exactly as if the predicted ones
 // had not been there, except that the background model has seen them. Where a frame must
 // be registered (the root not tracked yet, an initial registration to apply, a sensor to
-// register again, a sensor without three registered poses within deskew_max_span_s),
-// kPredict registers it.
+// register again, a sensor whose pose cannot be trusted to the fit: see
+// FusionParams::prediction_*), kPredict registers it.
 //
 // Not thread safe: one thread calls process(). Internally it runs `num_threads` OpenMP
 // threads over sensors and edges. Deterministic for a given input and thread count.

@@ -106,6 +106,10 @@ struct FusionEngine::Impl {
     // FrameMode::kPredict (fusion_engine_prediction.cpp): whether this frame can be fused at
     // its predicted poses, and doing so.
     bool can_predict(const FrameInput& in) const;
+    // A scan that is there and holds enough points to register (FusionParams::min_scan_points).
+    bool usable(const SensorScanInput& scan) const {
+        return scan.present && scan.points.size() >= params.min_scan_points;
+    }
     FrameOutput process_predicted(const FrameInput& in);
     void report_predicted_poses(FrameWork* w) const;
 

@@ -1,8 +1,8 @@
 // FusionEngine::process with FrameMode::kPredict: a frame fused at each sensor's pose
 // predicted from its registered frames (see fusion_engine.hpp), for a caller that is behind.
-// A prediction's error grows with the sway's acceleration times the square of the time
-// since the registered poses it comes from; measured against the simulator's truth in
-// bench/BENCHMARK.md ("Frames fused at predicted poses").
+// How the poses are predicted and when they are trusted: SensorTrack::predict_unregistered,
+// FusionParams::prediction_*; measured against the simulator's truth in bench/BENCHMARK.md
+// ("How far ahead a pose can be predicted", "Frames fused at predicted poses").
 #include <algorithm>
 
 #include "core/pipeline/fusion_engine_impl.hpp"
@@ -11,15 +11,18 @@ namespace lidarfuse::core {
 
 // A frame can be predicted when registering it would do nothing that cannot wait (no
 // initial registration waits to be applied, no sensor to register again) and every tracked
-// sensor's velocity is known from three registered poses within deskew_max_span_s. On a
-// machine so busy that registered frames lie further apart, a prediction would carry the
-// sway's acceleration over that whole gap: the frame is registered (or dropped) instead.
+// sensor with a scan in it has a pose it can trust for its time
+// (SensorTrack::predict_unregistered: enough recent registered poses, within reach, and a
+// fit that its last registered frame confirmed). On a machine so busy that registered
+// frames lie further apart, the frame is registered (or dropped) instead.
 bool FusionEngine::Impl::can_predict(const FrameInput& in) const {
     if (in.sensors.size() != n || !tracks[params.root_sensor]->initialised()) return false;
     if (pending && pending->job->done()) return false;
     for (std::size_t s = 0; s < n; ++s) {
         if (needs_reinit[s]) return false;
-        if (tracks[s]->initialised() && !tracks[s]->velocity_known()) return false;
+        const SensorScanInput& scan = in.sensors[s];
+        if (tracks[s]->initialised() && usable(scan) && !tracks[s]->predict_unregistered(scan.t_ns))
+            return false;
     }
     return last_registered_health.size() == n;
 }
@@ -33,7 +36,10 @@ FrameOutput FusionEngine::Impl::process_predicted(const FrameInput& in) {
     w.predicted.assign(n, Eigen::Isometry3d::Identity());
     for (std::size_t s = 0; s < n; ++s) {
         if (!tracks[s]->initialised()) continue;
-        w.predicted[s] = tracks[s]->predict_smoothed(in.sensors[s].t_ns);
+        // A tracked sensor without a scan keeps its last pose, as in a registered frame.
+        const std::optional<Eigen::Isometry3d> pose =
+            w.usable[s] ? tracks[s]->predict_unregistered(in.sensors[s].t_ns) : std::nullopt;
+        w.predicted[s] = pose ? *pose : tracks[s]->predict(in.sensors[s].t_ns);
         if (w.usable[s]) w.active.push_back(s);
     }
     const int threads = std::max(1, params.num_threads);

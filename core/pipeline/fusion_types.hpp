@@ -71,6 +71,22 @@ struct FusionParams {
     double deskew_max_rate_deg_s = 30.0;  // faster (a knock, a glitch): no deskew
     double deskew_max_speed_m_s = 3.0;
     int deskew_reference_after_frames = 3;
+    // Frames fused at predicted poses (FrameMode::kPredict, for a caller that is behind).
+    // A sensor's pose there is a constant-acceleration fit over its registered poses of the
+    // last prediction_window_s (at least prediction_min_poses of them), carried at most
+    // prediction_max_ahead_s past the newest (pose_extrapolation.hpp). Every registered
+    // frame checks the fit: the pose it would have predicted for that frame against the
+    // registered one; while that differs by more than prediction_max_error_m /
+    // prediction_max_error_deg (a sway too fast or too jerky for the fit, a glitch) the
+    // sensor's frames are registered, not predicted. The bounds are the accuracy the
+    // continuous registration is held to at voxel 1 m (2 cm / 0.05 deg): a predicted pose
+    // must not be the worst pose published. Figures: bench/BENCHMARK.md, "How far ahead a
+    // pose can be predicted".
+    double prediction_window_s = 0.4;
+    int prediction_min_poses = 4;
+    double prediction_max_ahead_s = 0.15;
+    double prediction_max_error_m = 0.02;
+    double prediction_max_error_deg = 0.05;
     // Fine edges between the reference frames: G-ICP between every pair of the first
     // registration's reference scans at this voxel size (m), once (with deskew: when the
     // references are deskewed, else on the first frame). The relative poses of the reference

@@ -73,15 +73,52 @@ std::optional<Vector6d> SensorTrack::recent_twist() const {
     return body_twist_per_s(a.T_root_sensor, b.T_root_sensor, span_s);
 }
 
-bool SensorTrack::velocity_known() const { return recent_twist().has_value(); }
+std::vector<PoseSample> SensorTrack::prediction_poses() const {
+    std::vector<PoseSample> poses;
+    if (history_.empty()) return poses;
+    const double window_ns = params_.prediction_window_s / kNsToS;
+    for (const PoseSample& p : history_) {
+        if (static_cast<double>(history_.back().t_ns - p.t_ns) <= window_ns) poses.push_back(p);
+    }
+    return poses;
+}
 
-Eigen::Isometry3d SensorTrack::predict_smoothed(std::int64_t t_ns) const {
-    const std::optional<Vector6d> twist = recent_twist();
-    if (!twist) return predict(t_ns);
-    const PoseSample& last = history_.back();
-    const double ahead = static_cast<double>(t_ns - last.t_ns) * kNsToS;
-    if (ahead < 0 || ahead > 1.0) return predict(t_ns);
-    return last.T_root_sensor * se3_exp(*twist * ahead);
+std::optional<Eigen::Isometry3d> SensorTrack::fitted_pose(std::int64_t t_ns) const {
+    const std::vector<PoseSample> poses = prediction_poses();
+    if (poses.empty() || static_cast<int>(poses.size()) < std::max(3, params_.prediction_min_poses))
+        return std::nullopt;
+    const double ahead_s = static_cast<double>(t_ns - poses.back().t_ns) * kNsToS;
+    if (ahead_s < 0 || ahead_s > params_.prediction_max_ahead_s) return std::nullopt;
+    return extrapolate_pose(poses, t_ns, 2);
+}
+
+std::optional<Eigen::Isometry3d> SensorTrack::predict_unregistered(std::int64_t t_ns) const {
+    if (prediction_misses_.empty()) return std::nullopt;
+    double trans2 = 0, rot2 = 0;
+    for (const auto& [t, r] : prediction_misses_) {
+        trans2 += t * t;
+        rot2 += r * r;
+    }
+    const double count = static_cast<double>(prediction_misses_.size());
+    if (std::sqrt(trans2 / count) > params_.prediction_max_error_m ||
+        std::sqrt(rot2 / count) > params_.prediction_max_error_deg)
+        return std::nullopt;
+    return fitted_pose(t_ns);
+}
+
+void SensorTrack::check_prediction(std::int64_t t_ns, const Eigen::Isometry3d& T_root_sensor) {
+    const std::optional<Eigen::Isometry3d> fitted = fitted_pose(t_ns);
+    // No fit within reach (too few poses, or registered frames further apart than a
+    // prediction may reach): the earlier checks say nothing about the poses to come.
+    if (!fitted) {
+        prediction_misses_.clear();
+        return;
+    }
+    const Eigen::Isometry3d miss = fitted->inverse() * T_root_sensor;
+    if (prediction_misses_.size() == kPredictionChecks)
+        prediction_misses_.erase(prediction_misses_.begin());
+    prediction_misses_.emplace_back(miss.translation().norm(),
+                                    rotation_angle_deg(Eigen::Matrix3d::Identity(), miss.linear()));
 }
 
 Vector6d SensorTrack::deskew_twist() const {
@@ -192,6 +229,7 @@ void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
     reference_frame_ = frame;
     T_root_reference_ = T_root_sensor;
     history_.clear();
+    prediction_misses_.clear();
     crop_and_deskew(scan, Vector6d::Zero());
     dynamic_.assign(points_.size(), 0);
     dynamic_count_ = 0;
@@ -213,6 +251,7 @@ void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
 void SensorTrack::reset() {
     initialised_ = false;
     history_.clear();
+    prediction_misses_.clear();
     reference_target_ = GicpCloud();
     previous_target_ = GicpCloud();
     current_target_ = GicpCloud();
@@ -277,8 +316,14 @@ void SensorTrack::prepare_points(const SensorScanInput& scan,
 
 void SensorTrack::finish_frame(std::int64_t frame, std::int64_t t_ns,
                                const Eigen::Isometry3d& T_root_sensor) {
+    check_prediction(t_ns, T_root_sensor);
     history_.push_back({frame, t_ns, T_root_sensor});
-    while (history_.size() > 3) history_.pop_front();
+    const double window_ns = params_.prediction_window_s / kNsToS;
+    std::size_t drop = 0;
+    while (history_.size() - drop > 3 &&
+           static_cast<double>(t_ns - history_[drop].t_ns) > window_ns)
+        ++drop;
+    history_.erase(history_.begin(), history_.begin() + static_cast<std::ptrdiff_t>(drop));
     previous_target_ = std::move(current_target_);
     current_target_ = GicpCloud();
     previous_in_reference_ = std::move(current_in_reference_);

@@ -5,22 +5,17 @@
 // Not thread safe; different tracks are independent (the engine prepares them in parallel).
 
 #include <cstdint>
-#include <deque>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "core/dynamics/background_model.hpp"
 #include "core/pipeline/fusion_types.hpp"
+#include "core/pipeline/pose_extrapolation.hpp"
 #include "core/preprocess/voxel_grid.hpp"
 #include "core/registration/gicp.hpp"
 
 namespace lidarfuse::core {
-
-struct PoseSample {
-    std::int64_t frame = 0;
-    std::int64_t t_ns = 0;
-    Eigen::Isometry3d T_root_sensor = Eigen::Isometry3d::Identity();
-};
 
 class SensorTrack {
 public:
@@ -40,15 +35,13 @@ public:
     // Constant-velocity prediction of the pose at t_ns from the last two poses.
     Eigen::Isometry3d predict(std::int64_t t_ns) const;
     // The pose at t_ns for a frame fused without registration (FrameMode::kPredict): the
-    // last pose moved on with the mean velocity over the last three poses (two periods, as
-    // in deskew_twist). That velocity carries less of the poses' registration noise than the
-    // last two poses' difference: extrapolated one period, with independent noise sigma per
-    // pose, 1.6 sigma against 2.2 sigma. predict() where three poses within
-    // FusionParams::deskew_max_span_s are not known.
-    Eigen::Isometry3d predict_smoothed(std::int64_t t_ns) const;
-    // Whether predict_smoothed() has its three poses: known within deskew_max_span_s, the
-    // span over which a velocity is trusted (as for deskew).
-    bool velocity_known() const;
+    // constant-acceleration fit over the registered poses of the last
+    // FusionParams::prediction_window_s (pose_extrapolation.hpp). nullopt where it is not
+    // to be trusted: fewer than prediction_min_poses such poses, t_ns before the newest or
+    // more than prediction_max_ahead_s after it, or the fit's last check against a
+    // registered poses missed by more than prediction_max_error_m / _deg, as an RMS over
+    // the last four checks (none made yet counts as missed).
+    std::optional<Eigen::Isometry3d> predict_unregistered(std::int64_t t_ns) const;
     // The body twist (per second) used to deskew the current scan: the mean velocity over
     // the last three poses (two frame periods), clamped. Zero until three poses are known,
     // across gaps longer than FusionParams::deskew_max_span_s, and above the rate bounds.
@@ -76,7 +69,6 @@ public:
     // After deskew_reference(): maps the reference pose and the pose history to the deskewed
     // meaning, T <- left * T * right (history: right from the current twist).
     void reanchor(const Eigen::Isometry3d& left, const Eigen::Isometry3d& right_reference);
-    const std::deque<PoseSample>& history() const { return history_; }
 
     // Deskews with the current motion estimate, crops, flags dynamic points against the
     // reference (pre-aligned with T_root_predicted), downsamples the static points and
@@ -121,8 +113,14 @@ public:
 
 private:
     // The mean body twist (per second) over the last three poses, when they lie within
-    // FusionParams::deskew_max_span_s: what deskew_twist() and predict_smoothed() move by.
+    // FusionParams::deskew_max_span_s: what deskew_twist() moves by.
     std::optional<Vector6d> recent_twist() const;
+    // The registered poses the prediction fits (the newest within the window), and the fit
+    // at t_ns when there are enough of them and t_ns is within reach.
+    std::vector<PoseSample> prediction_poses() const;
+    std::optional<Eigen::Isometry3d> fitted_pose(std::int64_t t_ns) const;
+    // finish_frame(): the fit against the pose just registered, before it joins the history.
+    void check_prediction(std::int64_t t_ns, const Eigen::Isometry3d& T_root_sensor);
     void crop_and_deskew(const SensorScanInput& scan, const Vector6d& twist_per_s);
     // Downsamples on the grid of FusionParams::voxel_grid_in_root_frame, at T_root_sensor.
     void build_current_target(bool static_only, const Eigen::Isometry3d& T_root_sensor);
@@ -141,7 +139,13 @@ private:
     GicpCloud current_target_;
     BackgroundModel background_;
     BackgroundUpdate background_update_;
-    std::deque<PoseSample> history_;
+    // Registered poses, oldest first: the last three, and those within
+    // FusionParams::prediction_window_s of the newest.
+    std::vector<PoseSample> history_;
+    // The fit's last checks against registered poses: how far each missed (m, deg). Their
+    // RMS, not one check, decides: a single check differs by two poses' registration noise.
+    static constexpr std::size_t kPredictionChecks = 4;
+    std::vector<std::pair<double, double>> prediction_misses_;
     VoxelGrid voxel_grid_;
     std::vector<std::uint32_t> twins_;  // current point -> previous point of the same voxel
     std::vector<std::int32_t> previous_guess_;

@@ -55,9 +55,10 @@ Errors fast_sway_errors(const std::vector<FrameOutput>& outs, int first_scored, 
 }
 
 // A caller that is behind asks for every other frame at its predicted poses. The engine
-// registers where it must (the first frames: no root, no velocity), fuses the others at
-// the constant-velocity prediction with the last registered frame's figures, and the
-// registered frames stay as accurate as when every frame is registered.
+// registers where it must (the first frames: no root, no velocity; frames whose fit its
+// checks do not confirm), fuses the others at the fitted poses with the last registered
+// frame's figures, and the registered frames stay as accurate as when every frame is
+// registered.
 TEST(FusionEngine, FramesFusedAtPredictedPosesStayCloseToTheSway) {
     const FusionParams params = test_params();
     constexpr int kFrames = 24, kFirstScored = 6;
@@ -70,13 +71,14 @@ TEST(FusionEngine, FramesFusedAtPredictedPosesStayCloseToTheSway) {
     });
     const auto dropped = fast_sway_run(
         params, kFrames, [&](int f) { return behind(f) ? Mode() : Mode(FrameMode::kRegister); });
+    int num_predicted = 0;
     for (int f = 0; f < kFrames; ++f) {
         const FrameOutput& out = halved[static_cast<std::size_t>(f)];
-        const bool predicted = f >= kFirstScored && f % 2 == 1;
-        ASSERT_EQ(out.registered, !predicted) << "frame " << f;
+        ASSERT_TRUE(out.registered || behind(f)) << "frame " << f << " predicted unasked";
         EXPECT_EQ(out.frame_index, f);
         EXPECT_GT(out.cloud.points.size(), 1000u) << "frame " << f;
-        if (!predicted) continue;
+        if (out.registered) continue;
+        ++num_predicted;
         EXPECT_EQ(out.timings.registration_ms, 0.0);
         const FrameOutput& before = halved[static_cast<std::size_t>(f - 1)];
         for (std::size_t s = 0; s < kSensors; ++s) {
@@ -87,6 +89,11 @@ TEST(FusionEngine, FramesFusedAtPredictedPosesStayCloseToTheSway) {
             EXPECT_GT(h.static_points, 1000u);
         }
     }
+    std::printf("fusion_engine_test_fast_sway_predicted %d frames of %d asked\n", num_predicted,
+                (kFrames - kFirstScored) / 2);
+    // The fast sway is near what the fit may be trusted with (its checks miss by about the
+    // bounds): some asked frames are registered instead, but not most.
+    EXPECT_GE(num_predicted, 3);
     const auto registered = [](const FrameOutput& o) { return o.registered; };
     const auto predicted = [](const FrameOutput& o) { return !o.registered; };
     const auto all = [](const FrameOutput&) { return true; };
