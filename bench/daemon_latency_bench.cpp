@@ -20,7 +20,7 @@
 //                                 view's server on with no client; or with a Node client
 //                                 subscribed to every channel, bench/foxglove_bench_client.hpp)
 //                             [--when-behind predict|drop]  (sync.when_behind; default: the
-//                                 daemon's, drop)
+//                                 daemon's, predict)
 //                             [--keep 1]          (leave the folder: daemon logs, outputs)
 //                             [--cyclonedds bench|default|FILE]  (Cyclone's configuration of the
 //                                 daemon and the reader: bench = loopback with 64 kB fragments,

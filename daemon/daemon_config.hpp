@@ -30,14 +30,15 @@ struct SyncConfig {
     // (measured, 4 sensors on 2 cores: median latency 42 ms at 1 against 297 ms at 4, with
     // the same number of frames fused).
     int queue_depth = 1;
-    // sync.when_behind: predict. When a frame already waits as fusion finishes one, the
-    // next is fused at the poses predicted from the registered frames (FrameMode::kPredict)
-    // instead of registered, so that more frames are fused while fusion is slower than the
-    // sensors; a predicted frame is always followed by a registered one. drop (the
-    // default): every frame is registered, and the queue drops the oldest when fusion is
-    // behind. Why drop stays the default: bench/BENCHMARK.md, "Frames fused at predicted
-    // poses".
-    bool predict_when_behind = false;
+    // sync.when_behind. predict (the default): when a frame already waits as fusion
+    // finishes one, the next is fused at the poses predicted from the registered frames
+    // (FrameMode::kPredict) instead of registered, so that more frames are fused while
+    // fusion is slower than the sensors; a predicted frame is always followed by a
+    // registered one, and the engine registers a frame whose poses it cannot trust to the
+    // prediction (FusionParams::prediction_*). drop: every frame is registered, and the
+    // queue drops the oldest when fusion is behind. Figures: bench/BENCHMARK.md, "Frames
+    // fused at predicted poses".
+    bool predict_when_behind = true;
 };
 
 // DDS output (daemon/dds_publisher.hpp): topics and types follow ROS 2's DDS mapping.

@@ -69,8 +69,8 @@ output:
     }
 }
 
-TEST_F(DaemonConfigTest, FramesAreDroppedWhenBehindUnlessTheConfigSaysPredict) {
-    EXPECT_FALSE(parse_daemon_config(sensors_, "s.yaml", dir_.path()).sync.predict_when_behind);
+TEST_F(DaemonConfigTest, FramesArePredictedWhenBehindUnlessTheConfigSaysDrop) {
+    EXPECT_TRUE(parse_daemon_config(sensors_, "s.yaml", dir_.path()).sync.predict_when_behind);
     const auto drop =
         parse_daemon_config(sensors_ + "sync: {when_behind: drop}\n", "s.yaml", dir_.path());
     EXPECT_FALSE(drop.sync.predict_when_behind);

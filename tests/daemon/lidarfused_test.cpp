@@ -264,9 +264,9 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
 
 // Fusion far behind the sensors: a capture replayed at 4x into a frame queue deep enough
 // for all of it (sync.queue_depth 64), so a frame always waits when fusion finishes one.
-// With sync.when_behind: predict the frames alternate registered / predicted once every
-// sensor has three registered poses, none is dropped, every one is published, and the
-// predicted poses are in the run's accuracy.
+// With sync.when_behind: predict a predicted frame is always followed by a registered one
+// (once every sensor's fit is confirmed, most frames alternate), none is dropped, every one
+// is published, and the predicted poses are in the run's accuracy.
 TEST(Lidarfused, FramesThatWaitWhileFusionIsBehindAreFusedAtPredictedPoses) {
     test::use_loopback_dds();
     test::TempDir dir("lfd-predict");
