@@ -262,10 +262,11 @@ bool tree_clearly_better(const Tree& a, const Tree& b, const Candidates& candida
     return clearly_better(pooled(a, b, candidates), pooled(b, a, candidates), params);
 }
 
-// Another tree that explains as many pairs and reaches as many sensors.
-bool rivals(const Tree& a, const Tree& b) {
-    return &a != &b && a.score.consistent == b.score.consistent &&
-           a.score.reached == b.score.reached;
+// Another tree that reaches as many sensors as `best` and explains at least
+// AmbiguityParams::rival_pair_share of its pairs.
+bool rivals(const Tree& challenger, const Tree& best, const AmbiguityParams& params) {
+    return &challenger != &best && challenger.score.reached == best.score.reached &&
+           challenger.score.consistent >= params.rival_pair_share * best.score.consistent;
 }
 
 // The winner after every rival clearly better than the winner took its place (bounded:
@@ -277,7 +278,7 @@ std::size_t clearly_better_rival(const SampledTrees& sampled, const Candidates& 
     for (std::size_t pass = 0; pass < trees.size(); ++pass) {
         bool replaced = false;
         for (std::size_t t = 0; t < trees.size() && !replaced; ++t) {
-            if (rivals(trees[t], trees[best]) &&
+            if (rivals(trees[t], trees[best], params) &&
                 tree_clearly_better(trees[t], trees[best], candidates, params)) {
                 best = t;
                 replaced = true;
@@ -294,7 +295,7 @@ void mark_ambiguous(const SampledTrees& sampled, const Candidates& candidates,
                     const EdgeConsensusParams& params, EdgeConsensusResult* result) {
     const Tree& winner = sampled.trees[sampled.best];
     for (const Tree& t : sampled.trees) {
-        if (!rivals(t, winner)) continue;
+        if (!rivals(t, winner, params.ambiguity)) continue;
         ++result->rival_trees;
         if (tree_clearly_better(winner, t, candidates, params.ambiguity)) continue;
         const std::vector<bool> differ = differing_sensors(winner, t, params);

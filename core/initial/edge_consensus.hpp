@@ -15,7 +15,8 @@
 // Ambiguity: a cycle can veto a look-alike only where there is a cycle. With two sensors,
 // or a sensor that overlaps just one other, the winning tree is decided by p2p support
 // alone, and a narrow view (e.g. one 90-deg sector of a street) can match two places
-// about equally well. So a rival tree that explains as many pairs, reaches as many sensors
+// about equally well. So a rival tree that explains nearly as many pairs (rival_pair_share
+// below), reaches as many sensors
 // and puts some sensor elsewhere must be beaten clearly (clearly_better below) on the
 // pairs where the two trees use different candidates, their figures pooled (support and
 // free-space shares summed, p2p error as the support-weighted RMS); a rival that is
@@ -49,6 +50,12 @@ struct AmbiguityParams {
     double support_share = 0.10;     // relative to the larger N
     double error_share = 0.10;       // relative to the larger p2p error
     double free_space_share = 0.02;  // absolute, in violation share
+    // A rival tree explains at least this share of the winner's consistent pairs (and
+    // reaches as many sensors). Not all of them: where the scene repeats itself (a
+    // symmetric crossing), a pair's right candidate can be missing from its alternatives
+    // while its look-alike is there, so look-alikes that agree with each other explain more
+    // pairs than the right placements (bench/BENCHMARK.md, "8 sensors on the intersection").
+    double rival_pair_share = 0.8;
 };
 
 bool clearly_better(const PairAlternative& a, const PairAlternative& b,
@@ -76,7 +83,7 @@ struct EdgeConsensusResult {
     // Per sensor: beyond a weak bridge (min_bridge_information_per_inlier). Every good pair
     // touching such a sensor was dropped with kUnconfirmed.
     std::vector<bool> unconfirmed;
-    int rival_trees = 0;  // distinct valid trees as good as the winner by pair count
+    int rival_trees = 0;  // distinct valid trees nearly as good as the winner by pair count
 };
 
 // `edge_ok[e]`: pair e may be used (status kOk). Pairs dropped here get their status set
