@@ -126,11 +126,11 @@ void run(const std::map<std::string, Track>& tracks, int max_stride, int max_ahe
         for (int stride = 1; stride <= max_stride; ++stride)
             for (int count : {3, 5, 9})
                 variants.push_back(Variant{stride, count, ahead, {}, {}, {}});
-    std::vector<Rms> registered(static_cast<std::size_t>(max_ahead) + 1);
+    Rms registered;
     for (const auto& [sensor, track] : tracks) {
         const Eigen::Isometry3d C = frame_alignment(track);
         for (const auto& [k, last] : track) {
-            registered[0].add(last.estimate, C * last.truth);
+            registered.add(last.estimate, C * last.truth);
             for (Variant& v : variants) {
                 const auto target = track.find(k + v.ahead);
                 if (target == track.end()) continue;
@@ -147,7 +147,7 @@ void run(const std::map<std::string, Track>& tracks, int max_stride, int max_ahe
             }
         }
     }
-    registered[0].print("registered");
+    registered.print("registered");
     for (const Variant& v : variants) {
         const std::string name = "_stride" + std::to_string(v.stride) + "_count" +
                                  std::to_string(v.count) + "_ahead" + std::to_string(v.ahead);

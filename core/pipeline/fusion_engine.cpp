@@ -261,8 +261,10 @@ FusionEngine::FusionEngine(std::size_t num_sensors, const FusionParams& params)
     : impl_(std::make_unique<Impl>(num_sensors, params)) {}
 FusionEngine::~FusionEngine() = default;
 FrameOutput FusionEngine::process(const FrameInput& frame, FrameMode mode) {
-    if (mode == FrameMode::kPredict && impl_->can_predict(frame))
-        return impl_->process_predicted(frame);
+    if (mode == FrameMode::kPredict) {
+        if (auto poses = impl_->predicted_poses(frame))
+            return impl_->process_predicted(frame, std::move(*poses));
+    }
     return impl_->process(frame);
 }
 const FusionParams& FusionEngine::params() const { return impl_->params; }

@@ -103,14 +103,15 @@ struct FusionEngine::Impl {
     ~Impl();
 
     FrameOutput process(const FrameInput& in);
-    // FrameMode::kPredict (fusion_engine_prediction.cpp): whether this frame can be fused at
-    // its predicted poses, and doing so.
-    bool can_predict(const FrameInput& in) const;
+    // FrameMode::kPredict (fusion_engine_prediction.cpp): every sensor's pose for this
+    // frame when it can be fused at its predicted poses (nullopt: it must be registered),
+    // and fusing it there.
+    std::optional<std::vector<Eigen::Isometry3d>> predicted_poses(const FrameInput& in) const;
     // A scan that is there and holds enough points to register (FusionParams::min_scan_points).
     bool usable(const SensorScanInput& scan) const {
         return scan.present && scan.points.size() >= params.min_scan_points;
     }
-    FrameOutput process_predicted(const FrameInput& in);
+    FrameOutput process_predicted(const FrameInput& in, std::vector<Eigen::Isometry3d> poses);
     void report_predicted_poses(FrameWork* w) const;
 
     // The steps of process(), in order (fusion_engine.cpp, fusion_engine_graph.cpp). A

@@ -13,34 +13,40 @@ namespace lidarfuse::core {
 // initial registration waits to be applied, no sensor to register again) and every tracked
 // sensor with a scan in it has a pose it can trust for its time
 // (SensorTrack::predict_unregistered: enough recent registered poses, within reach, and a
-// fit that its last registered frame confirmed). On a machine so busy that registered
-// frames lie further apart, the frame is registered (or dropped) instead.
-bool FusionEngine::Impl::can_predict(const FrameInput& in) const {
-    if (in.sensors.size() != n || !tracks[params.root_sensor]->initialised()) return false;
-    if (pending && pending->job->done()) return false;
+// fit that its last registered frames confirmed). On a machine so busy that registered
+// frames lie further apart, the frame is registered (or dropped) instead. A tracked sensor
+// without a scan keeps its last pose, as in a registered frame.
+std::optional<std::vector<Eigen::Isometry3d>> FusionEngine::Impl::predicted_poses(
+    const FrameInput& in) const {
+    if (in.sensors.size() != n || !tracks[params.root_sensor]->initialised()) return std::nullopt;
+    if (pending && pending->job->done()) return std::nullopt;
+    if (last_registered_health.size() != n) return std::nullopt;
+    std::vector<Eigen::Isometry3d> poses(n, Eigen::Isometry3d::Identity());
     for (std::size_t s = 0; s < n; ++s) {
-        if (needs_reinit[s]) return false;
+        if (needs_reinit[s]) return std::nullopt;
+        if (!tracks[s]->initialised()) continue;
         const SensorScanInput& scan = in.sensors[s];
-        if (tracks[s]->initialised() && usable(scan) && !tracks[s]->predict_unregistered(scan.t_ns))
-            return false;
+        if (!usable(scan)) {
+            poses[s] = tracks[s]->predict(scan.t_ns);
+            continue;
+        }
+        const std::optional<Eigen::Isometry3d> pose = tracks[s]->predict_unregistered(scan.t_ns);
+        if (!pose) return std::nullopt;
+        poses[s] = *pose;
     }
-    return last_registered_health.size() == n;
+    return poses;
 }
 
 // Each tracked sensor with a scan: its points deskewed, cropped and flagged (the background
 // model sees every frame, as in a registered one), placed at its predicted pose.
-FrameOutput FusionEngine::Impl::process_predicted(const FrameInput& in) {
+FrameOutput FusionEngine::Impl::process_predicted(const FrameInput& in,
+                                                  std::vector<Eigen::Isometry3d> poses) {
     const Stopwatch frame_time;
     FrameWork w = begin_frame(in, false);
     const Stopwatch prep_time;
-    w.predicted.assign(n, Eigen::Isometry3d::Identity());
+    w.predicted = std::move(poses);
     for (std::size_t s = 0; s < n; ++s) {
-        if (!tracks[s]->initialised()) continue;
-        // A tracked sensor without a scan keeps its last pose, as in a registered frame.
-        const std::optional<Eigen::Isometry3d> pose =
-            w.usable[s] ? tracks[s]->predict_unregistered(in.sensors[s].t_ns) : std::nullopt;
-        w.predicted[s] = pose ? *pose : tracks[s]->predict(in.sensors[s].t_ns);
-        if (w.usable[s]) w.active.push_back(s);
+        if (tracks[s]->initialised() && w.usable[s]) w.active.push_back(s);
     }
     const int threads = std::max(1, params.num_threads);
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)

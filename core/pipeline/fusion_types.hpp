@@ -76,8 +76,8 @@ struct FusionParams {
     // last prediction_window_s (at least prediction_min_poses of them), carried at most
     // prediction_max_ahead_s past the newest (pose_extrapolation.hpp). Every registered
     // frame checks the fit: the pose it would have predicted for that frame against the
-    // registered one; while that differs by more than prediction_max_error_m /
-    // prediction_max_error_deg (a sway too fast or too jerky for the fit, a glitch) the
+    // registered one; while the last four checks miss by more than prediction_max_error_m /
+    // prediction_max_error_deg RMS (a sway too fast or too jerky for the fit, a glitch) the
     // sensor's frames are registered, not predicted. The bounds are the accuracy the
     // continuous registration is held to at voxel 1 m (2 cm / 0.05 deg): a predicted pose
     // must not be the worst pose published. Figures: bench/BENCHMARK.md, "How far ahead a

@@ -73,23 +73,19 @@ std::optional<Vector6d> SensorTrack::recent_twist() const {
     return body_twist_per_s(a.T_root_sensor, b.T_root_sensor, span_s);
 }
 
-std::vector<PoseSample> SensorTrack::prediction_poses() const {
-    std::vector<PoseSample> poses;
-    if (history_.empty()) return poses;
-    const double window_ns = params_.prediction_window_s / kNsToS;
-    for (const PoseSample& p : history_) {
-        if (static_cast<double>(history_.back().t_ns - p.t_ns) <= window_ns) poses.push_back(p);
-    }
-    return poses;
+bool SensorTrack::in_prediction_window(std::int64_t older_ns, std::int64_t newer_ns) const {
+    return static_cast<double>(newer_ns - older_ns) * kNsToS <= params_.prediction_window_s;
 }
 
 std::optional<Eigen::Isometry3d> SensorTrack::fitted_pose(std::int64_t t_ns) const {
-    const std::vector<PoseSample> poses = prediction_poses();
-    if (poses.empty() || static_cast<int>(poses.size()) < std::max(3, params_.prediction_min_poses))
+    // finish_frame() keeps the poses within the window, and the last three if fewer: every
+    // pose of the history is in the fit, if the oldest is in the window.
+    if (static_cast<int>(history_.size()) < std::max(3, params_.prediction_min_poses) ||
+        !in_prediction_window(history_.front().t_ns, history_.back().t_ns))
         return std::nullopt;
-    const double ahead_s = static_cast<double>(t_ns - poses.back().t_ns) * kNsToS;
+    const double ahead_s = static_cast<double>(t_ns - history_.back().t_ns) * kNsToS;
     if (ahead_s < 0 || ahead_s > params_.prediction_max_ahead_s) return std::nullopt;
-    return extrapolate_pose(poses, t_ns, 2);
+    return extrapolate_pose(history_, t_ns, 2);
 }
 
 std::optional<Eigen::Isometry3d> SensorTrack::predict_unregistered(std::int64_t t_ns) const {
@@ -318,11 +314,8 @@ void SensorTrack::finish_frame(std::int64_t frame, std::int64_t t_ns,
                                const Eigen::Isometry3d& T_root_sensor) {
     check_prediction(t_ns, T_root_sensor);
     history_.push_back({frame, t_ns, T_root_sensor});
-    const double window_ns = params_.prediction_window_s / kNsToS;
     std::size_t drop = 0;
-    while (history_.size() - drop > 3 &&
-           static_cast<double>(t_ns - history_[drop].t_ns) > window_ns)
-        ++drop;
+    while (history_.size() - drop > 3 && !in_prediction_window(history_[drop].t_ns, t_ns)) ++drop;
     history_.erase(history_.begin(), history_.begin() + static_cast<std::ptrdiff_t>(drop));
     previous_target_ = std::move(current_target_);
     current_target_ = GicpCloud();

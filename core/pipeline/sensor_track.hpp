@@ -38,8 +38,8 @@ public:
     // constant-acceleration fit over the registered poses of the last
     // FusionParams::prediction_window_s (pose_extrapolation.hpp). nullopt where it is not
     // to be trusted: fewer than prediction_min_poses such poses, t_ns before the newest or
-    // more than prediction_max_ahead_s after it, or the fit's last check against a
-    // registered poses missed by more than prediction_max_error_m / _deg, as an RMS over
+    // more than prediction_max_ahead_s after it, or the fit's checks against the last
+    // registered poses missing by more than prediction_max_error_m / _deg, as an RMS over
     // the last four checks (none made yet counts as missed).
     std::optional<Eigen::Isometry3d> predict_unregistered(std::int64_t t_ns) const;
     // The body twist (per second) used to deskew the current scan: the mean velocity over
@@ -115,9 +115,10 @@ private:
     // The mean body twist (per second) over the last three poses, when they lie within
     // FusionParams::deskew_max_span_s: what deskew_twist() moves by.
     std::optional<Vector6d> recent_twist() const;
-    // The registered poses the prediction fits (the newest within the window), and the fit
-    // at t_ns when there are enough of them and t_ns is within reach.
-    std::vector<PoseSample> prediction_poses() const;
+    // Whether a pose at older_ns is within FusionParams::prediction_window_s of newer_ns.
+    bool in_prediction_window(std::int64_t older_ns, std::int64_t newer_ns) const;
+    // The fit over the history at t_ns, when the history holds enough poses of the window
+    // and t_ns is within reach.
     std::optional<Eigen::Isometry3d> fitted_pose(std::int64_t t_ns) const;
     // finish_frame(): the fit against the pose just registered, before it joins the history.
     void check_prediction(std::int64_t t_ns, const Eigen::Isometry3d& T_root_sensor);
