@@ -22,7 +22,7 @@ protected:
         std::string out;
         ASSERT_EQ(
             test::run_command(
-                kTool + " sim --scenario curve --seed 1 --seconds 1 --out " + d() + "/sim", &out),
+                kTool + " sim --scenario curve --seed 1 --seconds 0.2 --out " + d() + "/sim", &out),
             0)
             << out;
         std::ifstream in(dir_->path() / "sim" / "station.yaml");

@@ -31,11 +31,11 @@ protected:
         std::string out;
         ASSERT_EQ(
             test::run_command(
-                kTool + " sim --scenario curve --seed 1 --seconds 2 --out " + d + "/sim", &out),
+                kTool + " sim --scenario curve --seed 1 --seconds 1 --out " + d + "/sim", &out),
             0)
             << out;
         ASSERT_EQ(test::run_command(kTool + " fuse " + d + "/sim/capture.pcap --config " + d +
-                                        "/sim/station.yaml --out " + d + "/road --save-cloud 20",
+                                        "/sim/station.yaml --out " + d + "/road --save-cloud 15",
                                     &road_output_),
                   0)
             << road_output_;
@@ -59,7 +59,7 @@ TEST_F(WorldFrameSim, RoadLiesAtZeroInTheFusedCloud) {
     EXPECT_EQ(test::figure(out, "fuse_world_fixed_at"), 4) << out;
     EXPECT_EQ(test::figure(out, "fuse_world_frames_unwritten"), 0) << out;
     EXPECT_EQ(test::figure(out, "fuse_world_road_sensors"), 4) << out;
-    const auto cloud = io::read_cloud_file(dir_->path() / "road" / "fused_20.ply");
+    const auto cloud = io::read_cloud_file(dir_->path() / "road" / "fused_15.ply");
     std::map<std::pair<int, int>, std::vector<double>> cells;
     for (const auto& p : cloud.cloud.points) {
         if (std::abs(p.z()) > 0.08) continue;
@@ -105,7 +105,7 @@ TEST_F(WorldFrameSim, SensorHeightsMatchGroundTruth) {
     ASSERT_TRUE(result.ok) << result.error;
     EXPECT_EQ(result.root_sensor, "lidar0");  // found in the road frame too
     for (const auto& s : result.sensors) {
-        EXPECT_GE(s.matched, 35u) << s.sensor;
+        EXPECT_GE(s.matched, 18u) << s.sensor;
         EXPECT_LT(s.world_rmse_trans_m, 0.02) << s.sensor;
         EXPECT_LT(s.world_rmse_rot_deg, 0.1) << s.sensor;
         std::printf("road frame: %s height RMSE %.4f m (max %.4f), up %.4f deg\n", s.sensor.c_str(),
@@ -153,21 +153,25 @@ TEST_F(WorldFrameSim, EvalGivesTheSameErrorsInTheRoadAndTheSensorFrame) {
 // geo with the simulator's pole sway (up to 36 cm at the sensors, a 4.9 s period): the
 // surveyed positions are the sensors' rest positions (those of a --no-motion run of the
 // same station), three of them 5 cm off. The fit averages each anchor's position over
-// world.average_frames (default 100 frames, one sway period) first, so its residual is
+// world.average_frames (one sway period: 49 frames of this 10 Hz capture, as the default
+// 100 are at 20 Hz; at 10 Hz the test fuses half the frames) first, so its residual is
 // that of the perturbations alone (the Kabsch fit of the true rest positions to the given
 // ones, within 1.5 cm), and the world poses are within the perturbations plus that
 // residual plus 2 cm of tracking of the truth (the bound of lidarfused_world_test).
 // One frame's poses (average_frames: 1, the former behaviour) carry the sway instead.
 TEST(WorldFrameSimGeo, GeoOnSwayingPoles) {
+    constexpr int kSwayPeriodFrames = 49;
     const test::TempDir dir("world-geo-sway");
     const std::string d = dir.path().string(), tool = test::tool_path();
     std::string out;
-    ASSERT_EQ(test::run_command(
-                  tool + " sim --scenario curve --seed 2 --seconds 6 --out " + d + "/sim", &out),
-              0)
+    ASSERT_EQ(
+        test::run_command(
+            tool + " sim --scenario curve --seed 2 --seconds 6 --mode 1024x10 --out " + d + "/sim",
+            &out),
+        0)
         << out;
     ASSERT_EQ(test::run_command(tool +
-                                    " sim --scenario curve --seed 2 --seconds 1 --no-motion "
+                                    " sim --scenario curve --seed 2 --seconds 0.1 --no-motion "
                                     "--out " +
                                     d + "/rest",
                                 &out),
@@ -200,7 +204,7 @@ TEST(WorldFrameSimGeo, GeoOnSwayingPoles) {
         for (const auto& [name, p] : given)
             yaml << "    " << name << ": [" << p.x() << ", " << p.y() << ", " << p.z() << "]\n";
     };
-    write_config("geo.yaml", 0);  // the default window
+    write_config("geo.yaml", kSwayPeriodFrames);
     write_config("geo1.yaml", 1);
     std::string averaged, one;
     ASSERT_EQ(test::run_command(tool + " fuse " + d + "/sim/capture.pcap --config " + d +
@@ -213,13 +217,14 @@ TEST(WorldFrameSimGeo, GeoOnSwayingPoles) {
                                 &one),
               0)
         << one;
-    EXPECT_EQ(test::figure(averaged, "fuse_world_geo_frames_averaged"), 100) << averaged;
+    EXPECT_EQ(test::figure(averaged, "fuse_world_geo_frames_averaged"), kSwayPeriodFrames)
+        << averaged;
     EXPECT_EQ(test::figure(averaged, "fuse_world_frames_unwritten"), 0) << averaged;
     const double rms = test::figure(averaged, "fuse_world_geo_residual_rms").value_or(1e9);
     const double max = test::figure(averaged, "fuse_world_geo_residual_max").value_or(1e9);
     const double one_rms = test::figure(one, "fuse_world_geo_residual_rms").value_or(0);
     std::printf(
-        "geo on swaying poles: residual rms %.4f m (max %.4f) averaged over 100 frames, "
+        "geo on swaying poles: residual rms %.4f m (max %.4f) averaged over one period, "
         "%.4f m from one frame, %.4f m at rest with perfect tracking\n",
         rms, max, one_rms, ideal_rms);
     EXPECT_NEAR(rms, ideal_rms, 0.015);
@@ -235,7 +240,7 @@ TEST(WorldFrameSimGeo, GeoOnSwayingPoles) {
         io::to_trajectories(io::read_pose_csv(dir.path() / "geo" / "poses.csv"), offset), params);
     ASSERT_TRUE(result.ok) << result.error;
     for (const auto& s : result.sensors) {
-        EXPECT_GE(s.matched, 100u) << s.sensor;
+        EXPECT_GE(s.matched, 55u) << s.sensor;
         std::printf("geo on swaying poles: %s world error RMSE %.4f m (max %.4f), %.4f deg\n",
                     s.sensor.c_str(), s.world_rmse_trans_m, s.world_max_trans_m,
                     s.world_rmse_rot_deg);
