@@ -83,7 +83,8 @@ tsan_tests=(drop_oldest_queue_test frame_synchroniser_test net_udp_receiver_test
 CCACHE_BASEDIR="$top" CCACHE_NOHASHDIR=true cmake -S "$top" -B "$top/build-tsan" -G Ninja \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
     -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DLIDARFUSE_WERROR=ON -DLIDARFUSE_SANITIZE=thread \
-    -DLIDARFUSE_BUILD_BENCH=OFF -DLIDARFUSE_UNITY_BUILD=ON "${data_args[@]}" >"$top/build-tsan.configure.log" 2>&1 ||
+    -DLIDARFUSE_BUILD_BENCH=OFF -DLIDARFUSE_UNITY_BUILD=ON -DLIDARFUSE_TEST_CODE_OPTIMIZATION=-Og \
+    "${data_args[@]}" >"$top/build-tsan.configure.log" 2>&1 ||
     { cat "$top/build-tsan.configure.log"; exit 1; }
 CCACHE_BASEDIR="$top" CCACHE_NOHASHDIR=true cmake --build "$top/build-tsan" -j "$jobs" --target "${tsan_tests[@]}"
 "$top/tests/foxglove/install.sh" "$top/build-tsan"
