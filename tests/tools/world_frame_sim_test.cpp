@@ -199,8 +199,7 @@ TEST(WorldFrameSimGeo, GeoOnSwayingPoles) {
         std::ofstream yaml(dir.path() / "sim" / file);
         yaml.precision(12);
         yaml << station_yaml << "world:\n  frame: geo\n";
-        if (average_frames > 0) yaml << "  average_frames: " << average_frames << "\n";
-        yaml << "  positions:\n";
+        yaml << "  average_frames: " << average_frames << "\n  positions:\n";
         for (const auto& [name, p] : given)
             yaml << "    " << name << ": [" << p.x() << ", " << p.y() << ", " << p.z() << "]\n";
     };
