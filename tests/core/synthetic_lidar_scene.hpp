@@ -16,10 +16,26 @@
 
 namespace lidarfuse::testing {
 
+// A yawed box standing on the ground. What the ray caster needs of it (the box frame and a
+// bounding sphere) is computed here once rather than for every ray of every scan; it is
+// fixed at construction, so a moved box is a new box.
 struct SceneBox {
+    SceneBox(const Eigen::Vector3d& base_centre, const Eigen::Vector3d& extent, double yaw)
+        : centre(base_centre),
+          size(extent),
+          yaw_rad(yaw),
+          R_box_world(Eigen::AngleAxisd(-yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix()),
+          mid_centre(base_centre + Eigen::Vector3d(0, 0, 0.5 * extent.z())),
+          bounding_radius2_m2(0.25 * extent.squaredNorm() * (1.0 + 1e-6) + 1e-9) {}
+
     Eigen::Vector3d centre;  // base centre on the ground (m)
     Eigen::Vector3d size;    // x, y, z extent before yaw (m)
     double yaw_rad = 0.0;
+    Eigen::Matrix3d R_box_world;  // world directions into the box's axes
+    Eigen::Vector3d mid_centre;   // the box frame's origin: centre at half height (m)
+    // Squared radius of a sphere about mid_centre that holds the box, slightly enlarged so
+    // that rounding never rejects a ray the exact test would accept (m^2).
+    double bounding_radius2_m2;
 };
 
 struct ScenePole {
@@ -69,13 +85,15 @@ inline double cast_ray(const Scene& scene, const Eigen::Vector3d& o, const Eigen
             best = t;
         }
     }
+    const double dir_norm2 = dir.squaredNorm();
     for (const SceneBox& box : scene.boxes) {
+        // Most rays pass far from most boxes: those that miss its bounding sphere skip it.
+        const Eigen::Vector3d oc = box.mid_centre - o;
+        const double along = oc.dot(dir);
+        if (oc.squaredNorm() - along * along / dir_norm2 > box.bounding_radius2_m2) continue;
         // Ray in the box frame (origin at the box centre, axes yawed).
-        const Eigen::Matrix3d R =
-            Eigen::AngleAxisd(-box.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-        const Eigen::Vector3d centre = box.centre + Eigen::Vector3d(0, 0, 0.5 * box.size.z());
-        const Eigen::Vector3d lo = R * (o - centre);
-        const Eigen::Vector3d ld = R * dir;
+        const Eigen::Vector3d lo = box.R_box_world * (o - box.mid_centre);
+        const Eigen::Vector3d ld = box.R_box_world * dir;
         double t_near = -kInf;
         double t_far = kInf;
         bool miss = false;
