@@ -1,0 +1,84 @@
+// scripts/check_naming.sh, the test command's naming stage, on a build folder of one unit
+// written here: a bad name is reported with its file and line, a unit that passed is taken
+// from the cache on the next run, and any change of its text, a comment included (NOLINT is
+// one), has it checked again.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "tests/support/test_data.hpp"
+
+namespace lidarfuse::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+class NamingCheck : public ::testing::Test {
+protected:
+    void SetUp() override {
+        std::string out;
+        if (run_command("command -v clang-tidy-14 && command -v clang++-14", &out) != 0) {
+            GTEST_SKIP() << "clang-tidy-14 or clang++-14 not installed (scripts/setup.sh)";
+        }
+        fs::create_directories(dir_.path() / "build");
+        const fs::path unit = dir_.path() / "unit.cpp";
+        std::ofstream(dir_.path() / "build" / "compile_commands.json")
+            << "[{\"directory\": \"" << (dir_.path() / "build").string()
+            << "\", \"command\": \"/usr/bin/c++ -std=c++17 -Wshadow=local -o unit.o -c "
+            << unit.string() << "\", \"file\": \"" << unit.string() << "\"}]\n";
+    }
+
+    // Runs the check on the unit `text`; its exit status, the output in *out.
+    int check(const std::string& text, std::string* out) {
+        std::ofstream(dir_.path() / "unit.cpp") << text;
+        return run_command("LIDARFUSE_NAMING_CACHE=" + (dir_.path() / "cache").string() + " " +
+                               (source_dir() / "scripts" / "check_naming.sh").string() + " " +
+                               (dir_.path() / "build").string(),
+                           out);
+    }
+
+    int cache_entries() const {
+        int n = 0;
+        for (const auto& entry : fs::directory_iterator(dir_.path() / "cache")) n += entry.exists();
+        return n;
+    }
+
+    TempDir dir_{"naming_check"};
+};
+
+TEST_F(NamingCheck, ReportsABadNameAndRemembersOnlyPasses) {
+    std::string out;
+    EXPECT_NE(check("int BadName() { return 0; }\n", &out), 0) << out;
+    EXPECT_NE(out.find("unit.cpp:1:5: error: invalid case style for function 'BadName'"),
+              std::string::npos)
+        << out;
+    EXPECT_EQ(cache_entries(), 0);
+
+    EXPECT_EQ(check("int good_name() { return 0; }\n", &out), 0) << out;
+    EXPECT_NE(out.find("1 units follow .clang-tidy's naming rules, 0 of them unchanged"),
+              std::string::npos)
+        << out;
+    EXPECT_EQ(cache_entries(), 1);
+    EXPECT_EQ(check("int good_name() { return 0; }\n", &out), 0) << out;
+    EXPECT_NE(out.find("1 of them unchanged"), std::string::npos) << out;
+
+    // The same bad name after a pass: checked again, reported again.
+    EXPECT_NE(check("int BadName() { return 0; }\n", &out), 0) << out;
+    EXPECT_NE(out.find("'BadName'"), std::string::npos) << out;
+    EXPECT_EQ(cache_entries(), 1);
+}
+
+TEST_F(NamingCheck, ACommentIsPartOfTheUnitsText) {
+    std::string out;
+    const std::string name = "int BadName() { return 0; }";
+    EXPECT_EQ(check(name + "  // NOLINT(readability-identifier-naming)\n", &out), 0) << out;
+    EXPECT_EQ(cache_entries(), 1);
+    // Without the NOLINT the preprocessed code is the same; the comment is not.
+    EXPECT_NE(check(name + "\n", &out), 0) << out;
+    EXPECT_NE(out.find("'BadName'"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace lidarfuse::test
