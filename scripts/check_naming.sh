@@ -10,8 +10,9 @@
 # ~/.cache/lidarfuse/naming) under a hash of everything clang-tidy's verdict depends on:
 # its preprocessed text as clang sees it (with every #define, every comment, since NOLINT
 # is one, and the file and line of every line), clang-tidy's version, .clang-tidy and this
-# script's options. Only passes are remembered: a finding is reported on every run until
-# it is fixed.
+# script's options, with the checkout's own path written as @TOP@ so that clones in other
+# folders share what passed. Only passes are remembered: a finding is reported on every
+# run until it is fixed.
 set -euo pipefail
 top="$(cd "$(dirname "$0")/.." && pwd)"
 build="$(cd "$1" && pwd)"
@@ -51,8 +52,11 @@ for entry in json.load(open(sys.argv[1])):
     print("\t".join([name, entry["directory"], shlex.join(kept)]))
 PY
 )
+# The checkout's path as a sed pattern, for the keys (every character sed could read
+# otherwise escaped).
+top_pattern="$(printf '%s' "$top" | sed 's/[][\\.*^$|/]/\\&/g')"
 config_key="$({ "$tidy" --version; printf '%s\n' "${tidy_args[@]}"; cat "$top/.clang-tidy"; } |
-              sha256sum | cut -c1-64)"
+              sed "s|$top_pattern|@TOP@|g" | sha256sum | cut -c1-64)"
 
 # One unit: clang-tidy's report on stdout, or "cached <unit>" when this exact input passed
 # before; non-zero when clang-tidy fails. A pass is remembered only when the preprocessing
@@ -62,7 +66,7 @@ check_unit() {
     IFS=$'\t' read -r unit folder args <<<"$1"
     key="$(set -o pipefail; { echo "$config_key"; cd "$folder" &&
             eval "\"$clangxx\" -Wno-unknown-warning-option -E -dD -C $args"; } 2>/dev/null |
-           sha256sum | cut -c1-64)" || key=""
+           sed "s|$top_pattern|@TOP@|g" | sha256sum | cut -c1-64)" || key=""
     if [ -n "$key" ] && [ -f "$cache/$key" ]; then echo "cached $unit"; return 0; fi
     eval "local tidy_args=($tidy_options)"
     report="$("$tidy" "${tidy_args[@]}" "$unit" 2>&1)" || status=$?
@@ -75,7 +79,7 @@ check_unit() {
 }
 tidy_options="$(printf '%q ' "${tidy_args[@]}")"
 export -f check_unit
-export tidy clangxx cache config_key tidy_options
+export tidy clangxx cache config_key tidy_options top_pattern
 status=0
 report="$(printf '%s\0' "${units[@]}" |
           xargs -0 -n 1 -P "$(nproc)" bash -c 'check_unit "$1"' _ 2>&1)" || status=$?

@@ -80,5 +80,40 @@ TEST_F(NamingCheck, ACommentIsPartOfTheUnitsText) {
     EXPECT_NE(out.find("'BadName'"), std::string::npos) << out;
 }
 
+// Two checkouts in different folders with the same unit: what passed in one is reused in
+// the other (the keys hold the checkout's path as @TOP@), and the cache is shared.
+TEST(NamingCheckClones, AUnitThatPassedInOneCheckoutIsReusedInAnother) {
+    std::string out;
+    if (run_command("command -v clang-tidy-14 && command -v clang++-14", &out) != 0) {
+        GTEST_SKIP() << "clang-tidy-14 or clang++-14 not installed (scripts/setup.sh)";
+    }
+    TempDir first("naming_clone_a"), second("naming_clone_b"), cache("naming_clone_cache");
+    for (const fs::path& top : {first.path(), second.path()}) {
+        fs::create_directories(top / "scripts");
+        fs::create_directories(top / "core");
+        fs::create_directories(top / "build");
+        fs::copy_file(source_dir() / "scripts" / "check_naming.sh",
+                      top / "scripts" / "check_naming.sh");
+        fs::copy_file(source_dir() / ".clang-tidy", top / ".clang-tidy");
+        const fs::path unit = top / "core" / "unit.cpp";
+        std::ofstream(top / "core" / "unit.hpp") << "#pragma once\nint good_name();\n";
+        std::ofstream(unit) << "#include \"core/unit.hpp\"\nint good_name() { return 0; }\n";
+        std::ofstream(top / "build" / "compile_commands.json")
+            << "[{\"directory\": \"" << (top / "build").string()
+            << "\", \"command\": \"/usr/bin/c++ -I" << top.string() << " -std=c++17 -o unit.o -c "
+            << unit.string() << "\", \"file\": \"" << unit.string() << "\"}]\n";
+    }
+    const auto check = [&](const fs::path& top) {
+        return run_command("LIDARFUSE_NAMING_CACHE=" + cache.path().string() + " " +
+                               (top / "scripts" / "check_naming.sh").string() + " " +
+                               (top / "build").string(),
+                           &out);
+    };
+    ASSERT_EQ(check(first.path()), 0) << out;
+    EXPECT_NE(out.find("0 of them unchanged"), std::string::npos) << out;
+    ASSERT_EQ(check(second.path()), 0) << out;
+    EXPECT_NE(out.find("1 of them unchanged"), std::string::npos) << out;
+}
+
 }  // namespace
 }  // namespace lidarfuse::test
