@@ -21,8 +21,7 @@ constexpr bool kThreadSanitizer = true;
 constexpr bool kThreadSanitizer = false;
 #endif
 
-const std::filesystem::path kClientModules =
-    std::filesystem::path(LIDARFUSE_FOXGLOVE_CLIENT_DIR) / "node_modules";
+const std::filesystem::path kClientModules = test::foxglove_client_dir() / "node_modules";
 
 // `node client.cjs URL MODE OUT` in the background, its output to OUT.log.
 pid_t start_client(const std::string& url, const std::string& mode,

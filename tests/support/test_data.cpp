@@ -66,6 +66,7 @@ std::string md5_hex(const void* data, std::size_t size) {
 
 std::string tool_path() { return LIDARFUSE_TOOL_PATH; }
 std::string daemon_path() { return LIDARFUSED_PATH; }
+std::filesystem::path foxglove_client_dir() { return LIDARFUSE_FOXGLOVE_CLIENT_DIR; }
 
 std::string file_text(const std::filesystem::path& path) {
     std::ifstream in(path, std::ios::binary);

@@ -50,6 +50,9 @@ std::string md5_hex(const void* data, std::size_t size);
 // Absolute paths of the built executables.
 std::string tool_path();    // lidarfuse
 std::string daemon_path();  // lidarfused
+// Where tests/foxglove/install.sh puts the live view's Node client (Foxglove's npm packages)
+// in this build folder.
+std::filesystem::path foxglove_client_dir();
 
 // A file's whole content (bytes as they are); empty when it cannot be read.
 std::string file_text(const std::filesystem::path& path);
