@@ -54,6 +54,8 @@ PY
 )
 # The checkout's path as a sed pattern, for the keys (every character sed could read
 # otherwise escaped).
+# A finding as clang-tidy prints it: "FILE:LINE:COL: warning|error: ...".
+finding_pattern='^/[^:]+:[0-9]+:[0-9]+: (warning|error):'
 top_pattern="$(printf '%s' "$top" | sed 's/[][\\.*^$|/]/\\&/g')"
 config_key="$({ "$tidy" --version; printf '%s\n' "${tidy_args[@]}"; cat "$top/.clang-tidy"; } |
               sed "s|$top_pattern|@TOP@|g" | sha256sum | cut -c1-64)"
@@ -72,18 +74,18 @@ check_unit() {
     report="$("$tidy" "${tidy_args[@]}" "$unit" 2>&1)" || status=$?
     [ -n "$report" ] && printf '%s\n' "$report"
     if [ "$status" -eq 0 ] && [ -n "$key" ] &&
-        ! grep -qE '^/[^:]+:[0-9]+:[0-9]+: (warning|error):' <<<"$report"; then
+        ! grep -qE "$finding_pattern" <<<"$report"; then
         touch "$cache/$key"
     fi
     return "$status"
 }
 tidy_options="$(printf '%q ' "${tidy_args[@]}")"
 export -f check_unit
-export tidy clangxx cache config_key tidy_options top_pattern
+export tidy clangxx cache config_key tidy_options top_pattern finding_pattern
 status=0
 report="$(printf '%s\0' "${units[@]}" |
           xargs -0 -n 1 -P "$(nproc)" bash -c 'check_unit "$1"' _ 2>&1)" || status=$?
-mapfile -t bad < <(grep -E '^/[^:]+:[0-9]+:[0-9]+: (warning|error):' <<<"$report" | sort -u)
+mapfile -t bad < <(grep -E "$finding_pattern" <<<"$report" | sort -u)
 cached="$(grep -c '^cached ' <<<"$report" || true)"
 if [ ${#bad[@]} -gt 0 ]; then
     echo "check_naming: ${#bad[@]} findings (names against .clang-tidy, or what clang itself reports):" >&2

@@ -15,28 +15,42 @@ namespace {
 
 namespace fs = std::filesystem;
 
+bool clang_tools_missing() {
+    std::string out;
+    return run_command("command -v clang-tidy-14 && command -v clang++-14", &out) != 0;
+}
+
+// A compile database of one unit, compiled from `build` with `flags`.
+void write_compile_database(const fs::path& build, const fs::path& unit, const std::string& flags) {
+    fs::create_directories(build);
+    std::ofstream(build / "compile_commands.json")
+        << "[{\"directory\": \"" << build.string() << "\", \"command\": \"/usr/bin/c++ " << flags
+        << " -o unit.o -c " << unit.string() << "\", \"file\": \"" << unit.string() << "\"}]\n";
+}
+
+// `script BUILD` with its memory in `cache`: the exit status, the output in *out.
+int run_naming_check(const fs::path& script, const fs::path& build, const fs::path& cache,
+                     std::string* out) {
+    return run_command(
+        "LIDARFUSE_NAMING_CACHE=" + cache.string() + " " + script.string() + " " + build.string(),
+        out);
+}
+
 class NamingCheck : public ::testing::Test {
 protected:
     void SetUp() override {
-        std::string out;
-        if (run_command("command -v clang-tidy-14 && command -v clang++-14", &out) != 0) {
+        if (clang_tools_missing()) {
             GTEST_SKIP() << "clang-tidy-14 or clang++-14 not installed (scripts/setup.sh)";
         }
-        fs::create_directories(dir_.path() / "build");
-        const fs::path unit = dir_.path() / "unit.cpp";
-        std::ofstream(dir_.path() / "build" / "compile_commands.json")
-            << "[{\"directory\": \"" << (dir_.path() / "build").string()
-            << "\", \"command\": \"/usr/bin/c++ -std=c++17 -Wshadow=local -o unit.o -c "
-            << unit.string() << "\", \"file\": \"" << unit.string() << "\"}]\n";
+        write_compile_database(dir_.path() / "build", dir_.path() / "unit.cpp",
+                               "-std=c++17 -Wshadow=local");
     }
 
     // Runs the check on the unit `text`; its exit status, the output in *out.
     int check(const std::string& text, std::string* out) {
         std::ofstream(dir_.path() / "unit.cpp") << text;
-        return run_command("LIDARFUSE_NAMING_CACHE=" + (dir_.path() / "cache").string() + " " +
-                               (source_dir() / "scripts" / "check_naming.sh").string() + " " +
-                               (dir_.path() / "build").string(),
-                           out);
+        return run_naming_check(source_dir() / "scripts" / "check_naming.sh", dir_.path() / "build",
+                                dir_.path() / "cache", out);
     }
 
     int cache_entries() const {
@@ -83,31 +97,26 @@ TEST_F(NamingCheck, ACommentIsPartOfTheUnitsText) {
 // Two checkouts in different folders with the same unit: what passed in one is reused in
 // the other (the keys hold the checkout's path as @TOP@), and the cache is shared.
 TEST(NamingCheckClones, AUnitThatPassedInOneCheckoutIsReusedInAnother) {
-    std::string out;
-    if (run_command("command -v clang-tidy-14 && command -v clang++-14", &out) != 0) {
+    if (clang_tools_missing()) {
         GTEST_SKIP() << "clang-tidy-14 or clang++-14 not installed (scripts/setup.sh)";
     }
     TempDir first("naming_clone_a"), second("naming_clone_b"), cache("naming_clone_cache");
     for (const fs::path& top : {first.path(), second.path()}) {
         fs::create_directories(top / "scripts");
         fs::create_directories(top / "core");
-        fs::create_directories(top / "build");
         fs::copy_file(source_dir() / "scripts" / "check_naming.sh",
                       top / "scripts" / "check_naming.sh");
         fs::copy_file(source_dir() / ".clang-tidy", top / ".clang-tidy");
-        const fs::path unit = top / "core" / "unit.cpp";
         std::ofstream(top / "core" / "unit.hpp") << "#pragma once\nint good_name();\n";
-        std::ofstream(unit) << "#include \"core/unit.hpp\"\nint good_name() { return 0; }\n";
-        std::ofstream(top / "build" / "compile_commands.json")
-            << "[{\"directory\": \"" << (top / "build").string()
-            << "\", \"command\": \"/usr/bin/c++ -I" << top.string() << " -std=c++17 -o unit.o -c "
-            << unit.string() << "\", \"file\": \"" << unit.string() << "\"}]\n";
+        std::ofstream(top / "core" / "unit.cpp")
+            << "#include \"core/unit.hpp\"\nint good_name() { return 0; }\n";
+        write_compile_database(top / "build", top / "core" / "unit.cpp",
+                               "-I" + top.string() + " -std=c++17");
     }
+    std::string out;
     const auto check = [&](const fs::path& top) {
-        return run_command("LIDARFUSE_NAMING_CACHE=" + cache.path().string() + " " +
-                               (top / "scripts" / "check_naming.sh").string() + " " +
-                               (top / "build").string(),
-                           &out);
+        return run_naming_check(top / "scripts" / "check_naming.sh", top / "build", cache.path(),
+                                &out);
     };
     ASSERT_EQ(check(first.path()), 0) << out;
     EXPECT_NE(out.find("0 of them unchanged"), std::string::npos) << out;
