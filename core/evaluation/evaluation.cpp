@@ -122,12 +122,13 @@ MatchedSamples match_all(const Trajectories& ground_truth, const Trajectories& e
 // T_coord: Umeyama without scale from estimated to true positions. The positions must
 // span a plane: with fewer than three sensors, or sensors along a line, the rotation
 // about that line is not observable (pole sway alone is far too small to fix it), so
-// the true root pose at its first frame is used instead, and the result says so.
+// T_coord maps the estimated root at its first match onto the true one instead (the
+// strict metric's frame, whatever world.frame the estimate is in), and the result says so.
 void align_to_world(const MatchedSamples& matched, const Eigen::Isometry3d& T_world_root0,
-                    EvaluationResult* result) {
+                    const Eigen::Isometry3d& T_root0_fused, EvaluationResult* result) {
     const std::vector<Eigen::Vector3d>& est_positions = matched.est_positions;
     const std::vector<Eigen::Vector3d>& gt_positions = matched.gt_positions;
-    result->T_world_root = T_world_root0;
+    result->T_world_root = T_world_root0 * T_root0_fused;
     result->alignment = "root";
     if (est_positions.size() < 3) return;
     Eigen::Matrix3Xd src(3, est_positions.size()), dst(3, gt_positions.size());
@@ -150,7 +151,7 @@ void align_to_world(const MatchedSamples& matched, const Eigen::Isometry3d& T_wo
 
 // The transforms every sample's errors are measured with.
 struct ErrorFrames {
-    Eigen::Isometry3d T_world_root;   // aligned: the fitted T_coord (or the true root pose)
+    Eigen::Isometry3d T_world_root;   // aligned: the fitted T_coord (or root onto root)
     Eigen::Isometry3d T_world_root0;  // strict: the root's true pose at its first match
     Eigen::Isometry3d T_root0_fused;  // strict: the root's estimated pose there, inverted
 };
@@ -272,7 +273,7 @@ EvaluationResult evaluate_trajectories(const Trajectories& ground_truth,
     ErrorFrames frames;
     frames.T_world_root0 = root->second.front().truth->pose;
     frames.T_root0_fused = root->second.front().estimate->pose.inverse();
-    align_to_world(matched, frames.T_world_root0, &result);
+    align_to_world(matched, frames.T_world_root0, frames.T_root0_fused, &result);
     frames.T_world_root = result.T_world_root;
 
     ErrorSums sums;

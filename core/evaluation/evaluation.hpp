@@ -75,7 +75,8 @@ struct EvaluationResult {
     std::string root_sensor;
     Eigen::Isometry3d T_world_root = Eigen::Isometry3d::Identity();  // the fitted T_coord
     // "svd": T_coord fitted from the sensor positions; "root": the positions do not span a
-    // plane (fewer than three sensors, or in a line), so the true root pose is used.
+    // plane (fewer than three sensors, or in a line), so T_coord maps the estimated root at
+    // its first match onto the true one (the aligned figures then equal the strict ones).
     std::string alignment;
     std::vector<SensorErrors> sensors;
     double mean_rmse_trans_m = 0, mean_rmse_rot_deg = 0;

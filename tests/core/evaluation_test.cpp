@@ -186,12 +186,22 @@ TEST(Evaluation, CollinearPositionsFallBackToTheRootPose) {
     gt.erase("lidar3");
     auto est = perfect_estimate(gt);
     for (auto& s : est["lidar1"]) s.pose.translation().z() += 0.01;
-    const auto result = evaluate_trajectories(gt, est);
-    ASSERT_TRUE(result.ok);
-    EXPECT_EQ(result.alignment, "root");
-    for (const auto& s : result.sensors) {
-        EXPECT_NEAR(s.rmse_trans_m, s.strict_rmse_trans_m, 1e-9);
-        EXPECT_NEAR(s.rmse_rot_deg, s.strict_rmse_rot_deg, 1e-9);
+    // The estimate in a road or geo frame (its root not at the identity) as well: the
+    // fallback maps root onto root, not the truth's root onto the estimate's frame.
+    auto est_in_road = est;
+    const Eigen::Isometry3d T_road_root0 = pose(3.0, -2.0, 6.0, 40.0, 17.0);
+    for (auto& [name, samples] : est_in_road) {
+        for (auto& s : samples) s.pose = T_road_root0 * s.pose;
+    }
+    for (const auto* estimate : {&est, &est_in_road}) {
+        const auto result = evaluate_trajectories(gt, *estimate);
+        ASSERT_TRUE(result.ok);
+        EXPECT_EQ(result.alignment, "root");
+        EXPECT_NEAR(result.mean_rmse_trans_m, 0.005, 1e-6);
+        for (const auto& s : result.sensors) {
+            EXPECT_NEAR(s.rmse_trans_m, s.strict_rmse_trans_m, 1e-9);
+            EXPECT_NEAR(s.rmse_rot_deg, s.strict_rmse_rot_deg, 1e-9);
+        }
     }
     EXPECT_EQ(evaluate_trajectories(world_truth(), perfect_estimate(world_truth())).alignment,
               "svd");
