@@ -230,6 +230,8 @@ void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
     dynamic_.assign(points_.size(), 0);
     dynamic_count_ = 0;
     background_.set_reference(points_);
+    // The last update's flags index the previous reference's points (a restarted track).
+    background_update_ = BackgroundUpdate{};
     reference_points_ = points_;
     reference_point_dt_s_ = point_dt_s_;
     reference_deskewed_ = false;

@@ -1,0 +1,69 @@
+#include "core/pipeline/sensor_track.hpp"
+
+#include <gtest/gtest.h>
+
+#include "tests/core/synthetic_lidar_scene.hpp"
+
+namespace lidarfuse::core {
+namespace {
+
+const Eigen::Isometry3d kSensorPose = testing::sensor_pose(0.0, 0.0, 5.0, 0.0, 10.0);
+
+SensorScanInput scan_of(const testing::Scene& scene, std::uint32_t seed, std::int64_t t_ns) {
+    testing::ScanPattern pattern;
+    pattern.beams = 32;
+    pattern.columns = 360;
+    SensorScanInput scan;
+    scan.present = true;
+    scan.t_ns = t_ns;
+    scan.points = testing::scan_scene(scene, kSensorPose, pattern, seed).points;
+    return scan;
+}
+
+// The street with a van parked in view, which then leaves.
+testing::Scene street_with_van() {
+    testing::Scene scene = testing::street_scene();
+    scene.boxes.push_back(
+        testing::SceneBox(Eigen::Vector3d(9.0, 1.0, 0.0), Eigen::Vector3d(5.0, 2.2, 2.6), 0.1));
+    return scene;
+}
+
+FusionParams track_params() {
+    FusionParams params;
+    params.deskew = false;  // static sensor: no motion to undo
+    return params;
+}
+
+// A track that diverged is reset and started again on a new reference scan: the new
+// reference target must be the one a fresh track builds on that scan. The background
+// model's flags of the old reference (the van's points, removed since its frame) index
+// points of the old scan and must not thin the new one.
+TEST(SensorTrack, RestartedTrackForgetsTheOldReferencesDynamicPoints) {
+    const FusionParams params = track_params();
+    SensorTrack track(params);
+    const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    track.start(0, scan_of(street_with_van(), 1, 0), T);
+    const testing::Scene empty_street = testing::street_scene();
+    for (int f = 1; f <= 6; ++f) {
+        track.prepare(scan_of(empty_street, 1 + f, f * 50'000'000LL), T);
+        track.finish_frame(f, f * 50'000'000LL, T);
+    }
+    // The van's points were found gone from the reference, and the reference rebuilt without
+    // them: the flags this test is about are set.
+    SensorTrack fresh(params);
+    fresh.start(0, scan_of(street_with_van(), 1, 0), T);
+    ASSERT_LT(track.reference_target().size(), fresh.reference_target().size());
+
+    track.reset();
+    const SensorScanInput restart = scan_of(street_with_van(), 20, 400'000'000LL);
+    track.start(8, restart, T);
+    SensorTrack restarted_fresh(params);
+    restarted_fresh.start(8, restart, T);
+    const auto& got = track.reference_target().points();
+    const auto& want = restarted_fresh.reference_target().points();
+    ASSERT_EQ(got.size(), want.size());
+    for (std::size_t i = 0; i < got.size(); ++i) EXPECT_EQ(got[i], want[i]) << "point " << i;
+}
+
+}  // namespace
+}  // namespace lidarfuse::core
