@@ -66,6 +66,7 @@ void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<st
     out->applied_registration =
         FrameOutput::AppliedRegistration{p.job, p.order, p.T_root0_root, p.first};
     bool any_failed = false;
+    std::vector<std::size_t> registered;  // positions in p.order
     for (std::size_t k = 0; k < p.order.size(); ++k) {
         const std::size_t s = p.order[k];
         const bool is_root = s == params.root_sensor;
@@ -78,9 +79,22 @@ void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<st
             any_failed = true;
             continue;
         }
-        const Eigen::Isometry3d T = p.T_root0_root * result.sensors[k].T_root_sensor;
-        tracks[s]->start(p.frame, p.scans[k], T);
-        graph.add_node(node_id(s, p.frame), T, is_root);
+        registered.push_back(k);
+    }
+    // Each track builds its reference (crop, background, targets) on its own: in parallel,
+    // as in prepare_tracks, so that a station's registration does not stall one frame for
+    // the sum of its sensors.
+    const int threads = std::max(1, params.num_threads);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+    for (std::size_t r = 0; r < registered.size(); ++r) {
+        const std::size_t k = registered[r];
+        tracks[p.order[k]]->start(p.frame, p.scans[k],
+                                  p.T_root0_root * result.sensors[k].T_root_sensor);
+    }
+    for (const std::size_t k : registered) {
+        const std::size_t s = p.order[k];
+        const bool is_root = s == params.root_sensor;
+        graph.add_node(node_id(s, p.frame), tracks[s]->reference_pose(), is_root);
         started->push_back(s);
         started_first[s] = p.first;
         reanchored_frame[s] = -1;

@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <optional>
 
 #include "core/pipeline/fusion_engine_impl.hpp"
 
@@ -24,13 +25,24 @@ bool FusionEngine::Impl::reanchor_references(std::int64_t frame, const std::vect
     for (std::size_t s = 0; s < n; ++s) {
         if (s != root) order.push_back(s);
     }
+    std::vector<std::size_t> due;
+    for (std::size_t s : order) {
+        if (!tracks[s]->initialised() || !usable[s]) continue;
+        if (std::find(started.begin(), started.end(), s) == started.end()) due.push_back(s);
+    }
+    // Each deskew rebuilds its track's fine reference target: in parallel, the tracks are
+    // independent (the re-anchoring below is not: it needs the root's first).
+    std::vector<std::optional<Eigen::Isometry3d>> rights(due.size());
+    const int threads = std::max(1, params.num_threads);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+    for (std::size_t k = 0; k < due.size(); ++k)
+        rights[k] = tracks[due[k]]->deskew_reference(frame);
     bool any = false;
     std::vector<std::size_t> batch;  // re-anchored with the root's reference frame
-    for (std::size_t s : order) {
+    for (std::size_t k = 0; k < due.size(); ++k) {
+        const std::size_t s = due[k];
         SensorTrack& track = *tracks[s];
-        if (!track.initialised() || !usable[s]) continue;
-        if (std::find(started.begin(), started.end(), s) != started.end()) continue;
-        const auto right = track.deskew_reference(frame);
+        const auto& right = rights[k];
         if (!right) continue;
         Eigen::Isometry3d left = Eigen::Isometry3d::Identity();
         if (s == root) {
