@@ -7,6 +7,8 @@
 //     /proc/<pid>/task: lf-recv-*, lf-sync, lf-fusion (with its OpenMP team), lf-init (the
 //     initial registration, with its team), lf-output, lf-record, Cyclone's threads, the
 //     rest), and the peak RSS
+//   the same latency and the frames dropped over the steady run alone (from kSettleS after
+//     the first cloud), besides the whole run's
 //   packets sent, received (diagnostics), lost; frames in the capture, fused, published
 // and at the end the largest N with zero packet loss and the largest N that also fused at
 // least 95 % of the capture's frames (real time).
@@ -64,6 +66,11 @@
 #include "drivers/pcap/pcap_reader.hpp"
 
 namespace {
+
+// The steady run starts this long after the first cloud arrives (s): the initial
+// registration's result is applied and publishing starts in the same frame, and the frames
+// of the next second or so cost several times a steady frame.
+constexpr double kSettleS = 2.0;
 
 using namespace lidarfuse;
 using bench::Delivery;
@@ -139,6 +146,16 @@ void replay(const fs::path& capture, std::vector<SensorReplay>* sensors) {
             }
         }
     }
+}
+
+// Frames dropped from the first diagnostics report at or after from_ns to the last one
+// (0 when none came after from_ns).
+std::uint64_t drops_since(const std::vector<std::pair<std::int64_t, std::uint64_t>>& reports,
+                          std::int64_t from_ns) {
+    const auto first = std::find_if(reports.begin(), reports.end(),
+                                    [&](const auto& r) { return r.first >= from_ns; });
+    if (first == reports.end()) return 0;
+    return reports.back().second - first->second;
 }
 
 double percentile(std::vector<double> v, double p) {
@@ -264,8 +281,20 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, int fusio
     reader.join();
     for (auto& s : sensors) ::close(s.socket);
 
-    // Latency: cloud arrival - the last datagram of the frame's latest scan.
-    std::vector<double> latency_ms;
+    // Latency: cloud arrival - the last datagram of the frame's latest scan. Also over the
+    // steady run alone: from kSettleS after the first cloud (the initial registration is
+    // applied and publishing starts then, at once: bench/BENCHMARK.md, "The daemon's first
+    // second after the initial registration").
+    std::vector<double> latency_ms, steady_latency_ms;
+    const std::int64_t steady_from_ns =
+        received.cloud_arrival_ns.empty()
+            ? 0
+            : std::min_element(
+                  received.cloud_arrival_ns.begin(), received.cloud_arrival_ns.end(),
+                  [](const auto& a, const auto& b) {
+                      return a.second < b.second;
+                  })->second +
+                  static_cast<std::int64_t>(kSettleS * 1e9);
     for (const auto& [stamp, arrival] : received.cloud_arrival_ns) {
         const auto members = received.members.find(stamp);
         if (members == received.members.end()) continue;
@@ -278,8 +307,9 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, int fusio
                     last_packet = std::max(last_packet, scan.last_send_ns);
             }
         }
-        if (last_packet > 0)
-            latency_ms.push_back(static_cast<double>(arrival - last_packet) * 1e-6);
+        if (last_packet == 0) continue;
+        latency_ms.push_back(static_cast<double>(arrival - last_packet) * 1e-6);
+        if (arrival >= steady_from_ns) steady_latency_ms.push_back(latency_ms.back());
     }
     std::uint64_t sent = 0, received_packets = 0;
     std::size_t capture_frames = 0;
@@ -299,6 +329,12 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, int fusio
     std::printf("daemon_latency_median_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.5));
     std::printf("daemon_latency_p99_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.99));
     std::printf("daemon_latency_samples_%s %zu frames\n", tag.c_str(), latency_ms.size());
+    std::printf("daemon_latency_median_steady_%s %.1f ms\n", tag.c_str(),
+                percentile(steady_latency_ms, 0.5));
+    std::printf("daemon_latency_p99_steady_%s %.1f ms\n", tag.c_str(),
+                percentile(steady_latency_ms, 0.99));
+    std::printf("daemon_latency_samples_steady_%s %zu frames\n", tag.c_str(),
+                steady_latency_ms.size());
     for (const char* stage :
          {"receive", "sync", "fusion", "initial", "output", "record", "foxglove", "dds", "main"}) {
         const StageUsage before = cpu0.count(stage) ? cpu0.at(stage) : StageUsage{};
@@ -325,6 +361,9 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, int fusio
                 value("frames_predicted").c_str());
     std::printf("daemon_frames_dropped_before_fusion_%s %s frames\n", tag.c_str(),
                 value("frame_queue_drops").c_str());
+    std::printf("daemon_frames_dropped_steady_%s %llu frames\n", tag.c_str(),
+                static_cast<unsigned long long>(
+                    drops_since(received.queue_drops_over_time, steady_from_ns)));
     std::printf("daemon_initial_registration_%s %s ms\n", tag.c_str(),
                 value("last_initial_registration_ms").c_str());
     std::printf("daemon_clouds_received_%s %zu frames\n", tag.c_str(),

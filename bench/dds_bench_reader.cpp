@@ -8,6 +8,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 
 #include "daemon/dds_messages.hpp"
 
@@ -87,10 +88,16 @@ void subscribe(int domain, const Delivery& delivery, std::atomic<bool>* stop,
             const auto* m =
                 static_cast<const diagnostic_msgs_msg_dds__DiagnosticArray_*>(samples[i]);
             for (std::uint32_t s = 0; s < m->status._length; ++s) {
-                auto& values = out->last_diagnostics[m->status._buffer[s].name];
+                const std::string name = m->status._buffer[s].name;
+                auto& values = out->last_diagnostics[name];
                 for (std::uint32_t k = 0; k < m->status._buffer[s].values._length; ++k) {
                     values[m->status._buffer[s].values._buffer[k].key] =
                         m->status._buffer[s].values._buffer[k].value;
+                }
+                const auto drops = values.find("frame_queue_drops");
+                if (name.size() > 9 && name.compare(name.size() - 9, 9, "/pipeline") == 0 &&
+                    drops != values.end()) {
+                    out->queue_drops_over_time.emplace_back(now, std::stoull(drops->second));
                 }
             }
         }

@@ -8,6 +8,7 @@
 #include <map>
 #include <mutex>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace lidarfuse::bench {
@@ -32,6 +33,9 @@ struct Received {
         members;  // by stamp: included sensors' t_ns (0: absent)
     std::map<std::string, std::map<std::string, std::string>>
         last_diagnostics;  // status name -> values
+    // The pipeline's frame_queue_drops as each diagnostics message reported it: (arrival,
+    // count), for the drops of a stretch of the run.
+    std::vector<std::pair<std::int64_t, std::uint64_t>> queue_drops_over_time;
 };
 
 // Reads clouds, poses and diagnostics on `domain` until `stop`, arrival times taken on
