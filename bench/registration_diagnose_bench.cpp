@@ -105,6 +105,9 @@ core::InitialRegistrationParams registration_params(const Options& opts) {
         option(opts, "min_bridge_info", params.consensus.min_bridge_information_per_inlier);
     params.polish.max_correspondence_m =
         list_option(opts, "polish", params.polish.max_correspondence_m);
+    params.consensus.ambiguity.rival_pair_share =
+        option(opts, "rival_share", params.consensus.ambiguity.rival_pair_share);
+    params.consensus.moves = option(opts, "moves", params.consensus.moves ? 1 : 0) != 0;
     return params;
 }
 

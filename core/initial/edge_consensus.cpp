@@ -186,6 +186,7 @@ bool places_sensors_too_close(const Tree& tree, const EdgeConsensusParams& param
 // The tree's score and, per good pair, its consistent option.
 void score_tree(const std::vector<PairResult>& pairs, const Candidates& candidates,
                 const EdgeConsensusParams& params, Tree* tree) {
+    tree->score = Score{};
     tree->score.consistent = 0;
     tree->pick.assign(pairs.size(), -1);
     for (std::size_t i = 0; i < tree->has.size(); ++i) tree->score.reached += tree->has[i] ? 1 : 0;
@@ -235,6 +236,77 @@ SampledTrees sample_trees(std::size_t n, const std::vector<PairResult>& pairs,
         }
     }
     return sampled;
+}
+
+// The pose of `s` implied by `option`, a candidate of a pair between s and another sensor
+// that `tree` places; false when the option's pair does not join s to a placed sensor.
+bool placement_through(const Tree& tree, const std::vector<PairResult>& pairs, const Option& option,
+                       std::size_t s, Eigen::Isometry3d* pose) {
+    const PairResult& p = pairs[option.pair];
+    const auto source = static_cast<std::size_t>(p.source);
+    const auto target = static_cast<std::size_t>(p.target);
+    const Eigen::Isometry3d& T = option.estimate.T_target_source;
+    if (source == s && target != s && tree.has[target]) {
+        *pose = tree.poses[target] * T;
+        return true;
+    }
+    if (target == s && source != s && tree.has[source]) {
+        *pose = tree.poses[source] * T.inverse();
+        return true;
+    }
+    return false;
+}
+
+// A sensor other than `s` placed within min_sensor_separation_m of s, or the number of
+// sensors when there is none.
+std::size_t sensor_on(const Tree& tree, std::size_t s, const EdgeConsensusParams& params) {
+    for (std::size_t u = 0; u < tree.has.size(); ++u) {
+        if (u != s && tree.has[u] &&
+            (tree.poses[u].translation() - tree.poses[s].translation()).norm() <
+                params.min_sensor_separation_m) {
+            return u;
+        }
+    }
+    return tree.has.size();
+}
+
+// Scores `tree` and keeps it when it is valid and new.
+void keep_if_new(const std::vector<PairResult>& pairs, const Candidates& candidates,
+                 const EdgeConsensusParams& params, Tree tree, SampledTrees* sampled) {
+    if (places_sensors_too_close(tree, params)) return;
+    score_tree(pairs, candidates, params, &tree);
+    if (duplicates_one_of(sampled->trees, tree, params)) return;
+    sampled->trees.push_back(std::move(tree));
+}
+
+// Our addition (edge_consensus.hpp, "Moves"): the valid placements one move away from the
+// tree at `base_index`, appended to the sampled trees. A move re-places one non-root sensor
+// through any candidate of its pairs to another placed sensor; when that lands it on a
+// sensor u (two look-alikes swapped: each sits on the other's true place), u is re-placed
+// through each of its candidates as well.
+void add_moves_from(std::size_t base_index, const std::vector<PairResult>& pairs,
+                    const Candidates& candidates, const EdgeConsensusParams& params,
+                    SampledTrees* sampled) {
+    const Tree base = sampled->trees[base_index];
+    const std::size_t n = base.has.size();
+    for (std::size_t s = 1; s < n; ++s) {
+        if (!base.has[s]) continue;
+        for (const Option& option : candidates.options) {
+            Tree moved = base;
+            if (!placement_through(base, pairs, option, s, &moved.poses[s])) continue;
+            const std::size_t u = sensor_on(moved, s, params);
+            if (u == n) {
+                keep_if_new(pairs, candidates, params, std::move(moved), sampled);
+                continue;
+            }
+            if (u == 0) continue;  // the root stays where it defines the frame
+            for (const Option& second : candidates.options) {
+                Tree both = moved;
+                if (placement_through(moved, pairs, second, u, &both.poses[u]))
+                    keep_if_new(pairs, candidates, params, std::move(both), sampled);
+            }
+        }
+    }
 }
 
 // The figures of t's candidates on the pairs where t and `other` use different ones,
@@ -372,6 +444,11 @@ EdgeConsensusResult select_consistent_edges(std::size_t n, std::vector<PairResul
     SampledTrees sampled = sample_trees(n, *pairs, candidates, params);
     if (params.ambiguity.enabled && !sampled.trees.empty()) {
         sampled.best = clearly_better_rival(sampled, candidates, params.ambiguity);
+        // The moves only ever refuse: a move that explains the pairs about as well as the
+        // winner and places some sensor elsewhere makes that sensor ambiguous; none replaces
+        // the winner (pooled figures judged look-alikes "clearly better" in one of eight
+        // 8-sensor captures, bench/BENCHMARK.md).
+        if (params.moves) add_moves_from(sampled.best, *pairs, candidates, params, &sampled);
         mark_ambiguous(sampled, candidates, params, &result);
     }
     const Tree* winner = sampled.trees.empty() ? nullptr : &sampled.trees[sampled.best];

@@ -24,6 +24,17 @@
 // differently are refused (their pairs get kAmbiguous) rather than guessed. Pooled, so that
 // small per-pair differences (above all in free-space share) add up to a clear one.
 //
+// Moves: random spanning trees rarely place every sensor of a large station right at once
+// (8 sensors with several look-alike candidates each), so the rival that would show a
+// sensor's placement ambiguous can be missing from the samples: two sensors swapped, each
+// at the other's place turned by 180 deg, explained as many pairs as the right placement,
+// which no sample reached. So the placements one move away from the winner are rivals
+// too: each non-root sensor re-placed through every other candidate of its pairs, and when
+// that lands it on a sensor, that one re-placed through every candidate of its own. They
+// can only refuse sensors, never replace the winner: on pooled figures a look-alike move
+// was "clearly better" than a right winner in one of eight 8-sensor captures
+// (bench/BENCHMARK.md, "Swapped look-alikes at 8 sensors").
+//
 // Deterministic for fixed params. Single-threaded.
 
 #include <cstddef>
@@ -67,6 +78,10 @@ struct EdgeConsensusParams {
     double max_edge_rotation_deg = 1.0;
     int samples = 256;
     std::uint32_t seed = 1;
+    // Moves (ambiguity only): the placements one move away from the winner, a sensor
+    // re-placed through another candidate of one of its pairs (and a sensor that lands on
+    // it re-placed too), are rivals like the sampled trees, but never replace the winner.
+    bool moves = true;
     double min_sensor_separation_m = 0.5;
     AmbiguityParams ambiguity{};
     // Unconfirmed: a consistent pair of the winning tree that is a bridge (no cycle of

@@ -142,6 +142,55 @@ TEST(EdgeConsensus, OnlyTheUndecidedSensorIsRefused) {
     EXPECT_EQ(pairs[2].status, PairStatus::kAmbiguous);
 }
 
+// Two sensors placed at each other's look-alike (a symmetric crossing: lidar5 where lidar7
+// stands and the other way round, turned by 180 deg) explain the pairs as well as the right
+// placements. When the sampled trees miss the right placement of both at once (here only
+// the max-support tree is sampled), the moves from the winner find it: moving sensor 2 to
+// its right place lands on sensor 3, which is moved too. The two sensors are then refused,
+// never placed at the look-alike.
+TEST(EdgeConsensus, SwappedLookAlikesFoundByMovesAreRefused) {
+    const Eigen::Isometry3d P1 = pose(20, -5, 30), P2 = pose(40, 30, -60), P3 = pose(-30, 35, 120);
+    // Each at the other's place, turned by 180 deg.
+    Eigen::Isometry3d S2 = P2 * pose(0, 0, 180), S3 = P3 * pose(0, 0, 180);
+    S2.translation() = P3.translation();
+    S3.translation() = P2.translation();
+    const auto both = [](int source, int target, const Eigen::Isometry3d& look_alike,
+                         const Eigen::Isometry3d& right) {
+        return pair(source, target, candidate(0, look_alike, 800, 0.40, 0.05),
+                    {candidate(1, right, 790, 0.40, 0.05)});
+    };
+    const auto make_pairs = [&] {
+        return std::vector<PairResult>{pair(1, 0, candidate(0, P1, 900, 0.35, 0.01)),
+                                       both(2, 0, S2, P2), both(3, 0, S3, P3),
+                                       both(2, 1, P1.inverse() * S2, P1.inverse() * P2),
+                                       both(3, 2, S2.inverse() * S3, P2.inverse() * P3)};
+    };
+    EdgeConsensusParams params;
+    params.samples = 1;
+
+    params.moves = false;
+    std::vector<PairResult> guessed = make_pairs();
+    std::vector<bool> guessed_ok(guessed.size(), true);
+    const EdgeConsensusResult without = select_consistent_edges(4, &guessed, &guessed_ok, params);
+    EXPECT_FALSE(without.ambiguous[2]);
+    EXPECT_TRUE(guessed_ok[1]);
+    EXPECT_EQ(guessed[1].chosen.candidate, 0);  // the look-alike, kept: what moves prevent
+
+    params.moves = true;
+    std::vector<PairResult> pairs = make_pairs();
+    std::vector<bool> edge_ok(pairs.size(), true);
+    const EdgeConsensusResult r = select_consistent_edges(4, &pairs, &edge_ok, params);
+    EXPECT_FALSE(r.ambiguous[0]);
+    EXPECT_FALSE(r.ambiguous[1]);
+    EXPECT_TRUE(r.ambiguous[2]);
+    EXPECT_TRUE(r.ambiguous[3]);
+    EXPECT_TRUE(edge_ok[0]);
+    for (std::size_t e = 1; e < pairs.size(); ++e) {
+        EXPECT_FALSE(edge_ok[e]) << "pair " << e;
+        EXPECT_EQ(pairs[e].status, PairStatus::kAmbiguous) << "pair " << e;
+    }
+}
+
 TEST(EdgeConsensus, NoGoodPairs) {
     std::vector<PairResult> pairs{PairResult{}};
     pairs[0].source = 1;
