@@ -224,16 +224,21 @@ TEST(DdsInputPipeline, SensorsFromDdsTopicsAreRegisteredAndFused) {
     const std::size_t written =
         publish_as_driver_clouds(sim_station, sim / "capture.pcap", prefix, &writers);
     EXPECT_EQ(written, 200u);  // 2 sensors x 5 s x 20 Hz
-    // Fusion catches up (the initial registration ran beside it), then the pipeline stops.
+    // Fusion catches up (the initial registration ran beside it), and each reader has made
+    // a scan of every cloud it took (a cloud is counted when taken, its scan after its points
+    // are copied: a snapshot between the two, slow under the sanitizers, differs by one);
+    // then the pipeline stops.
     std::uint64_t fused = 0;
     test::eventually(
         [&] {
-            const std::uint64_t now = pipeline.stats().frames_fused;
-            const bool settled = now == fused && now > 0;
-            fused = now;
+            const PipelineStats now = pipeline.stats();
+            bool settled = now.frames_fused == fused && now.frames_fused > 0;
+            for (const auto& sensor : now.sensors)
+                settled = settled && sensor.dds && sensor.scans == sensor.dds->clouds;
+            fused = now.frames_fused;
             return settled;
         },
-        100);
+        1000);
     const PipelineStats stats = pipeline.stats();
     pipeline.stop();
     for (std::size_t s = 0; s < 2; ++s) {
