@@ -168,17 +168,23 @@ Tree grow_tree(std::size_t n, const std::vector<PairResult>& pairs,
     return tree;
 }
 
+// A sensor other than `s` placed within min_sensor_separation_m of s, or the number of
+// sensors when there is none.
+std::size_t sensor_on(const Tree& tree, std::size_t s, const EdgeConsensusParams& params) {
+    for (std::size_t u = 0; u < tree.has.size(); ++u) {
+        if (u != s && tree.has[u] &&
+            (tree.poses[u].translation() - tree.poses[s].translation()).norm() <
+                params.min_sensor_separation_m) {
+            return u;
+        }
+    }
+    return tree.has.size();
+}
+
 // Invalid: the tree puts two sensors within min_sensor_separation_m of each other.
 bool places_sensors_too_close(const Tree& tree, const EdgeConsensusParams& params) {
-    const std::size_t n = tree.has.size();
-    for (std::size_t a = 0; a < n; ++a) {
-        for (std::size_t b = a + 1; b < n; ++b) {
-            if (tree.has[a] && tree.has[b] &&
-                (tree.poses[a].translation() - tree.poses[b].translation()).norm() <
-                    params.min_sensor_separation_m) {
-                return true;
-            }
-        }
+    for (std::size_t s = 0; s < tree.has.size(); ++s) {
+        if (tree.has[s] && sensor_on(tree, s, params) != tree.has.size()) return true;
     }
     return false;
 }
@@ -215,6 +221,16 @@ struct SampledTrees {
     std::size_t best = 0;
 };
 
+// Scores `tree` and appends it when it is valid and new; true when it was appended.
+bool keep_if_new(const std::vector<PairResult>& pairs, const Candidates& candidates,
+                 const EdgeConsensusParams& params, Tree tree, SampledTrees* sampled) {
+    if (places_sensors_too_close(tree, params)) return false;
+    score_tree(pairs, candidates, params, &tree);
+    if (duplicates_one_of(sampled->trees, tree, params)) return false;
+    sampled->trees.push_back(std::move(tree));
+    return true;
+}
+
 // Seeded: the first sample takes the options in their order, every later one shuffles the
 // previous sample's order.
 SampledTrees sample_trees(std::size_t n, const std::vector<PairResult>& pairs,
@@ -225,12 +241,11 @@ SampledTrees sample_trees(std::size_t n, const std::vector<PairResult>& pairs,
     std::iota(order.begin(), order.end(), 0);
     for (int sample = 0; sample < params.samples; ++sample) {
         if (sample > 0) std::shuffle(order.begin(), order.end(), rng);
-        Tree tree = grow_tree(n, pairs, candidates.options, order);
-        if (places_sensors_too_close(tree, params)) continue;
-        score_tree(pairs, candidates, params, &tree);
-        if (duplicates_one_of(sampled.trees, tree, params)) continue;
-        std::vector<Tree>& trees = sampled.trees;
-        trees.push_back(std::move(tree));
+        if (!keep_if_new(pairs, candidates, params, grow_tree(n, pairs, candidates.options, order),
+                         &sampled)) {
+            continue;
+        }
+        const std::vector<Tree>& trees = sampled.trees;
         if (trees.size() == 1 || trees.back().score > trees[sampled.best].score) {
             sampled.best = trees.size() - 1;
         }
@@ -257,28 +272,6 @@ bool placement_through(const Tree& tree, const std::vector<PairResult>& pairs, c
     return false;
 }
 
-// A sensor other than `s` placed within min_sensor_separation_m of s, or the number of
-// sensors when there is none.
-std::size_t sensor_on(const Tree& tree, std::size_t s, const EdgeConsensusParams& params) {
-    for (std::size_t u = 0; u < tree.has.size(); ++u) {
-        if (u != s && tree.has[u] &&
-            (tree.poses[u].translation() - tree.poses[s].translation()).norm() <
-                params.min_sensor_separation_m) {
-            return u;
-        }
-    }
-    return tree.has.size();
-}
-
-// Scores `tree` and keeps it when it is valid and new.
-void keep_if_new(const std::vector<PairResult>& pairs, const Candidates& candidates,
-                 const EdgeConsensusParams& params, Tree tree, SampledTrees* sampled) {
-    if (places_sensors_too_close(tree, params)) return;
-    score_tree(pairs, candidates, params, &tree);
-    if (duplicates_one_of(sampled->trees, tree, params)) return;
-    sampled->trees.push_back(std::move(tree));
-}
-
 // Our addition (edge_consensus.hpp, "Moves"): the valid placements one move away from the
 // tree at `base_index`, appended to the sampled trees. A move re-places one non-root sensor
 // through any candidate of its pairs to another placed sensor; when that lands it on a
@@ -292,8 +285,10 @@ void add_moves_from(std::size_t base_index, const std::vector<PairResult>& pairs
     for (std::size_t s = 1; s < n; ++s) {
         if (!base.has[s]) continue;
         for (const Option& option : candidates.options) {
+            Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+            if (!placement_through(base, pairs, option, s, &pose)) continue;
             Tree moved = base;
-            if (!placement_through(base, pairs, option, s, &moved.poses[s])) continue;
+            moved.poses[s] = pose;
             const std::size_t u = sensor_on(moved, s, params);
             if (u == n) {
                 keep_if_new(pairs, candidates, params, std::move(moved), sampled);
@@ -301,9 +296,10 @@ void add_moves_from(std::size_t base_index, const std::vector<PairResult>& pairs
             }
             if (u == 0) continue;  // the root stays where it defines the frame
             for (const Option& second : candidates.options) {
+                if (!placement_through(moved, pairs, second, u, &pose)) continue;
                 Tree both = moved;
-                if (placement_through(moved, pairs, second, u, &both.poses[u]))
-                    keep_if_new(pairs, candidates, params, std::move(both), sampled);
+                both.poses[u] = pose;
+                keep_if_new(pairs, candidates, params, std::move(both), sampled);
             }
         }
     }
