@@ -64,20 +64,38 @@ VoxelGridStats VoxelGrid::downsample(const std::vector<Eigen::Vector3d>& points,
     return stats;
 }
 
-// Every point into the table (open addressing, linear probing, load factor <= 0.5),
-// summed into its voxel.
-void VoxelGrid::insert_points(const std::vector<Eigen::Vector3d>& points, double voxel_size_m,
-                              VoxelGridStats* stats) {
-    const std::size_t n = points.size();
+// An empty table of at least twice `voxels` slots (a power of two, load factor <= 0.5).
+void VoxelGrid::Table::reset(std::size_t voxels) {
     std::size_t capacity = 16;
     int shift_bits = 4;
-    while (capacity < 2 * n) {
+    while (capacity < 2 * voxels) {
         capacity <<= 1;
         ++shift_bits;
     }
-    table_.hash_shift = 64 - shift_bits;
-    table_.keys.assign(capacity, kEmptyKey);
-    table_.values.resize(capacity);
+    hash_shift = 64 - shift_bits;
+    keys.assign(capacity, kEmptyKey);
+    values.resize(capacity);
+}
+
+// Twice the slots, the voxels so far inserted again (their indices unchanged).
+void VoxelGrid::grow_table() {
+    table_.reset(table_.keys.size());
+    for (std::size_t v = 0; v < voxel_keys_.size(); ++v) {
+        const std::size_t slot = table_.slot_of(voxel_keys_[v]);
+        table_.keys[slot] = voxel_keys_[v];
+        table_.values[slot] = static_cast<std::uint32_t>(v);
+    }
+}
+
+// Every point into the table (open addressing, linear probing, load factor <= 0.5),
+// summed into its voxel. The table starts sized for the previous call's voxels, not for
+// the points: a scan of 65k points fills a few thousand voxels, and a table sized for the
+// points (1.5 MB) would not stay in the cache.
+void VoxelGrid::insert_points(const std::vector<Eigen::Vector3d>& points, double voxel_size_m,
+                              VoxelGridStats* stats) {
+    const std::size_t n = points.size();
+    const std::size_t expected = previous_.output_of_voxel.size();
+    table_.reset(std::min(n, expected + expected / 4 + 64));
     voxel_of_point_.resize(n);
     sums_.clear();
     counts_.clear();
@@ -107,8 +125,12 @@ void VoxelGrid::insert_points(const std::vector<Eigen::Vector3d>& points, double
 
 // The voxel of `key`, a new one (in order of first appearance) when the key is new.
 std::uint32_t VoxelGrid::voxel_of(std::uint64_t key) {
-    const std::size_t slot = table_.slot_of(key);
+    std::size_t slot = table_.slot_of(key);
     if (table_.keys[slot] == kEmptyKey) {
+        if (2 * (voxel_keys_.size() + 1) > table_.keys.size()) {
+            grow_table();
+            slot = table_.slot_of(key);
+        }
         table_.keys[slot] = key;
         table_.values[slot] = static_cast<std::uint32_t>(sums_.size());
         voxel_keys_.push_back(key);

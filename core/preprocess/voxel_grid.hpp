@@ -92,10 +92,12 @@ private:
         // The slot holding `key`, or the empty slot where it would go (linear probing).
         std::size_t slot_of(std::uint64_t key) const;
         std::uint32_t find(std::uint64_t key) const;
+        void reset(std::size_t voxels);
     };
     void insert_points(const std::vector<Eigen::Vector3d>& points, double voxel_size_m,
                        VoxelGridStats* stats);
     std::uint32_t voxel_of(std::uint64_t key);
+    void grow_table();
     void emit_centroids(const VoxelGridParams& params, PointCloud* out, VoxelGridStats* stats);
     void fill_index_map(std::size_t n, std::size_t num_output, VoxelIndexMap* index_map) const;
     void find_twins(std::vector<std::uint32_t>* twins) const;

@@ -134,5 +134,42 @@ TEST(VoxelGrid, TwinsNameThePreviousCallsPointOfTheSameVoxel) {
                             [](std::uint32_t t) { return t == VoxelIndexMap::kNoVoxel; }));
 }
 
+// The table starts sized for the previous call's voxels: a call with many more voxels
+// grows it, and must still give one centroid per voxel, as a brute-force grouping does,
+// and the right twins.
+TEST(VoxelGrid, ATableSizedForFewerVoxelsGrowsAndGivesTheSameCloud) {
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(-15.0, 15.0);  // about 4 points per voxel
+    std::vector<Eigen::Vector3d> few(50), many(20000);
+    for (auto& p : few) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+    for (auto& p : many) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+    std::map<Key, std::pair<Eigen::Vector3d, int>> ref;
+    for (const auto& p : many) {
+        auto& e = ref.try_emplace(key_of(p, 1.0), Eigen::Vector3d::Zero(), 0).first->second;
+        e.first += p;
+        ++e.second;
+    }
+    VoxelGrid grid;
+    PointCloud small, grown;
+    std::vector<std::uint32_t> twins;
+    for (int round = 0; round < 2; ++round) {  // the second after a grown table shrank
+        grid.downsample(few, {1.0, 1}, &small);
+        grid.downsample(many, {1.0, 1}, &grown, nullptr, &twins);
+        ASSERT_GT(ref.size(), 4 * (small.size() + 64));  // beyond the first table's share
+        ASSERT_EQ(grown.size(), ref.size());
+        std::size_t with_twin = 0;
+        for (std::size_t i = 0; i < grown.size(); ++i) {
+            const auto it = ref.find(key_of(grown.points[i], 1.0));
+            ASSERT_NE(it, ref.end());
+            EXPECT_TRUE(grown.points[i].isApprox(it->second.first / it->second.second, 1e-12));
+            if (twins[i] == VoxelIndexMap::kNoVoxel) continue;
+            ++with_twin;
+            ASSERT_LT(twins[i], small.size());
+            EXPECT_EQ(key_of(small.points[twins[i]], 1.0), it->first);
+        }
+        EXPECT_GT(with_twin, 0u);
+    }
+}
+
 }  // namespace
 }  // namespace lidarfuse::core
