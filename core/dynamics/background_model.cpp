@@ -17,7 +17,12 @@ std::size_t hot_slot(std::uint64_t key) {
 BackgroundModel::BackgroundModel(const BackgroundModelParams& params)
     : params_(params), detector_(params.change) {
     if (!(params_.voxel_size_m > 0)) params_.voxel_size_m = 0.5;
+    // A power of two's inverse is exact, and then v * (1 / size) is v / size to the bit.
+    int exponent = 0;
+    if (std::frexp(params_.voxel_size_m, &exponent) == 0.5)
+        inverse_voxel_size_ = 1.0 / params_.voxel_size_m;
     voxels_.reserve(1 << 14);
+    index_.reserve(1 << 14);
     // The same values std::pow gives, looked up instead of recomputed per point.
     for (std::size_t k = 0; k < kPowers; ++k) {
         attenuation_powers_.push_back(std::pow(params_.attenuation, static_cast<double>(k)));
@@ -42,12 +47,15 @@ void BackgroundModel::set_reference(const std::vector<Eigen::Vector3d>& referenc
     }
     detector_.set_reference(reference_points);
     voxels_.clear();
+    index_.clear();
 }
 
 // 21 bits per axis around the origin: +-1048576 voxels, far beyond any LiDAR range.
 std::uint64_t BackgroundModel::key_of(const Eigen::Vector3d& p) const {
     const auto q = [this](double v) {
-        const double c = std::clamp(std::floor(v / params_.voxel_size_m), -1048576.0, 1048575.0);
+        const double scaled =
+            inverse_voxel_size_ > 0 ? v * inverse_voxel_size_ : v / params_.voxel_size_m;
+        const double c = std::clamp(std::floor(scaled), -1048576.0, 1048575.0);
         return static_cast<std::uint64_t>(static_cast<std::int64_t>(c) + 1048576) & 0x1FFFFF;
     };
     return (q(p.x()) << 42) | (q(p.y()) << 21) | q(p.z());
@@ -60,9 +68,10 @@ double BackgroundModel::attenuation_after(std::uint64_t frames) const {
 
 double BackgroundModel::score_of(std::uint64_t key) const {
     if (key == kNoKey) return 0.0;
-    const auto it = voxels_.find(key);
-    if (it == voxels_.end()) return 0.0;
-    return it->second.score * attenuation_after(frame_ - it->second.frame);
+    const auto it = index_.find(key);
+    if (it == index_.end()) return 0.0;
+    const Voxel& v = voxels_[it->second];
+    return v.score * attenuation_after(frame_ - v.frame);
 }
 
 double BackgroundModel::score_at(const Eigen::Vector3d& p) const {
@@ -72,7 +81,9 @@ double BackgroundModel::score_at(const Eigen::Vector3d& p) const {
 // Raises a voxel once per frame, however many of its points changed.
 void BackgroundModel::raise(std::uint64_t key) {
     if (key == kNoKey) return;
-    Voxel& v = voxels_[key];
+    const auto [it, added] = index_.try_emplace(key, static_cast<std::uint32_t>(voxels_.size()));
+    if (added) voxels_.push_back(Voxel{key, 0.0, 0});
+    Voxel& v = voxels_[it->second];
     if (v.frame == frame_ && v.score > 0) return;
     const double current = v.score * attenuation_after(frame_ - v.frame);
     v.score = std::min(params_.max_score, current + params_.increment);
@@ -81,18 +92,29 @@ void BackgroundModel::raise(std::uint64_t key) {
 
 void BackgroundModel::mark_hot_voxels() {
     std::fill(hot_slots_.begin(), hot_slots_.end(), 0);
-    for (auto it = voxels_.begin(); it != voxels_.end();) {
-        const std::uint64_t age = frame_ - it->second.frame;
+    for (std::size_t i = 0; i < voxels_.size();) {
+        const Voxel& v = voxels_[i];
+        const std::uint64_t age = frame_ - v.frame;
         if (age > forget_after_frames_) {
-            it = voxels_.erase(it);
+            forget(i);  // the last voxel moves to i: look at i again
             continue;
         }
-        if (it->second.score * attenuation_after(age) > params_.dynamic_threshold) {
-            const std::size_t slot = hot_slot(it->first);
+        if (v.score * attenuation_after(age) > params_.dynamic_threshold) {
+            const std::size_t slot = hot_slot(v.key);
             hot_slots_[slot >> 6] |= std::uint64_t{1} << (slot & 63);
         }
-        ++it;
+        ++i;
     }
+}
+
+// Voxel i out of the array (the last one takes its place) and out of the index.
+void BackgroundModel::forget(std::size_t i) {
+    index_.erase(voxels_[i].key);
+    if (i + 1 != voxels_.size()) {
+        voxels_[i] = voxels_.back();
+        index_[voxels_[i].key] = static_cast<std::uint32_t>(i);
+    }
+    voxels_.pop_back();
 }
 
 bool BackgroundModel::maybe_hot(std::uint64_t key) const {

@@ -51,6 +51,7 @@ public:
 
 private:
     struct Voxel {
+        std::uint64_t key = 0;
         double score = 0.0;       // as of frame `frame`
         std::uint64_t frame = 0;  // last raised
     };
@@ -59,11 +60,18 @@ private:
     double attenuation_after(std::uint64_t frames) const;  // params_.attenuation ^ frames
     void raise(std::uint64_t key);
     void mark_hot_voxels();  // fills hot_slots_, forgets faded voxels
+    void forget(std::size_t i);
     bool maybe_hot(std::uint64_t key) const;
 
     BackgroundModelParams params_;
+    // 1 / voxel size where that is exact (a power of two: the default 0.5 m), else 0: key_of
+    // runs on every point of every frame, and a division costs several multiplications.
+    double inverse_voxel_size_ = 0.0;
     ChangeDetector detector_;
-    std::unordered_map<std::uint64_t, Voxel> voxels_;
+    // The voxels ever raised and not yet forgotten, contiguous so that mark_hot_voxels()
+    // walks an array every frame, not a hash map's nodes; index_ finds a key's voxel.
+    std::vector<Voxel> voxels_;
+    std::unordered_map<std::uint64_t, std::uint32_t> index_;
     std::uint64_t frame_ = 0;
     std::size_t num_reference_ = 0;
     // Voxel keys (kNoKey: not finite) of the reference points, computed once, and of the

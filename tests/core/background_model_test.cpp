@@ -122,5 +122,38 @@ TEST(BackgroundModel, DynamicFlagsFollowTheScoresAndFadedVoxelsAreForgotten) {
     EXPECT_EQ(model.score_at(lane), 0.0);
 }
 
+// Voxels forgotten while others are still raised: the survivors keep their scores. Model a
+// saw a vehicle in one lane, then nothing, then one further out, whose voxels are raised
+// while the first lane's are forgotten one frame after another; model b saw only the
+// second. Once the first lane is forgotten both models must agree to the bit.
+TEST(BackgroundModel, ForgettingSomeVoxelsLeavesTheOthersScoresAlone) {
+    BackgroundModelParams params;
+    params.attenuation = 0.5;  // forgotten after 44 frames without a raise
+    BackgroundModel a(params), b(params);
+    const auto reference = scan(0, false, 1);
+    a.set_reference(reference);
+    b.set_reference(reference);
+    BackgroundUpdate ua, ub;
+    const auto empty = scan(0, false, 50);
+    for (int f = 0; f < 12; ++f) a.update(scan(6 + 0.5 * f, true, 10 + f), &ua);
+    for (int f = 0; f < 36; ++f) a.update(empty, &ua);
+    for (int f = 0; f < 48; ++f) b.update(empty, &ub);
+    std::size_t compared = 0;
+    for (int f = 0; f < 20; ++f) {
+        // Frames 49-68: the first lane's voxels (raised at frames 1-12) go at frames 46-57.
+        const auto current = scan(15 + 0.5 * f, true, 100 + f);
+        a.update(current, &ua);
+        b.update(current, &ub);
+        if (f < 9) continue;
+        ASSERT_EQ(ua.dynamic, ub.dynamic) << "frame " << f;
+        ASSERT_EQ(ua.reference_dynamic, ub.reference_dynamic) << "frame " << f;
+        for (const auto& p : current) {
+            ASSERT_EQ(a.score_at(p), b.score_at(p)) << "frame " << f;
+            compared += b.score_at(p) > params.dynamic_threshold;
+        }
+    }
+    EXPECT_GT(compared, 100u);  // the second lane's voxels were among those compared
+}
+
 }  // namespace
 }  // namespace lidarfuse::core
