@@ -166,6 +166,9 @@ void SphericalRangeImage::build(const std::vector<Eigen::Vector3d>& points,
     ranges_m->resize(points.size());
     int az = 0, el = 0;
     double r = 0;
+    // Consecutive points of a scan row mostly fall in one grid row: its pointer is kept.
+    int row_el = -1;
+    double* row = nullptr;
     for (std::size_t i = 0; i < points.size(); ++i) {
         if (!cell_of(points[i], &az, &el, &r)) {
             (*cells)[i] = -1;
@@ -174,10 +177,13 @@ void SphericalRangeImage::build(const std::vector<Eigen::Vector3d>& points,
         const int index = grid_.index(az, el);
         (*cells)[i] = index;
         (*ranges_m)[i] = r;
-        double& cell = nearest_.row(el)[az];
-        cell = std::min(cell, r);
-        nearest_lo_ = std::min(nearest_lo_, el);
-        nearest_hi_ = std::max(nearest_hi_, el);
+        if (el != row_el) {
+            row = nearest_.row(el);
+            row_el = el;
+            nearest_lo_ = std::min(nearest_lo_, el);
+            nearest_hi_ = std::max(nearest_hi_, el);
+        }
+        row[az] = std::min(row[az], r);
     }
 }
 
