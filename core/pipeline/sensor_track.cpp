@@ -12,18 +12,30 @@ namespace lidarfuse::core {
 namespace {
 constexpr double kNsToS = 1e-9;
 
-// Voxel-grid downsampling of `points` (sensor frame; overwritten) on a grid fixed in the
-// frame T_grid_sensor maps into (null: the sensor frame), centroids returned in the sensor
-// frame. See FusionParams::voxel_grid_in_root_frame. `twins` as VoxelGrid::downsample.
-void downsample_in_grid(VoxelGrid* grid, std::vector<Eigen::Vector3d>* points, double voxel_size_m,
-                        const Eigen::Isometry3d* T_grid_sensor, PointCloud* cloud,
-                        std::vector<std::uint32_t>* twins = nullptr) {
-    if (T_grid_sensor) {
-        for (auto& p : *points) p = *T_grid_sensor * p;
+// The points not flagged dynamic (a flag past the end of `dynamic` counts as static),
+// mapped by T_grid_sensor into the frame of the voxel grid (null: kept in the sensor frame),
+// in one pass. See FusionParams::voxel_grid_in_root_frame.
+void static_points_in_grid(const std::vector<Eigen::Vector3d>& points,
+                           const std::vector<std::uint8_t>& dynamic,
+                           const Eigen::Isometry3d* T_grid_sensor,
+                           std::vector<Eigen::Vector3d>* out) {
+    out->resize(points.size());
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        if (i < dynamic.size() && dynamic[i]) continue;
+        (*out)[kept++] = T_grid_sensor ? *T_grid_sensor * points[i] : points[i];
     }
+    out->resize(kept);
+}
+
+// Voxel-grid downsampling of `points_in_grid` (from static_points_in_grid), centroids
+// returned in the sensor frame. `twins` as VoxelGrid::downsample.
+void downsample_in_grid(VoxelGrid* grid, const std::vector<Eigen::Vector3d>& points_in_grid,
+                        double voxel_size_m, const Eigen::Isometry3d* T_grid_sensor,
+                        PointCloud* cloud, std::vector<std::uint32_t>* twins = nullptr) {
     VoxelGridParams voxel;
     voxel.voxel_size_m = voxel_size_m;
-    grid->downsample(*points, voxel, cloud, nullptr, twins);
+    grid->downsample(points_in_grid, voxel, cloud, nullptr, twins);
     if (T_grid_sensor) {
         const Eigen::Isometry3d T_sensor_grid = T_grid_sensor->inverse();
         for (auto& p : cloud->points) p = T_sensor_grid * p;
@@ -153,15 +165,13 @@ double SensorTrack::reference_voxel_size_m() const {
 }
 
 GicpCloud SensorTrack::reference_target_at(double voxel_size_m) const {
+    const Eigen::Isometry3d* T_grid =
+        params_.voxel_grid_in_root_frame ? &T_root_reference_ : nullptr;
     std::vector<Eigen::Vector3d> points;
-    const auto& flags = background_update_.reference_dynamic;
-    for (std::size_t j = 0; j < reference_points_.size(); ++j) {
-        if (j >= flags.size() || !flags[j]) points.push_back(reference_points_[j]);
-    }
+    static_points_in_grid(reference_points_, background_update_.reference_dynamic, T_grid, &points);
     PointCloud cloud;
     VoxelGrid grid;
-    downsample_in_grid(&grid, &points, voxel_size_m,
-                       params_.voxel_grid_in_root_frame ? &T_root_reference_ : nullptr, &cloud);
+    downsample_in_grid(&grid, points, voxel_size_m, T_grid, &cloud);
     if (cloud.size() < 3) return GicpCloud();
     NormalParams normals;
     normals.k_neighbors = covariance_neighbors_for(params_, voxel_size_m);
@@ -181,33 +191,37 @@ void SensorTrack::reanchor(const Eigen::Isometry3d& left,
 }
 
 void SensorTrack::crop_and_deskew(const SensorScanInput& scan, const Vector6d& twist_per_s) {
-    points_.clear();
-    point_dt_s_.clear();
-    intensity_.clear();
-    const bool have_dt = scan.point_dt_s.size() == scan.points.size();
-    const bool have_intensity = scan.intensity.size() == scan.points.size();
+    const std::size_t n = scan.points.size();
+    const bool have_dt = scan.point_dt_s.size() == n;
+    const bool have_intensity = scan.intensity.size() == n;
     const double min2 = params_.range.min_range_m * params_.range.min_range_m;
     const double max2 = params_.range.max_range_m * params_.range.max_range_m;
-    for (std::size_t i = 0; i < scan.points.size(); ++i) {
+    // Sized for every point and cut to the kept ones after: no capacity check per point.
+    points_.resize(n);
+    point_dt_s_.resize(n);
+    intensity_.resize(n);
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < n; ++i) {
         const Eigen::Vector3d& p = scan.points[i];
         const double r2 = p.squaredNorm();
         if (!std::isfinite(r2) || r2 < min2 || r2 > max2) continue;
-        points_.push_back(p);
-        point_dt_s_.push_back(have_dt ? scan.point_dt_s[i] : 0.0f);
-        intensity_.push_back(have_intensity ? scan.intensity[i] : 0.0f);
+        points_[kept] = p;
+        point_dt_s_[kept] = have_dt ? scan.point_dt_s[i] : 0.0f;
+        intensity_[kept] = have_intensity ? scan.intensity[i] : 0.0f;
+        ++kept;
     }
+    points_.resize(kept);
+    point_dt_s_.resize(kept);
+    intensity_.resize(kept);
     if (params_.deskew && have_dt) deskew_points(twist_per_s, point_dt_s_, &points_);
 }
 
 void SensorTrack::build_current_target(bool static_only, const Eigen::Isometry3d& T_root_sensor) {
-    static_points_.clear();
-    for (std::size_t i = 0; i < points_.size(); ++i) {
-        if (!static_only || !dynamic_[i]) static_points_.push_back(points_[i]);
-    }
+    const Eigen::Isometry3d* T_grid = params_.voxel_grid_in_root_frame ? &T_root_sensor : nullptr;
+    static const std::vector<std::uint8_t> kAllStatic;
+    static_points_in_grid(points_, static_only ? dynamic_ : kAllStatic, T_grid, &static_points_);
     PointCloud cloud;
-    downsample_in_grid(&voxel_grid_, &static_points_, params_.voxel_size_m,
-                       params_.voxel_grid_in_root_frame ? &T_root_sensor : nullptr, &cloud,
-                       &twins_);
+    downsample_in_grid(&voxel_grid_, static_points_, params_.voxel_size_m, T_grid, &cloud, &twins_);
     make_guesses();
     if (cloud.size() < 3) {
         current_target_ = GicpCloud(std::move(cloud));
