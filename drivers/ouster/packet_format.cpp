@@ -176,6 +176,45 @@ void read_column_n(const std::uint8_t* px, std::size_t step, int rows, const Fie
     }
 }
 
+// Row by row over `count` columns `column_size` apart (see PacketFormat::read_columns).
+template <std::size_t N, typename T>
+void read_rows_n(const std::uint8_t* px, std::size_t column_size, std::size_t step, int rows,
+                 int count, const FieldSpec& s, T* dst, std::ptrdiff_t stride) {
+    for (int row = 0; row < rows; ++row, px += step, dst += stride) {
+        const std::uint8_t* p = px;
+        for (int c = 0; c < count; ++c, p += column_size) {
+            std::uint32_t v = 0;
+            std::memcpy(&v, p, N);
+            dst[c] = static_cast<T>((v & s.mask) << s.upshift);
+        }
+    }
+}
+
+template <typename T>
+void read_columns_impl(const PacketFormat& f, const std::uint8_t* pkt, int first, int count,
+                       Field field, T* dst, std::ptrdiff_t stride) {
+    const FieldSpec s = f.spec(field);
+    const std::uint8_t* col = f.column(pkt, first);
+    const std::uint8_t* px = f.pixel(col, 0) + s.offset;
+    const std::size_t column_size =
+        count > 1 ? static_cast<std::size_t>(f.column(pkt, first + 1) - col) : 0;
+    const std::size_t step = f.pixel_size();
+    const int rows = f.pixels_per_column();
+    switch (s.bytes) {
+        case 1:
+            read_rows_n<1>(px, column_size, step, rows, count, s, dst, stride);
+            break;
+        case 2:
+            read_rows_n<2>(px, column_size, step, rows, count, s, dst, stride);
+            break;
+        case 4:
+            read_rows_n<4>(px, column_size, step, rows, count, s, dst, stride);
+            break;
+        default:
+            break;  // absent field
+    }
+}
+
 template <typename T>
 void read_column_impl(const PacketFormat& f, const std::uint8_t* col, Field field, T* dst,
                       std::ptrdiff_t stride) {
@@ -377,6 +416,18 @@ std::uint32_t PacketFormat::column_encoder_count(const std::uint8_t* col) const 
     return static_cast<std::uint32_t>(column_value(col, HeaderField::kColumnEncoderCount));
 }
 
+void PacketFormat::read_columns(const std::uint8_t* pkt, int first, int count, Field f,
+                                std::uint32_t* dst, std::ptrdiff_t dst_stride) const {
+    read_columns_impl(*this, pkt, first, count, f, dst, dst_stride);
+}
+void PacketFormat::read_columns(const std::uint8_t* pkt, int first, int count, Field f,
+                                std::uint16_t* dst, std::ptrdiff_t dst_stride) const {
+    read_columns_impl(*this, pkt, first, count, f, dst, dst_stride);
+}
+void PacketFormat::read_columns(const std::uint8_t* pkt, int first, int count, Field f,
+                                std::uint8_t* dst, std::ptrdiff_t dst_stride) const {
+    read_columns_impl(*this, pkt, first, count, f, dst, dst_stride);
+}
 void PacketFormat::read_column(const std::uint8_t* col, Field f, std::uint32_t* dst,
                                std::ptrdiff_t dst_stride) const {
     read_column_impl(*this, col, f, dst, dst_stride);

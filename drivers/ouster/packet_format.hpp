@@ -250,6 +250,16 @@ public:
                      std::ptrdiff_t dst_stride) const;
     void read_column(const std::uint8_t* col, Field f, std::uint8_t* dst,
                      std::ptrdiff_t dst_stride) const;
+    // The same for `count` consecutive columns of a packet from column `first`:
+    // dst[row * dst_stride + c] = the value of column first + c. Row by row, so that each
+    // row's writes are contiguous; a column at a time writes one row-major image row per
+    // pixel, dst_stride apart (a cache line and often a page each).
+    void read_columns(const std::uint8_t* pkt, int first, int count, Field f, std::uint32_t* dst,
+                      std::ptrdiff_t dst_stride) const;
+    void read_columns(const std::uint8_t* pkt, int first, int count, Field f, std::uint16_t* dst,
+                      std::ptrdiff_t dst_stride) const;
+    void read_columns(const std::uint8_t* pkt, int first, int count, Field f, std::uint8_t* dst,
+                      std::ptrdiff_t dst_stride) const;
 
     // --- CRC-64 footer (STANDARD and FUSA) ---
     std::uint64_t stored_crc(const std::uint8_t* pkt) const;

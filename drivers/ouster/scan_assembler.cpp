@@ -162,35 +162,50 @@ LidarScan* ScanAssembler::frame_of(const std::uint8_t* data) {
 }
 
 std::size_t ScanAssembler::write_columns(const std::uint8_t* data, LidarScan* scan) {
-    const std::ptrdiff_t stride = static_cast<std::ptrdiff_t>(layout_.columns);
+    const int count = format_.columns_per_packet();
+    claimed_.assign(static_cast<std::size_t>(std::max(count, 0)), -1);
+    bool consecutive = true;  // every column taken, measurement ids in a row
     std::size_t written = 0;
-    for (int i = 0; i < format_.columns_per_packet(); ++i) {
+    for (int i = 0; i < count; ++i) {
         const std::uint8_t* col = format_.column(data, i);
         const std::uint16_t m = format_.column_measurement_id(col);
-        if (!window_.claim_column(*scan, m)) continue;
+        if (!window_.claim_column(*scan, m)) {
+            consecutive = false;
+            continue;
+        }
         ++written;
+        claimed_[static_cast<std::size_t>(i)] = m;
+        consecutive = consecutive && m == claimed_[0] + i;
         scan->timestamp_ns[m] = format_.column_timestamp_ns(col);
         scan->measurement_id[m] = m;
         scan->status[m] = format_.column_status(col);
-        // Fields the scan lacks are empty vectors: the profile lacks them too.
-        if (!scan->range_mm.empty())
-            format_.read_column(col, Field::kRange, &scan->range_mm[m], stride);
-        if (!scan->range2_mm.empty())
-            format_.read_column(col, Field::kRange2, &scan->range2_mm[m], stride);
-        if (!scan->signal.empty())
-            format_.read_column(col, Field::kSignal, &scan->signal[m], stride);
-        if (!scan->signal2.empty())
-            format_.read_column(col, Field::kSignal2, &scan->signal2[m], stride);
-        if (!scan->reflectivity.empty()) {
-            format_.read_column(col, Field::kReflectivity, &scan->reflectivity[m], stride);
-        }
-        if (!scan->reflectivity2.empty()) {
-            format_.read_column(col, Field::kReflectivity2, &scan->reflectivity2[m], stride);
-        }
-        if (!scan->near_ir.empty())
-            format_.read_column(col, Field::kNearIr, &scan->near_ir[m], stride);
+    }
+    // A whole packet (the usual case) row by row; otherwise the columns taken one by one.
+    if (consecutive && count > 0) {
+        write_pixels(data, 0, count, static_cast<std::uint16_t>(claimed_[0]), scan);
+        return written;
+    }
+    for (int i = 0; i < count; ++i) {
+        const int m = claimed_[static_cast<std::size_t>(i)];
+        if (m >= 0) write_pixels(data, i, 1, static_cast<std::uint16_t>(m), scan);
     }
     return written;
+}
+
+void ScanAssembler::write_pixels(const std::uint8_t* data, int first, int count, std::uint16_t m,
+                                 LidarScan* scan) const {
+    const std::ptrdiff_t stride = static_cast<std::ptrdiff_t>(layout_.columns);
+    // Fields the scan lacks are empty vectors: the profile lacks them too.
+    const auto read = [&](Field f, auto& image) {
+        if (!image.empty()) format_.read_columns(data, first, count, f, &image[m], stride);
+    };
+    read(Field::kRange, scan->range_mm);
+    read(Field::kRange2, scan->range2_mm);
+    read(Field::kSignal, scan->signal);
+    read(Field::kSignal2, scan->signal2);
+    read(Field::kReflectivity, scan->reflectivity);
+    read(Field::kReflectivity2, scan->reflectivity2);
+    read(Field::kNearIr, scan->near_ir);
 }
 
 void ScanAssembler::flush() { window_.flush(); }

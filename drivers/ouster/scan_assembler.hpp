@@ -21,6 +21,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "drivers/ouster/frame_window.hpp"
 #include "drivers/ouster/lidar_scan.hpp"
@@ -86,6 +87,10 @@ private:
     inline LidarScan* frame_of(const std::uint8_t* data);
     // The packet's columns the window has not seen yet; how many.
     inline std::size_t write_columns(const std::uint8_t* data, LidarScan* scan);
+    // The pixels of the packet's columns [first, first + count), the first at measurement
+    // id m, into every field the scan has.
+    inline void write_pixels(const std::uint8_t* data, int first, int count, std::uint16_t m,
+                             LidarScan* scan) const;
 
     PacketFormat format_;
     LidarScanLayout layout_;
@@ -94,6 +99,9 @@ private:
     ModeCheck mode_;
     EmitFn emit_;
     FrameWindow window_;  // last: its callback uses mode_ and emit_
+    // write_columns' scratch: per column of a packet, its measurement id, or -1 when the
+    // window did not take it.
+    std::vector<int> claimed_;
 };
 
 }  // namespace lidarfuse::ouster

@@ -199,6 +199,41 @@ TEST_P(EveryProfile, FullFrameLandsAtTheRightPixelsWithUpshifts) {
     }
 }
 
+// A packet is written row by row when its columns are new and in a row, and column by
+// column otherwise: partly received packets, a packet that wraps past the frame's last
+// column, and swapped measurement ids must land every column at its own id.
+TEST_P(EveryProfile, ColumnsOutOfOrderOrAlreadyReceivedLandAtTheirOwnIds) {
+    const auto info = make_info(GetParam());
+    Rig rig(info);
+    const PacketFormat& f = rig.writer.format();
+    constexpr std::uint32_t kFrame = 5;
+    rig.send(kFrame, 0);
+    EXPECT_EQ(rig.send(kFrame, 4), PacketOutcome::kAssembled);  // 4-7 again, 8-11 new
+    std::vector<std::uint8_t> swapped = rig.writer.packet(kFrame, 12);
+    f.set_column_measurement_id(f.column(swapped.data(), 0), 13);
+    f.set_column_measurement_id(f.column(swapped.data(), 1), 12);
+    f.write_crc(swapped.data());
+    EXPECT_EQ(rig.assembler.add_packet(swapped.data(), swapped.size()), PacketOutcome::kAssembled);
+    for (int c = 20; c < 60; c += 8) rig.send(kFrame, c);
+    EXPECT_EQ(rig.send(kFrame, 60), PacketOutcome::kAssembled);  // 60-63, then 0-3 again
+    ASSERT_EQ(rig.frames.size(), 1u);
+    EXPECT_TRUE(rig.frames[0].complete);
+    EXPECT_EQ(rig.assembler.counters().duplicate_columns, 8u);
+    const LidarScan& s = rig.last;
+    for (int mid = 0; mid < 64; ++mid) {
+        const int source = mid == 12 ? 13 : mid == 13 ? 12 : mid;  // whose data it holds
+        EXPECT_EQ(s.timestamp_ns[mid], 1'000'000'000ull * kFrame + 1000ull * source);
+        for (int row = 0; row < 16; ++row) {
+            const std::size_t i = static_cast<std::size_t>(row) * 64 + mid;
+            ASSERT_EQ(s.range_mm[i], range_of(row, source, kFrame)) << row << "," << mid;
+            ASSERT_EQ(s.reflectivity[i], refl_of(row, source)) << row << "," << mid;
+            if (s.has(ScanField::kNearIr)) {
+                ASSERT_EQ(s.near_ir[i], nir_of(row, source)) << row << "," << mid;
+            }
+        }
+    }
+}
+
 INSTANTIATE_TEST_SUITE_P(Profiles, EveryProfile,
                          ::testing::Values(UdpProfileLidar::kLegacy,
                                            UdpProfileLidar::kRng19Rfl8Sig16Nir16,
