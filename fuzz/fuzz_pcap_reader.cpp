@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <system_error>
 
 #include "drivers/pcap/pcap_reader.hpp"
 #include "fuzz/fuzz_input.hpp"
@@ -21,11 +22,21 @@ using namespace lidarfuse;
 
 namespace {
 
-std::filesystem::path input_file() {
-    static const std::filesystem::path file =
-        std::filesystem::temp_directory_path() /
-        ("lidarfuse_fuzz_pcap_" + std::to_string(getpid()) + ".pcap");
-    return file;
+// The reader takes a file: each input is written to one, removed when the fuzzer exits
+// (libFuzzer ends a timed run with exit(), which runs static destructors), so that runs
+// leave nothing in the temporary folder.
+struct InputFile {
+    std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                 ("lidarfuse_fuzz_pcap_" + std::to_string(getpid()) + ".pcap");
+    ~InputFile() {
+        std::error_code ignored;
+        std::filesystem::remove(path, ignored);
+    }
+};
+
+const std::filesystem::path& input_file() {
+    static const InputFile file;
+    return file.path;
 }
 
 }  // namespace
