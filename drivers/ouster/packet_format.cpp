@@ -165,18 +165,9 @@ constexpr CrcTables make_crc_tables() {
 }
 constexpr CrcTables kCrcTables = make_crc_tables();
 
-// Fixed-width loads keep the per-pixel memcpy inlined (a runtime size would be a call).
-template <std::size_t N, typename T>
-void read_column_n(const std::uint8_t* px, std::size_t step, int rows, const FieldSpec& s, T* dst,
-                   std::ptrdiff_t stride) {
-    for (int row = 0; row < rows; ++row, px += step, dst += stride) {
-        std::uint32_t v = 0;
-        std::memcpy(&v, px, N);
-        *dst = static_cast<T>((v & s.mask) << s.upshift);
-    }
-}
-
-// Row by row over `count` columns `column_size` apart (see PacketFormat::read_columns).
+// `count` columns `column_size` apart, row by row (see PacketFormat::read_columns); one
+// column is count 1. Fixed-width loads keep the per-pixel memcpy inlined (a runtime size
+// would be a call).
 template <std::size_t N, typename T>
 void read_rows_n(const std::uint8_t* px, std::size_t column_size, std::size_t step, int rows,
                  int count, const FieldSpec& s, T* dst, std::ptrdiff_t stride) {
@@ -190,14 +181,12 @@ void read_rows_n(const std::uint8_t* px, std::size_t column_size, std::size_t st
     }
 }
 
+// One field of `count` columns from the column at `col`, `column_size` bytes apart.
 template <typename T>
-void read_columns_impl(const PacketFormat& f, const std::uint8_t* pkt, int first, int count,
-                       Field field, T* dst, std::ptrdiff_t stride) {
+void read_pixels(const PacketFormat& f, const std::uint8_t* col, std::size_t column_size, int count,
+                 Field field, T* dst, std::ptrdiff_t stride) {
     const FieldSpec s = f.spec(field);
-    const std::uint8_t* col = f.column(pkt, first);
     const std::uint8_t* px = f.pixel(col, 0) + s.offset;
-    const std::size_t column_size =
-        count > 1 ? static_cast<std::size_t>(f.column(pkt, first + 1) - col) : 0;
     const std::size_t step = f.pixel_size();
     const int rows = f.pixels_per_column();
     switch (s.bytes) {
@@ -216,25 +205,12 @@ void read_columns_impl(const PacketFormat& f, const std::uint8_t* pkt, int first
 }
 
 template <typename T>
-void read_column_impl(const PacketFormat& f, const std::uint8_t* col, Field field, T* dst,
-                      std::ptrdiff_t stride) {
-    const FieldSpec s = f.spec(field);
-    const std::uint8_t* px = f.pixel(col, 0) + s.offset;
-    const std::size_t step = f.pixel_size();
-    const int rows = f.pixels_per_column();
-    switch (s.bytes) {
-        case 1:
-            read_column_n<1>(px, step, rows, s, dst, stride);
-            break;
-        case 2:
-            read_column_n<2>(px, step, rows, s, dst, stride);
-            break;
-        case 4:
-            read_column_n<4>(px, step, rows, s, dst, stride);
-            break;
-        default:
-            break;  // absent field
-    }
+void read_columns_impl(const PacketFormat& f, const std::uint8_t* pkt, int first, int count,
+                       Field field, T* dst, std::ptrdiff_t stride) {
+    const std::uint8_t* col = f.column(pkt, first);
+    const std::size_t column_size =
+        count > 1 ? static_cast<std::size_t>(f.column(pkt, first + 1) - col) : 0;
+    read_pixels(f, col, column_size, count, field, dst, stride);
 }
 
 }  // namespace
@@ -430,15 +406,15 @@ void PacketFormat::read_columns(const std::uint8_t* pkt, int first, int count, F
 }
 void PacketFormat::read_column(const std::uint8_t* col, Field f, std::uint32_t* dst,
                                std::ptrdiff_t dst_stride) const {
-    read_column_impl(*this, col, f, dst, dst_stride);
+    read_pixels(*this, col, 0, 1, f, dst, dst_stride);
 }
 void PacketFormat::read_column(const std::uint8_t* col, Field f, std::uint16_t* dst,
                                std::ptrdiff_t dst_stride) const {
-    read_column_impl(*this, col, f, dst, dst_stride);
+    read_pixels(*this, col, 0, 1, f, dst, dst_stride);
 }
 void PacketFormat::read_column(const std::uint8_t* col, Field f, std::uint8_t* dst,
                                std::ptrdiff_t dst_stride) const {
-    read_column_impl(*this, col, f, dst, dst_stride);
+    read_pixels(*this, col, 0, 1, f, dst, dst_stride);
 }
 
 std::uint64_t PacketFormat::stored_crc(const std::uint8_t* pkt) const {
