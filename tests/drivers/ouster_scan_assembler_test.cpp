@@ -1,8 +1,8 @@
 // ScanAssembler on synthetic packets written with PacketFormat's encoder: every profile's
 // fields land at the right pixel, wrap-around, reordering, duplicates, late packets,
 // init_id changes, loss, azimuth windows, IMU / wrong size / wrong serial / bad CRC
-// packets, no allocation per packet, and the projection of an assembled scan.
-// (The frame bookkeeping alone is tested on bare headers in ouster_frame_window_test.)
+// packets, no allocation per packet. (The frame bookkeeping alone is tested on bare headers
+// in ouster_frame_window_test, the projection of an assembled scan in ouster_projection_test.)
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,9 +14,8 @@
 #include <vector>
 
 #include "drivers/ouster/packet_format.hpp"
-#include "drivers/ouster/projection.hpp"
 #include "drivers/ouster/scan_assembler.hpp"
-#include "drivers/ouster/xyz_lut.hpp"
+#include "tests/drivers/ouster_packet_rig.hpp"
 
 // Counts heap allocations while `g_count_allocations` is set (zero-allocation test). The
 // replacement pairs malloc/free by design; GCC cannot see that through inlining.
@@ -37,121 +36,7 @@ void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 namespace lidarfuse::ouster {
 namespace {
 
-constexpr std::uint64_t kSerial = 992210000957ull;
-constexpr std::uint32_t kInitId = 0x123456;
-
-SensorInfo make_info(UdpProfileLidar profile, int rows = 16, int columns = 64,
-                     std::array<int, 2> window = {-1, -1}) {
-    SensorInfo info;
-    info.prod_sn = std::to_string(kSerial);
-    info.udp_profile_lidar = profile;
-    info.pixels_per_column = rows;
-    info.columns_per_frame = columns;
-    info.columns_per_packet = 8;
-    info.column_window = window[0] < 0 ? std::array<int, 2>{0, columns - 1} : window;
-    info.init_id = kInitId;
-    for (int r = 0; r < rows; ++r) {
-        info.beam_altitude_angles_deg.push_back(15.0 - 2.0 * r);
-        info.beam_azimuth_angles_deg.push_back(r % 2 ? 1.5 : -1.5);
-    }
-    info.pixel_shift_by_row.assign(static_cast<std::size_t>(rows), 0);
-    return info;
-}
-
-// Deterministic pixel values every profile can represent exactly.
-std::uint32_t range_of(int row, int mid, std::uint32_t frame) {
-    return 8u * static_cast<std::uint32_t>((row * 7 + mid + static_cast<int>(frame)) % 4000 + 1);
-}
-std::uint32_t range2_of(int row, int mid) {
-    return 8u * static_cast<std::uint32_t>(row + mid + 100);
-}
-std::uint32_t signal_of(int row, int mid) { return static_cast<std::uint32_t>(row * 100 + mid); }
-std::uint32_t refl_of(int row, int mid) {
-    return static_cast<std::uint32_t>((row * 3 + mid) % 256);
-}
-std::uint32_t nir_of(int row, int mid) {
-    return 16u * static_cast<std::uint32_t>((row + mid) % 256);
-}
-
-class PacketWriter {
-public:
-    explicit PacketWriter(const SensorInfo& info)
-        : info_(info), format_(info), buffer_(format_.lidar_packet_size(), 0) {}
-
-    // The packet with columns [first_col, first_col + columns_per_packet) of `frame`.
-    // Columns outside `valid` (a window) get status 0 and zero data, as sensors send them.
-    const std::vector<std::uint8_t>& packet(std::uint32_t frame, int first_col,
-                                            std::uint32_t init_id = kInitId,
-                                            std::uint64_t serial = kSerial) {
-        std::fill(buffer_.begin(), buffer_.end(), 0);
-        std::uint8_t* pkt = buffer_.data();
-        format_.set_packet_type(pkt, PacketFormat::kLidarPacketType);
-        format_.set_frame_id(pkt, frame);
-        format_.set_init_id(pkt, init_id);
-        format_.set_prod_sn(pkt, serial);
-        const ColumnWindow window{static_cast<std::uint32_t>(info_.column_window[0]),
-                                  static_cast<std::uint32_t>(info_.column_window[1])};
-        const bool legacy = format_.header_type() == HeaderType::kLegacy;
-        for (int i = 0; i < format_.columns_per_packet(); ++i) {
-            std::uint8_t* col = format_.column(pkt, i);
-            const int mid = (first_col + i) % info_.columns_per_frame;
-            format_.set_column_measurement_id(col, static_cast<std::uint16_t>(mid));
-            format_.set_column_timestamp_ns(col, 1'000'000'000ull * frame + 1000ull * mid);
-            if (legacy) format_.set_column_frame_id(col, static_cast<std::uint16_t>(frame));
-            if (!window.contains(static_cast<std::uint32_t>(mid))) continue;
-            format_.set_column_status(col, legacy ? 0xFFFFFFFFu : 1u);
-            for (int row = 0; row < format_.pixels_per_column(); ++row) {
-                std::uint8_t* px = format_.pixel(col, row);
-                format_.set_field(px, Field::kRange, range_of(row, mid, frame));
-                format_.set_field(px, Field::kRange2, range2_of(row, mid));
-                format_.set_field(px, Field::kSignal, signal_of(row, mid));
-                format_.set_field(px, Field::kSignal2, signal_of(row, mid) + 1);
-                format_.set_field(px, Field::kReflectivity, refl_of(row, mid));
-                format_.set_field(px, Field::kReflectivity2, 255 - refl_of(row, mid));
-                format_.set_field(px, Field::kNearIr, nir_of(row, mid));
-            }
-        }
-        format_.write_crc(pkt);
-        return buffer_;
-    }
-    const PacketFormat& format() const { return format_; }
-
-private:
-    SensorInfo info_;
-    PacketFormat format_;
-    std::vector<std::uint8_t> buffer_;
-};
-
-struct Frame {
-    std::uint32_t frame_id;
-    bool complete;
-    double completeness;
-};
-
-// An assembler with a writer for the same sensor; records every emitted frame and keeps a
-// copy of the last one.
-struct Rig {
-    explicit Rig(const SensorInfo& info, ScanAssemblerParams params = {})
-        : writer(info), assembler(info, params, [this](const LidarScan& s) {
-              frames.push_back({s.frame_id, s.complete(), s.completeness()});
-              last = s;
-          }) {
-        frames.reserve(64);
-    }
-    PacketOutcome send(std::uint32_t frame, int first_col, std::uint32_t init_id = kInitId,
-                       std::uint64_t serial = kSerial) {
-        const auto& p = writer.packet(frame, first_col, init_id, serial);
-        return assembler.add_packet(p.data(), p.size());
-    }
-    void send_frame(std::uint32_t frame, int columns = 64) {
-        for (int c = 0; c < columns; c += 8) send(frame, c);
-    }
-
-    PacketWriter writer;
-    ScanAssembler assembler;
-    std::vector<Frame> frames;
-    LidarScan last;
-};
+using namespace packet_rig;  // NOLINT(google-build-using-namespace): the tests' vocabulary
 
 class EveryProfile : public ::testing::TestWithParam<UdpProfileLidar> {};
 
@@ -437,81 +322,6 @@ TEST(ScanAssembler, RandomAndBitFlippedPacketsNeverBreakIt) {
 TEST(ScanAssembler, RejectsAColumnWindowOutsideTheFrame) {
     EXPECT_THROW(ScanAssembler(make_info(UdpProfileLidar::kLegacy, 16, 64, {0, 64}), {}, nullptr),
                  std::invalid_argument);
-}
-
-TEST(Projection, OnePointPerReturnAtTheLookupTablePosition) {
-    const auto info = make_info(UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual);
-    Rig rig(info);
-    for (int c = 0; c < 64; c += 8) {
-        if (c != 24) rig.send(2, c);
-    }
-    rig.assembler.flush();
-    const LidarScan& s = rig.last;
-    const XyzLut lut = make_xyz_lut(info);
-    ScanCloud out;
-    ASSERT_TRUE(project_scan(s, lut, {}, &out));
-    ASSERT_EQ(out.cloud.size(), 16u * 56u);  // every pixel of the 7 packets has a return
-    ASSERT_EQ(out.pixel_index.size(), out.cloud.size());
-    for (std::size_t k = 0; k < out.cloud.size(); k += 37) {
-        const int row = static_cast<int>(out.row_of(k));
-        const int col = static_cast<int>(out.column_of(k));
-        EXPECT_FALSE(col >= 24 && col < 32);
-        const Eigen::Vector3d expected = lut.point(row, col, range_of(row, col, 2));
-        EXPECT_LT((out.cloud.points[k] - expected).norm(), 1e-9);
-        EXPECT_EQ(out.timestamp_ns_of(k), 2'000'000'000ull + 1000ull * col);
-    }
-    ProjectionParams second;
-    second.second_return = true;
-    second.min_range_mm = 8u * 150u;  // drops returns closer than 1.2 m
-    ASSERT_TRUE(project_scan(s, lut, second, &out));
-    std::size_t expected_second = 0;
-    for (int row = 0; row < 16; ++row) {
-        for (int col = 0; col < 64; ++col) {
-            if ((col < 24 || col >= 32) && range2_of(row, col) >= 8u * 150u) ++expected_second;
-        }
-    }
-    EXPECT_EQ(out.cloud.size(), expected_second);
-
-    Rig single(make_info(UdpProfileLidar::kRng15Rfl8Nir8));
-    single.send_frame(1);
-    EXPECT_FALSE(project_scan(single.last, lut, second, &out));  // no second return
-    EXPECT_TRUE(out.cloud.empty());
-    const XyzLut wrong = make_xyz_lut(make_info(UdpProfileLidar::kRng15Rfl8Nir8, 16, 128));
-    EXPECT_FALSE(project_scan(single.last, wrong, {}, &out));
-}
-
-// The fused cloud's intensity: the signal field where the profile has one, else
-// reflectivity, pixel by pixel.
-TEST(Projection, IntensityIsSignalOrElseReflectivityOfEachPointsPixel) {
-    for (const auto profile :
-         {UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual, UdpProfileLidar::kRng15Rfl8Nir8}) {
-        const auto info = make_info(profile);
-        Rig rig(info);
-        rig.send_frame(3);
-        const LidarScan& s = rig.last;
-        const bool has_signal = !s.signal.empty();
-        EXPECT_EQ(has_signal, profile == UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual);
-        ScanCloud cloud;
-        ASSERT_TRUE(project_scan(s, make_xyz_lut(info), {}, &cloud));
-        ASSERT_FALSE(cloud.cloud.empty());
-        std::vector<float> intensity;
-        point_intensity(s, cloud, &intensity);
-        ASSERT_EQ(intensity.size(), cloud.cloud.size());
-        std::size_t nonzero = 0;
-        for (std::size_t k = 0; k < intensity.size(); ++k) {
-            const std::uint32_t px = cloud.pixel_index[k];
-            const float expected = has_signal ? static_cast<float>(s.signal[px])
-                                              : static_cast<float>(s.reflectivity[px]);
-            ASSERT_EQ(intensity[k], expected) << "point " << k;
-            nonzero += intensity[k] != 0.0f;
-        }
-        EXPECT_GT(nonzero, intensity.size() / 2) << "the test's packets carry intensities";
-        // Without pixel indices the intensities are unknown: zeros, never misattributed.
-        cloud.pixel_index.clear();
-        point_intensity(s, cloud, &intensity);
-        EXPECT_EQ(std::count(intensity.begin(), intensity.end(), 0.0f),
-                  static_cast<long>(intensity.size()));
-    }
 }
 
 }  // namespace
