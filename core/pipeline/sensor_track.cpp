@@ -29,12 +29,15 @@ void static_points_in_grid(const std::vector<Eigen::Vector3d>& points,
 }
 
 // Voxel-grid downsampling of `points_in_grid` (from static_points_in_grid), centroids
-// returned in the sensor frame. `twins` as VoxelGrid::downsample.
+// returned in the sensor frame, in Morton order. `twins` as VoxelGrid::downsample.
 void downsample_in_grid(VoxelGrid* grid, const std::vector<Eigen::Vector3d>& points_in_grid,
                         double voxel_size_m, const Eigen::Isometry3d* T_grid_sensor,
                         PointCloud* cloud, std::vector<std::uint32_t>* twins = nullptr) {
     VoxelGridParams voxel;
     voxel.voxel_size_m = voxel_size_m;
+    // Registration reads a cloud's neighbors together (the k-NN of the covariances, G-ICP's
+    // correspondences): in space order they share cache lines (bench/BENCHMARK.md).
+    voxel.spatial_order = true;
     grid->downsample(points_in_grid, voxel, cloud, nullptr, twins);
     if (T_grid_sensor) {
         const Eigen::Isometry3d T_sensor_grid = T_grid_sensor->inverse();

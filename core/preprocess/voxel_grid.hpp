@@ -6,7 +6,8 @@
 // on the integer voxel coordinates and keeps all its buffers between calls: use one
 // VoxelGrid object per thread / sensor and call downsample() each frame (no allocation
 // once the buffers have grown). Output order: voxels in the order their first point
-// appears in the input (deterministic).
+// appears in the input, or in Morton order of their coordinates (VoxelGridParams); both
+// deterministic.
 //
 // Not thread safe (it owns scratch buffers); separate objects are independent.
 
@@ -23,6 +24,10 @@ struct VoxelGridParams {
     double voxel_size_m = 1.0;  // edge length of the cubic voxels, > 0
     // Voxels with fewer points are dropped (their points map to kNoVoxel).
     int min_points_per_voxel = 1;
+    // Output in space-filling-curve order (Morton order of the voxel coordinates, relative to
+    // the lowest on each axis) instead of the order of first appearance: neighbors in space
+    // are then mostly neighbors in memory.
+    bool spatial_order = false;
 };
 
 // Which input points went into each output voxel (CSR layout). Filled on request.
@@ -100,7 +105,8 @@ private:
     void grow_table();
     void emit_centroids(const VoxelGridParams& params, PointCloud* out, VoxelGridStats* stats);
     void fill_index_map(std::size_t n, std::size_t num_output, VoxelIndexMap* index_map) const;
-    void find_twins(std::vector<std::uint32_t>* twins) const;
+    void find_twins(std::size_t num_output, std::vector<std::uint32_t>* twins) const;
+    void order_voxels(bool spatial);
 
     Table table_;
     Table previous_;
@@ -108,6 +114,9 @@ private:
     std::vector<std::uint32_t> voxel_of_point_;
     std::vector<Eigen::Vector3d> sums_;
     std::vector<std::uint32_t> counts_;
+    std::vector<std::uint32_t> emit_order_;  // voxel indices in output order
+    std::vector<std::uint64_t> codes_;       // per voxel: its Morton code (spatial order)
+    std::vector<std::uint32_t> sorted_;      // radix sort scratch
 };
 
 // Convenience: a one-off downsampling with a temporary VoxelGrid.

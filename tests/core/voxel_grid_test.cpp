@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <random>
@@ -98,9 +99,63 @@ TEST(VoxelGrid, OutputOrderIsFirstAppearance) {
     EXPECT_NEAR(out.points[2].x(), -3.0, 1e-12);
 }
 
+// The Morton code of a point's voxel, bit by bit: bit i of its x, y, z coordinates relative
+// to `low` (the lowest voxel coordinates of the cloud) goes to bit 3 i + 2, 3 i + 1, 3 i.
+std::uint64_t morton_reference(const Eigen::Vector3d& p, double size, const Key& low) {
+    const auto [x, y, z] = key_of(p, size);
+    const long axes[3] = {z - std::get<2>(low), y - std::get<1>(low), x - std::get<0>(low)};
+    std::uint64_t code = 0;
+    for (int a = 0; a < 3; ++a) {
+        const auto v = static_cast<std::uint64_t>(axes[a]);
+        for (int i = 0; i < 21; ++i) code |= ((v >> i) & 1u) << (3 * i + a);
+    }
+    return code;
+}
+
+class VoxelGridOrder : public ::testing::TestWithParam<bool> {};
+
+// In Morton order the output holds the same centroids, each voxel's points still listed
+// against it, sorted by their voxels' codes.
+TEST(VoxelGrid, SpatialOrderIsMortonOrderOfTheSameCentroids) {
+    std::mt19937 rng(2);
+    std::uniform_real_distribution<double> u(-20.0, 20.0);
+    std::vector<Eigen::Vector3d> pts(8000);
+    for (auto& p : pts) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+    const double size = 0.7;
+    VoxelGrid grid;
+    PointCloud plain, spatial;
+    VoxelIndexMap map;
+    grid.downsample(pts, {size, 1}, &plain);
+    grid.downsample(pts, {size, 1, true}, &spatial, &map);
+    ASSERT_EQ(spatial.size(), plain.size());
+    std::map<Key, Eigen::Vector3d> by_key;
+    Key low{1L << 20, 1L << 20, 1L << 20};
+    for (const auto& p : plain.points) {
+        const Key k = key_of(p, size);
+        by_key.emplace(k, p);
+        low = {std::min(std::get<0>(low), std::get<0>(k)),
+               std::min(std::get<1>(low), std::get<1>(k)),
+               std::min(std::get<2>(low), std::get<2>(k))};
+    }
+    for (std::size_t v = 0; v < spatial.size(); ++v) {
+        EXPECT_EQ(by_key.at(key_of(spatial.points[v], size)), spatial.points[v]);
+        if (v > 0) {
+            EXPECT_LT(morton_reference(spatial.points[v - 1], size, low),
+                      morton_reference(spatial.points[v], size, low));
+        }
+        for (std::uint32_t j = map.offsets[v]; j < map.offsets[v + 1]; ++j) {
+            EXPECT_EQ(key_of(pts[map.point_indices[j]], size), key_of(spatial.points[v], size));
+            EXPECT_EQ(map.voxel_of_point[map.point_indices[j]], v);
+        }
+    }
+    EXPECT_EQ(map.offsets.back(), pts.size());
+}
+
 // A point's twin is the previous call's point from the same voxel: on a scene that moves
-// by less than a voxel most voxels have one, and each names the right previous point.
-TEST(VoxelGrid, TwinsNameThePreviousCallsPointOfTheSameVoxel) {
+// by less than a voxel most voxels have one, and each names the right previous point, in
+// either output order.
+TEST_P(VoxelGridOrder, TwinsNameThePreviousCallsPointOfTheSameVoxel) {
+    const bool spatial = GetParam();
     std::mt19937 rng(3);
     std::uniform_real_distribution<double> u(-20.0, 20.0);
     std::vector<Eigen::Vector3d> before(5000), after;
@@ -111,10 +166,10 @@ TEST(VoxelGrid, TwinsNameThePreviousCallsPointOfTheSameVoxel) {
     VoxelGrid grid;
     PointCloud first, second;
     std::vector<std::uint32_t> twins;
-    grid.downsample(before, {size, 1}, &first, nullptr, &twins);
+    grid.downsample(before, {size, 1, spatial}, &first, nullptr, &twins);
     EXPECT_TRUE(std::all_of(twins.begin(), twins.end(),
                             [](std::uint32_t t) { return t == VoxelIndexMap::kNoVoxel; }));
-    grid.downsample(after, {size, 1}, &second, nullptr, &twins);
+    grid.downsample(after, {size, 1, spatial}, &second, nullptr, &twins);
     ASSERT_EQ(twins.size(), second.size());
     std::size_t with_twin = 0;
     for (std::size_t i = 0; i < second.size(); ++i) {
@@ -129,10 +184,12 @@ TEST(VoxelGrid, TwinsNameThePreviousCallsPointOfTheSameVoxel) {
     }
     EXPECT_GT(with_twin, second.size() * 8 / 10);
     // Another voxel size: no twins.
-    grid.downsample(after, {2.0 * size, 1}, &first, nullptr, &twins);
+    grid.downsample(after, {2.0 * size, 1, spatial}, &first, nullptr, &twins);
     EXPECT_TRUE(std::all_of(twins.begin(), twins.end(),
                             [](std::uint32_t t) { return t == VoxelIndexMap::kNoVoxel; }));
 }
+
+INSTANTIATE_TEST_SUITE_P(FirstAppearanceAndMorton, VoxelGridOrder, ::testing::Bool());
 
 // The table starts sized for the previous call's voxels: a call with many more voxels
 // grows it, and must still give one centroid per voxel, as a brute-force grouping does,
