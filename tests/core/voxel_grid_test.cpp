@@ -21,11 +21,17 @@ Key key_of(const Eigen::Vector3d& p, double size) {
             static_cast<long>(std::floor(p.z() / size))};
 }
 
-TEST(VoxelGrid, CentroidsMatchABruteForceReference) {
-    std::mt19937 rng(1);
-    std::uniform_real_distribution<double> u(-20.0, 20.0);
-    std::vector<Eigen::Vector3d> pts(20000);
+// n points uniform in a slab: x and y in [-half, half] m, z in a fifth of that.
+std::vector<Eigen::Vector3d> random_slab(unsigned seed, std::size_t n, double half) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-half, half);
+    std::vector<Eigen::Vector3d> pts(n);
     for (auto& p : pts) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+    return pts;
+}
+
+TEST(VoxelGrid, CentroidsMatchABruteForceReference) {
+    const std::vector<Eigen::Vector3d> pts = random_slab(1, 20000, 20.0);
     const double size = 1.3;
     std::map<Key, std::pair<Eigen::Vector3d, int>> ref;
     for (const auto& p : pts) {
@@ -117,10 +123,7 @@ class VoxelGridOrder : public ::testing::TestWithParam<bool> {};
 // In Morton order the output holds the same centroids, each voxel's points still listed
 // against it, sorted by their voxels' codes.
 TEST(VoxelGrid, SpatialOrderIsMortonOrderOfTheSameCentroids) {
-    std::mt19937 rng(2);
-    std::uniform_real_distribution<double> u(-20.0, 20.0);
-    std::vector<Eigen::Vector3d> pts(8000);
-    for (auto& p : pts) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+    const std::vector<Eigen::Vector3d> pts = random_slab(2, 8000, 20.0);
     const double size = 0.7;
     VoxelGrid grid;
     PointCloud plain, spatial;
@@ -156,10 +159,8 @@ TEST(VoxelGrid, SpatialOrderIsMortonOrderOfTheSameCentroids) {
 // either output order.
 TEST_P(VoxelGridOrder, TwinsNameThePreviousCallsPointOfTheSameVoxel) {
     const bool spatial = GetParam();
-    std::mt19937 rng(3);
-    std::uniform_real_distribution<double> u(-20.0, 20.0);
-    std::vector<Eigen::Vector3d> before(5000), after;
-    for (auto& p : before) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+    const std::vector<Eigen::Vector3d> before = random_slab(3, 5000, 20.0);
+    std::vector<Eigen::Vector3d> after;
     for (const auto& p : before) after.push_back(p + Eigen::Vector3d(0.01, -0.02, 0.0));
     after.push_back({500.0, 500.0, 0.0});  // a voxel the first call did not have
     const double size = 1.0;
@@ -195,11 +196,8 @@ INSTANTIATE_TEST_SUITE_P(FirstAppearanceAndMorton, VoxelGridOrder, ::testing::Bo
 // grows it, and must still give one centroid per voxel, as a brute-force grouping does,
 // and the right twins.
 TEST(VoxelGrid, ATableSizedForFewerVoxelsGrowsAndGivesTheSameCloud) {
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<double> u(-15.0, 15.0);  // about 4 points per voxel
-    std::vector<Eigen::Vector3d> few(50), many(20000);
-    for (auto& p : few) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
-    for (auto& p : many) p = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+    const std::vector<Eigen::Vector3d> few = random_slab(5, 50, 15.0);
+    const std::vector<Eigen::Vector3d> many = random_slab(6, 20000, 15.0);  // ~4 per voxel
     std::map<Key, std::pair<Eigen::Vector3d, int>> ref;
     for (const auto& p : many) {
         auto& e = ref.try_emplace(key_of(p, 1.0), Eigen::Vector3d::Zero(), 0).first->second;
