@@ -80,7 +80,7 @@ void DdsInput::on_cloud(const ReceivedCloud& cloud) {
         return refuse("frame_id \"" + cloud.frame_id + "\", expected \"" + frame_id_ +
                       "\" (the first cloud's)");
     }
-    ScanMessage m;
+    ScanMessage m = sensor_->take_spare_scan();
     m.sensor = sensor_->index;
     m.t_ns = cloud.stamp_ns + sensor_->time_offset_ns;
     m.complete_steady_ns = steady_ns();

@@ -98,8 +98,10 @@ void Pipeline::Impl::fusion_loop() {
         heartbeat_ns.store(steady_ns(), std::memory_order_release);
         auto frame = frames.pop_wait(std::chrono::milliseconds(100));
         if (!frame) continue;
-        const core::FrameInput input = core::frame_input(&*frame, sensors.size());
+        core::FrameInput input = core::frame_input(&*frame, sensors.size());
+        if (auto cloud = spare_clouds.take()) engine->recycle(std::move(*cloud));
         auto out = engine->process(input, mode);
+        return_scans(&input);
         // Behind (a frame already waits): the next one at its predicted poses, which costs a
         // fraction of a registered one, rather than a frame dropped (sync.when_behind).
         const bool behind = !frames.empty();
@@ -126,6 +128,20 @@ void Pipeline::Impl::fusion_loop() {
     init_jobs.close();
     init_worker.join();
     results.close();
+}
+
+// The engine copied what it keeps of the scans: their buffers go back to the sensors'
+// producers, which fill them with the next scans.
+void Pipeline::Impl::return_scans(core::FrameInput* input) {
+    for (std::size_t s = 0; s < input->sensors.size() && s < sensors.size(); ++s) {
+        core::SensorScanInput& scan = input->sensors[s];
+        if (!scan.present) continue;
+        ScanMessage spare;
+        spare.points = std::move(scan.points);
+        spare.point_dt_s = std::move(scan.point_dt_s);
+        spare.intensity = std::move(scan.intensity);
+        sensors[s]->spare_scans.give(std::move(spare));
+    }
 }
 
 void Pipeline::Impl::initial_registration_loop(InitialJobs* jobs) {

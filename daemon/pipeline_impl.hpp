@@ -17,6 +17,7 @@
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/fusion_engine.hpp"
 #include "core/pipeline/world_frame.hpp"
+#include "daemon/buffer_pool.hpp"
 #include "daemon/dds_input.hpp"
 #include "daemon/dds_publisher.hpp"
 #include "daemon/frame_stamps.hpp"
@@ -34,6 +35,9 @@ struct Pipeline::Impl {
     std::vector<std::unique_ptr<DdsInput>> dds_inputs;  // sensors with source.dds
     DropOldestQueue<core::SyncedFrame<ScanMessage>> frames;
     DropOldestQueue<core::FrameOutput> results;
+    // Fused clouds the output thread is done with, for the fusion thread's next frames:
+    // one being built while the output thread holds the last.
+    BufferPool<core::FusedCloud> spare_clouds{2};
     std::unique_ptr<core::FusionEngine> engine;
     std::unique_ptr<core::WorldFrameTracker> world;  // fusion thread only
     std::thread sync_thread, fusion_thread, output_thread;
@@ -96,6 +100,8 @@ struct Pipeline::Impl {
     // The frame's entry of the ring; empty t_ns when it is no longer known.
     FrameTime frame_time(const core::FrameOutput& out);
     void fusion_loop();
+    // Fusion thread, after process(): the frame's scan buffers back to their sensors.
+    void return_scans(core::FrameInput* input);
     // The fusion thread's worker: runs each initial registration job until `jobs` closes.
     using InitialJobs = DropOldestQueue<std::shared_ptr<core::InitialRegistrationJob>>;
     void initial_registration_loop(InitialJobs* jobs);

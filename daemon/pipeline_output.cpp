@@ -25,6 +25,7 @@ void Pipeline::Impl::output_loop() {
         files.set_world(world_now, config.output.dds.frame_id, config.world.frame_id);
         publish_frame(*result, world_now);
         files.add_frame(*result, world_now.T_fused_root.inverse());
+        spare_clouds.give(std::move(result->cloud));  // for the fusion thread's next frame
     }
     files.write_extrinsics();
     // The final counters, so a subscriber sees how the run ended.

@@ -44,13 +44,14 @@ void attach_assembler(SensorIngest* s, double min_completeness,
             }
             if (!ouster::project_scan(scan, s->lut, ouster::ProjectionParams{}, &s->cloud)) return;
             const std::uint64_t t = ouster::scan_reference_time_ns(scan);
-            ScanMessage m;
+            ScanMessage m = s->take_spare_scan();
             m.sensor = s->index;
             m.t_ns = static_cast<std::int64_t>(t) + s->time_offset_ns;
             ouster::point_times_s(s->cloud, t, &m.point_dt_s);
             ouster::point_intensity(scan, s->cloud, &m.intensity);
-            // Moved, not copied (1.5 MB for an OS1-64 scan): the next projection refills it.
-            m.points = std::move(s->cloud.cloud.points);
+            // Swapped, not copied (1.5 MB for an OS1-64 scan): the message takes the
+            // projection, the next projection refills the spare's buffer.
+            m.points.swap(s->cloud.cloud.points);
             m.complete_steady_ns = steady_ns();
             m.complete_realtime_ns = realtime_ns();
             s->last_scan_steady_ns.store(m.complete_steady_ns, std::memory_order_relaxed);
@@ -117,6 +118,20 @@ void install_pending(Receiver* r) {
 }
 
 }  // namespace
+
+ScanMessage SensorIngest::take_spare_scan() {
+    std::optional<ScanMessage> spare = spare_scans.take();
+    if (!spare) return ScanMessage{};
+    ScanMessage m;
+    m.sensor = index;
+    m.points = std::move(spare->points);
+    m.point_dt_s = std::move(spare->point_dt_s);
+    m.intensity = std::move(spare->intensity);
+    m.points.clear();
+    m.point_dt_s.clear();
+    m.intensity.clear();
+    return m;
+}
 
 void SensorIngest::adopt_metadata(ouster::SensorInfo next) {
     info = std::move(next);

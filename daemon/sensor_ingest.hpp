@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "daemon/buffer_pool.hpp"
 #include "daemon/daemon_config.hpp"
 #include "daemon/drop_oldest_queue.hpp"
 #include "daemon/metadata_status.hpp"
@@ -45,6 +46,10 @@ struct ScanMessage {
     std::vector<float> intensity;
 };
 
+// Scans kept per sensor for reuse (BufferPool): one being filled while fusion holds the
+// last, so two cover the steady state; more would only hold memory while fusion is behind.
+inline constexpr std::size_t kSpareScansPerSensor = 2;
+
 // Everything the receiving thread owns for one sensor; counters read by other threads.
 struct SensorIngest {
     std::size_t index = 0;
@@ -65,6 +70,11 @@ struct SensorIngest {
     ouster::AssemblyCounters counters;  // `mode_seen`
     std::string mode_seen;  // what disagreed with the metadata, set when mode_mismatch is
     std::uint32_t packets_since_publish = 0;  // receiver thread only
+    // Scans fusion is done with, for the producer's next ones (receiver thread or DdsInput).
+    BufferPool<ScanMessage> spare_scans{kSpareScansPerSensor};
+    // A message to fill: a spare one, its vectors empty but keeping their capacity, or a
+    // new one when none is kept.
+    ScanMessage take_spare_scan();
 
     // Metadata. A sensor with a file has it from the start; one named by hostname gets it
     // from its MetadataFetcher (daemon/metadata_fetcher.hpp), which hands every version to

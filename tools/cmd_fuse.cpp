@@ -229,7 +229,8 @@ private:
     void hand_to_world(core::FrameOutput&& out) {
         world_.update(out);
         if (!world_.fixed()) ++frames_before_world_;
-        if (!save_.count(out.frame_index)) out.cloud.clear();  // only the saved clouds wait
+        // Only the saved clouds wait; the others' buffers carry the next frame's cloud.
+        if (!save_.count(out.frame_index)) engine_.recycle(std::move(out.cloud));
         waiting_.push_back(std::move(out));
         if (world_.fixed()) {
             for (auto& w : waiting_) write_in_world(&w);

@@ -85,6 +85,9 @@ FrameWork FusionEngine::Impl::begin_frame(const FrameInput& in, bool registered)
     out.T_root_sensor.assign(n, Eigen::Isometry3d::Identity());
     out.t_ns.assign(n, 0);
     out.health.assign(n, SensorHealth{});
+    out.cloud = std::move(spare_cloud);  // empty, or a recycled cloud's buffers
+    spare_cloud = FusedCloud{};
+    out.cloud.clear();
     if (in.sensors.size() != n) return w;
     w.usable.assign(n, 0);
     for (std::size_t s = 0; s < n; ++s) {
@@ -267,6 +270,7 @@ FrameOutput FusionEngine::process(const FrameInput& frame, FrameMode mode) {
     }
     return impl_->process(frame);
 }
+void FusionEngine::recycle(FusedCloud cloud) { impl_->spare_cloud = std::move(cloud); }
 const FusionParams& FusionEngine::params() const { return impl_->params; }
 std::size_t FusionEngine::num_sensors() const { return impl_->n; }
 

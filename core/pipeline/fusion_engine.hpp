@@ -70,6 +70,9 @@ public:
     FusionEngine& operator=(const FusionEngine&) = delete;
 
     FrameOutput process(const FrameInput& frame, FrameMode mode = FrameMode::kRegister);
+    // A fused cloud the caller is done with: the next frame's cloud is built in its
+    // buffers (MBs at 100k+ points: allocated afresh, their pages are faulted in again).
+    void recycle(FusedCloud cloud);
 
     const FusionParams& params() const;
     std::size_t num_sensors() const;

@@ -98,6 +98,8 @@ struct FusionEngine::Impl {
     std::optional<Eigen::Isometry3d> root_reanchor;  // left factor for the root's batch
     std::int64_t root_reanchor_reference = -1;       // the root reference frame it belongs to
 
+    FusedCloud spare_cloud;  // FusionEngine::recycle's, for the next frame's cloud
+
     Impl(std::size_t num_sensors, const FusionParams& p);
     // A worker that has not begun the job yet can skip it; the job outlives the engine.
     ~Impl();

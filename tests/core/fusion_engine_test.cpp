@@ -383,5 +383,35 @@ TEST(FusionEngine, NoRootNoPoseAndWrongShapeIsRefused) {
     EXPECT_FALSE(out.health[2].event.empty());
 }
 
+// A recycled cloud's buffers carry the next frame's cloud: the same cloud as an engine that
+// allocates afresh, nothing left of the recycled one (it starts larger than any frame's and
+// full of values no frame has, and the first frame, without its root, fuses nothing), and
+// no new buffer.
+TEST(FusionEngine, RecycledCloudBuffersHoldTheNextCloudAndNothingElse) {
+    FusionEngine fresh(kSensors, test_params());
+    FusionEngine recycling(kSensors, test_params());
+    FusedCloud stale;
+    stale.points.assign(400'000, Eigen::Vector3f::Constant(1e6f));
+    stale.intensity.assign(400'000, -1.0f);
+    stale.sensor.assign(400'000, 7);
+    stale.dynamic.assign(400'000, 1);
+    const Eigen::Vector3f* buffer = stale.points.data();
+    recycling.recycle(std::move(stale));
+    for (int f = 0; f < 4; ++f) {
+        std::vector<Eigen::Isometry3d> poses;
+        for (int s = 0; s < kSensors; ++s) poses.push_back(true_pose(s, f));
+        const FrameInput in = make_frame(f, poses, {f > 0, true, true});
+        const FrameOutput a = fresh.process(in);
+        FrameOutput b = recycling.process(in);
+        ASSERT_EQ(a.cloud.points.size(), b.cloud.points.size()) << "frame " << f;
+        EXPECT_TRUE(a.cloud.points == b.cloud.points) << "frame " << f;
+        EXPECT_EQ(a.cloud.intensity, b.cloud.intensity) << "frame " << f;
+        EXPECT_EQ(a.cloud.sensor, b.cloud.sensor) << "frame " << f;
+        EXPECT_EQ(a.cloud.dynamic, b.cloud.dynamic) << "frame " << f;
+        EXPECT_EQ(b.cloud.points.data(), buffer) << "frame " << f << ": a new buffer";
+        recycling.recycle(std::move(b.cloud));
+    }
+}
+
 }  // namespace
 }  // namespace lidarfuse::core
