@@ -35,9 +35,9 @@ struct Pipeline::Impl {
     std::vector<std::unique_ptr<DdsInput>> dds_inputs;  // sensors with source.dds
     DropOldestQueue<core::SyncedFrame<ScanMessage>> frames;
     DropOldestQueue<core::FrameOutput> results;
-    // Fused clouds the output thread is done with, for the fusion thread's next frames:
-    // one being built while the output thread holds the last.
-    BufferPool<core::FusedCloud> spare_clouds{2};
+    // Fused clouds the output thread is done with, for the fusion thread's next frame (one:
+    // the output thread is done with a frame before the next is fused, when keeping up).
+    BufferPool<core::FusedCloud> spare_clouds{1};
     std::unique_ptr<core::FusionEngine> engine;
     std::unique_ptr<core::WorldFrameTracker> world;  // fusion thread only
     std::thread sync_thread, fusion_thread, output_thread;

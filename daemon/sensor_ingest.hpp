@@ -46,9 +46,10 @@ struct ScanMessage {
     std::vector<float> intensity;
 };
 
-// Scans kept per sensor for reuse (BufferPool): one being filled while fusion holds the
-// last, so two cover the steady state; more would only hold memory while fusion is behind.
-inline constexpr std::size_t kSpareScansPerSensor = 2;
+// Scans kept per sensor for reuse (BufferPool). Keeping up, fusion hands frame k's scan back
+// before the sensor's next one completes, so one covers the steady state; more would only
+// hold memory (2 MB a scan) while fusion is behind, when scans are dropped anyway.
+inline constexpr std::size_t kSpareScansPerSensor = 1;
 
 // Everything the receiving thread owns for one sensor; counters read by other threads.
 struct SensorIngest {
