@@ -6,7 +6,6 @@
 #include <vector>
 
 #include "daemon/drop_oldest_queue.hpp"
-#include "daemon/sensor_ingest.hpp"
 
 namespace lidarfuse::daemon {
 namespace {
@@ -81,34 +80,6 @@ TEST(BufferPool, BuffersCirculateBetweenAProducerAndAConsumer) {
               static_cast<std::uint64_t>(kItems));
     EXPECT_GT(c.reused, 0u);
     EXPECT_LE(pool.kept(), 2u);
-}
-
-// A producer fills only what it has (a DDS input has no point times): a spare scan must
-// not carry the last scan's values into the next, only its storage.
-TEST(SensorIngest, ASpareScanIsEmptyButKeepsItsStorage) {
-    SensorIngest sensor;
-    sensor.index = 3;
-    EXPECT_TRUE(sensor.take_spare_scan().points.empty());  // none kept: a new one
-    ScanMessage used;
-    used.sensor = 3;
-    used.t_ns = 42;
-    used.points.assign(5000, Eigen::Vector3d::Ones());
-    used.point_dt_s.assign(5000, 0.01f);
-    used.intensity.assign(5000, 7.0f);
-    const Eigen::Vector3d* points = used.points.data();
-    const float* times = used.point_dt_s.data();
-    const float* intensity = used.intensity.data();
-    sensor.spare_scans.give(std::move(used));
-    const ScanMessage spare = sensor.take_spare_scan();
-    EXPECT_EQ(spare.sensor, 3u);
-    EXPECT_EQ(spare.t_ns, 0);
-    EXPECT_TRUE(spare.points.empty());
-    EXPECT_TRUE(spare.point_dt_s.empty());
-    EXPECT_TRUE(spare.intensity.empty());
-    EXPECT_EQ(spare.points.data(), points);
-    EXPECT_EQ(spare.point_dt_s.data(), times);
-    EXPECT_EQ(spare.intensity.data(), intensity);
-    EXPECT_GE(spare.points.capacity(), 5000u);
 }
 
 }  // namespace
