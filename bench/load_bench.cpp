@@ -29,6 +29,7 @@
 
 #include "daemon/daemon_config.hpp"
 #include "daemon/pipeline.hpp"
+#include "drivers/process_env.hpp"
 
 namespace {
 
@@ -72,6 +73,7 @@ double cpu_s() {
 }  // namespace
 
 int main(int argc, char** argv) {
+    lidarfuse::drivers::keep_frame_buffers_in_heap();  // as lidarfused does
     int sensors = 8;
     double seconds = 60, sample_s = 1, capture_s = 4;
     bool series = false;

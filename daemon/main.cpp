@@ -242,5 +242,6 @@ int run(int argc, char** argv) {
 
 int main(int argc, char** argv) {
     lidarfuse::drivers::ensure_passive_openmp(argv);
+    lidarfuse::drivers::keep_frame_buffers_in_heap();
     return lidarfuse::daemon::run(argc, argv);
 }

@@ -43,6 +43,7 @@ void print_usage(std::FILE* out) {
 
 int main(int argc, char** argv) {
     lidarfuse::drivers::ensure_passive_openmp(argv);
+    lidarfuse::drivers::keep_frame_buffers_in_heap();
     if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
         print_usage(argc < 2 ? stderr : stdout);
         return argc < 2 ? 2 : 0;
