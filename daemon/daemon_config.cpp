@@ -15,11 +15,13 @@ using station::YamlReader;
 
 void read_network(YamlReader& r, const YAML::Node& n, NetworkConfig* c) {
     if (!n || !r.optional_map(n, "network")) return;
-    r.only_keys(n, "network", {"bind_address", "receive_buffer_bytes"});
+    r.only_keys(n, "network", {"bind_address", "receive_buffer_bytes", "receive_coalesce_ms"});
     set_if(r.string(n["bind_address"], "network.bind_address", false), &c->bind_address);
     set_if(r.integer(n["receive_buffer_bytes"], "network.receive_buffer_bytes", 65536, 1LL << 30,
                      false),
            &c->receive_buffer_bytes);
+    set_if(r.number(n["receive_coalesce_ms"], "network.receive_coalesce_ms", 0, 50, false),
+           &c->receive_coalesce_ms);
 }
 
 void read_sync(YamlReader& r, const YAML::Node& n, SyncConfig* c) {

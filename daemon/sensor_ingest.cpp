@@ -1,6 +1,7 @@
 #include "daemon/sensor_ingest.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <ctime>
 #include <utility>
 
@@ -176,6 +177,7 @@ std::unique_ptr<Receiver> make_receiver(std::uint16_t port,
     params.bind_address = network.bind_address;
     params.ports = {port};
     params.requested_rcvbuf_bytes = network.receive_buffer_bytes;
+    params.coalesce_us = static_cast<int>(std::lround(network.receive_coalesce_ms * 1000.0));
     r->socket = std::make_unique<net::UdpReceiver>(params);
     r->sensors = members;
     r->station = &station;

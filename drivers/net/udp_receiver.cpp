@@ -41,6 +41,10 @@ void check_params(const UdpReceiverParams& params) {
     if (params.batch_size == 0 || params.max_datagram_bytes == 0) {
         throw std::runtime_error("UDP receiver: batch_size and max_datagram_bytes must be > 0");
     }
+    if (params.coalesce_us < 0 || params.coalesce_us > 10'000'000) {
+        throw std::runtime_error("UDP receiver: coalesce_us must be 0..10000000, not " +
+                                 std::to_string(params.coalesce_us));
+    }
 }
 
 // SO_RCVBUFFORCE when the process may, else SO_RCVBUF (capped by net.core.rmem_max); the
@@ -141,7 +145,18 @@ void UdpReceiver::stop() {
 }
 
 void UdpReceiver::run(const DatagramHandler& handler) {
-    while (!stopped()) poll_once(params_.poll_timeout_ms, handler);
+    while (!stopped()) {
+        if (poll_once(params_.poll_timeout_ms, handler) > 0 && params_.coalesce_us > 0) {
+            wait_to_coalesce();
+        }
+    }
+}
+
+void UdpReceiver::wait_to_coalesce() {
+    pollfd wake{wake_fd_, POLLIN, 0};
+    const timespec wait{params_.coalesce_us / 1'000'000,
+                        static_cast<long>(params_.coalesce_us % 1'000'000) * 1000};
+    ::ppoll(&wake, 1, &wait, nullptr);  // EINTR or a stop(): the next poll_once tells
 }
 
 std::size_t UdpReceiver::poll_once(int timeout_ms, const DatagramHandler& handler) {

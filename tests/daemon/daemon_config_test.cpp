@@ -28,6 +28,25 @@ TEST_F(DaemonConfigTest, DefaultsWhenSectionsAreAbsent) {
     EXPECT_TRUE(c.fusion.remove_dynamic);
     EXPECT_EQ(c.output.directory, "/var/lib/lidarfuse");
     EXPECT_EQ(c.log_level, "info");
+    EXPECT_DOUBLE_EQ(c.network.receive_coalesce_ms, 5.0);
+}
+
+TEST_F(DaemonConfigTest, TheReceiversWaitIsReadAndChecked) {
+    const auto c = parse_daemon_config(sensors_ + "network: {receive_coalesce_ms: 0.5}\n", "s.yaml",
+                                       dir_.path());
+    EXPECT_DOUBLE_EQ(c.network.receive_coalesce_ms, 0.5);
+    const auto off = parse_daemon_config(sensors_ + "network: {receive_coalesce_ms: 0}\n", "s.yaml",
+                                         dir_.path());
+    EXPECT_DOUBLE_EQ(off.network.receive_coalesce_ms, 0.0);
+    for (const char* bad : {"-1", "51", "soon"}) {
+        try {
+            parse_daemon_config(sensors_ + "network: {receive_coalesce_ms: " + bad + "}\n",
+                                "s.yaml", dir_.path());
+            ADD_FAILURE() << bad << " was accepted";
+        } catch (const station::ConfigError& error) {
+            EXPECT_THAT(error.what(), HasSubstr("network.receive_coalesce_ms")) << bad;
+        }
+    }
 }
 
 TEST_F(DaemonConfigTest, RecordIsOffByDefaultAndEveryKeyIsReadAndChecked) {

@@ -102,5 +102,19 @@ TEST(SensorIngest, ASpareScanIsEmptyButKeepsItsStorage) {
     EXPECT_GE(spare.points.capacity(), 5000u);
 }
 
+// The network section reaches the receiver's socket: its address, buffer and the wait
+// after a wake-up (ms in the config, us in the socket's parameters).
+TEST(SensorIngest, AReceiverTakesTheNetworkSection) {
+    NetworkConfig network;
+    network.bind_address = "127.0.0.1";
+    network.receive_buffer_bytes = 1 << 20;
+    network.receive_coalesce_ms = 2.5;
+    const station::StationConfig station;
+    const std::unique_ptr<Receiver> r = make_receiver(0, {}, network, station, 0.0);
+    EXPECT_EQ(r->socket->params().bind_address, "127.0.0.1");
+    EXPECT_EQ(r->socket->params().requested_rcvbuf_bytes, 1 << 20);
+    EXPECT_EQ(r->socket->params().coalesce_us, 2500);
+}
+
 }  // namespace
 }  // namespace lidarfuse::daemon

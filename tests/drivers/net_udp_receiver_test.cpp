@@ -1,7 +1,9 @@
 // UdpReceiver on loopback (127.0.0.1, ephemeral ports only): payloads and sources arrive
-// intact, senders sharing a port are told apart, truncation is counted, stop() wakes the loop.
+// intact, senders sharing a port are told apart, truncation is counted, stop() wakes the loop,
+// and datagrams arriving during the wait after a wake-up are read together.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <future>
@@ -206,6 +208,80 @@ TEST(UdpReceiver, StopWakesABlockedLoopAtOnce) {
     EXPECT_EQ(running.wait_for(std::chrono::seconds(10)), std::future_status::ready);
     EXPECT_TRUE(receiver.stopped());
     EXPECT_EQ(receiver.poll_once(-1, [](const ReceivedDatagram&) {}), 0u);
+}
+
+// run() on its own thread, receiving datagrams that a sender spreads over time: after the
+// first, `spaced` more, `gap` apart. Returns the receiver's wake-ups with work.
+std::uint64_t wakeups_for_spaced_datagrams(int coalesce_us, int spaced,
+                                           std::chrono::milliseconds gap) {
+    UdpReceiverParams params = loopback_params(1);
+    params.coalesce_us = coalesce_us;
+    UdpReceiver receiver(params);
+    std::atomic<int> received{0};
+    auto running = std::async(std::launch::async, [&] {
+        receiver.run([&](const ReceivedDatagram&) { received.fetch_add(1); });
+    });
+    UdpSender sender({"127.0.0.1", 0});
+    const auto data = payload(64, 1);
+    const auto send = [&] {
+        EXPECT_TRUE(
+            sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
+    };
+    const auto wait_for = [&](int count) {
+        // Generous bound: a lost datagram would wait forever, not for 10 s.
+        for (int i = 0; i < 10'000 && received.load() < count; ++i)
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    };
+    send();
+    wait_for(1);  // the first wake-up has begun: its wait starts now
+    for (int i = 0; i < spaced; ++i) {
+        std::this_thread::sleep_for(gap);
+        send();
+    }
+    wait_for(1 + spaced);
+    receiver.stop();
+    running.wait();
+    EXPECT_EQ(received.load(), 1 + spaced);
+    return receiver.stats().wakeups.load();
+}
+
+// What arrives while a receiver waits after a wake-up is read in one batch: nine datagrams
+// 2 ms apart make one more wake-up, not nine, within a wait of 2 s.
+TEST(UdpReceiver, DatagramsArrivingDuringTheWaitAreReadInOneWakeUp) {
+    EXPECT_EQ(wakeups_for_spaced_datagrams(2'000'000, 9, std::chrono::milliseconds(2)), 2u);
+}
+
+// The control: without the wait, each datagram that arrives into an empty socket wakes the
+// receiver (20 ms apart, so even a slow machine reads most of them one by one).
+TEST(UdpReceiver, WithoutTheWaitEachSpacedDatagramWakesTheReceiver) {
+    EXPECT_GE(wakeups_for_spaced_datagrams(0, 9, std::chrono::milliseconds(20)), 6u);
+}
+
+TEST(UdpReceiver, StopEndsTheWaitAfterAWakeUpAtOnce) {
+    UdpReceiverParams params = loopback_params(1);
+    params.coalesce_us = 10'000'000;  // the longest allowed
+    UdpReceiver receiver(params);
+    std::promise<void> woke;
+    auto running = std::async(std::launch::async, [&] {
+        receiver.run([&](const ReceivedDatagram&) { woke.set_value(); });
+    });
+    UdpSender sender({"127.0.0.1", 0});
+    const auto data = payload(64, 1);
+    ASSERT_TRUE(
+        sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
+    woke.get_future().wait();
+    receiver.stop();
+    // Well within the 10 s wait: stop() must end it, not the wait's end.
+    EXPECT_EQ(running.wait_for(std::chrono::seconds(5)), std::future_status::ready);
+    running.wait();
+}
+
+TEST(UdpReceiver, AWaitOutsideItsRangeIsRefused) {
+    UdpReceiverParams params = loopback_params(1);
+    params.coalesce_us = -1;
+    EXPECT_THROW(UdpReceiver{params}, std::runtime_error);
+    params.coalesce_us = 10'000'001;
+    EXPECT_THROW(UdpReceiver{params}, std::runtime_error);
 }
 
 TEST(UdpReceiver, BindFailuresListEveryPort) {
