@@ -23,6 +23,8 @@
 //                                 subscribed to every channel, bench/foxglove_bench_client.hpp)
 //                             [--when-behind predict|drop]  (sync.when_behind; default: the
 //                                 daemon's, predict)
+//                             [--receive-coalesce-ms MS]  (network.receive_coalesce_ms;
+//                                 default: the daemon's, 5)
 //                             [--keep 1]          (leave the folder: daemon logs, outputs)
 //                             [--cyclonedds bench|default|FILE]  (Cyclone's configuration of the
 //                                 daemon and the reader: bench = loopback with 64 kB fragments,
@@ -103,6 +105,16 @@ struct SensorReplay {
 };
 
 enum class FoxgloveMode { kOff, kServer, kClient };
+
+// What the bench's daemon config sets; the rest is the daemon's defaults.
+struct DaemonSettings {
+    int queue_depth = 1;      // the daemon's default
+    int fusion_threads = 0;   // 0: the daemon's default (registration.threads)
+    std::string when_behind;  // "": the daemon's default (sync.when_behind)
+    bool record = false;      // --record 1: output.record on (into the bench's folder)
+    FoxgloveMode foxglove = FoxgloveMode::kOff;
+    double receive_coalesce_ms = -1;  // < 0: the daemon's default (network.receive_coalesce_ms)
+};
 
 // Sends the capture's datagrams for the chosen sensors at recorded speed (absolute
 // deadlines), noting per scan when its last datagram left.
@@ -199,9 +211,10 @@ void print_accuracy(const fs::path& sim, const fs::path& out_dir, const std::str
     std::fflush(stdout);
 }
 
-RunResult run(const fs::path& sim, int n, int domain, int queue_depth, int fusion_threads,
-              const std::string& when_behind, bool record, FoxgloveMode foxglove,
+RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& settings,
               const Delivery& delivery) {
+    const bool record = settings.record;
+    const FoxgloveMode foxglove = settings.foxglove;
     RunResult result;
     const fs::path out_dir = sim / ("out" + std::to_string(n));
     std::ofstream config(sim / ("daemon" + std::to_string(n) + ".yaml"));
@@ -219,15 +232,20 @@ RunResult run(const fs::path& sim, int n, int domain, int queue_depth, int fusio
                                        {},
                                        0});
     }
-    config << "network: {bind_address: 127.0.0.1}\nsync: {queue_depth: " << queue_depth
-           << (when_behind.empty() ? "" : ", when_behind: " + when_behind)
+    config << "network: {bind_address: 127.0.0.1"
+           << (settings.receive_coalesce_ms < 0
+                   ? ""
+                   : ", receive_coalesce_ms: " + std::to_string(settings.receive_coalesce_ms))
+           << "}\nsync: {queue_depth: " << settings.queue_depth
+           << (settings.when_behind.empty() ? "" : ", when_behind: " + settings.when_behind)
            << "}\noutput:\n  directory: " << out_dir.string() << "\n  dds: {domain_id: " << domain
            << ", frame_id: station, diagnostics_period_ms: 500}\n";
     if (record)
         config << "  record: {enabled: true, directory: "
                << (sim / ("rec" + std::to_string(n))).string() << "}\n";
     if (foxglove != FoxgloveMode::kOff) config << "  foxglove: {enabled: true, port: 0}\n";
-    if (fusion_threads > 0) config << "registration: {threads: " << fusion_threads << "}\n";
+    if (settings.fusion_threads > 0)
+        config << "registration: {threads: " << settings.fusion_threads << "}\n";
     config.close();
 
     const pid_t bench_pid = ::getpid();
@@ -420,11 +438,7 @@ int main(int argc, char** argv) {
     std::vector<int> counts = {2, 4, 6, 8};
     double seconds = 5.0;
     std::string scenario = "curve";
-    int queue_depth = 1;      // the daemon's default
-    int fusion_threads = 0;   // 0: the daemon's default (registration.threads)
-    std::string when_behind;  // "": the daemon's default (sync.when_behind)
-    bool record = false;      // --record 1: output.record on (into the bench's folder)
-    FoxgloveMode foxglove = FoxgloveMode::kOff;
+    DaemonSettings settings;
     bool keep = false;  // --keep 1: leave the capture, configs, daemon logs and outputs
     Delivery delivery;
     delivery.daemon_uri = delivery.reader_uri = cyclone_uri("bench");
@@ -438,20 +452,22 @@ int main(int argc, char** argv) {
         } else if (arg == "--seconds") {
             seconds = std::stod(argv[i + 1]);
         } else if (arg == "--queue-depth") {
-            queue_depth = std::stoi(argv[i + 1]);
+            settings.queue_depth = std::stoi(argv[i + 1]);
         } else if (arg == "--fusion-threads") {
-            fusion_threads = std::stoi(argv[i + 1]);
+            settings.fusion_threads = std::stoi(argv[i + 1]);
         } else if (arg == "--when-behind") {
-            when_behind = argv[i + 1];
+            settings.when_behind = argv[i + 1];
         } else if (arg == "--scenario") {
             scenario = argv[i + 1];
         } else if (arg == "--record") {
-            record = argv[i + 1] == std::string("1");
+            settings.record = argv[i + 1] == std::string("1");
         } else if (arg == "--foxglove") {
             const std::string mode = argv[i + 1];
-            foxglove = mode == "client"   ? FoxgloveMode::kClient
-                       : mode == "server" ? FoxgloveMode::kServer
-                                          : FoxgloveMode::kOff;
+            settings.foxglove = mode == "client"   ? FoxgloveMode::kClient
+                                : mode == "server" ? FoxgloveMode::kServer
+                                                   : FoxgloveMode::kOff;
+        } else if (arg == "--receive-coalesce-ms") {
+            settings.receive_coalesce_ms = std::stod(argv[i + 1]);
         } else if (arg == "--keep") {
             keep = argv[i + 1] == std::string("1");
         } else if (arg == "--cyclonedds") {
@@ -479,8 +495,7 @@ int main(int argc, char** argv) {
     const int domain = 1 + static_cast<int>(::getpid() % 230);
     int max_zero_loss = 0, max_realtime = 0;
     for (int n : counts) {
-        const auto r = run(sim, n, domain, queue_depth, fusion_threads, when_behind, record,
-                           foxglove, delivery);
+        const auto r = run(sim, n, domain, settings, delivery);
         if (r.ok && r.lost == 0) max_zero_loss = std::max(max_zero_loss, n);
         if (r.ok && r.lost == 0 && r.fused_share >= 0.95) max_realtime = std::max(max_realtime, n);
     }
