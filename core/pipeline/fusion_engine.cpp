@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <utility>
 
 #include "core/pipeline/fusion_engine_impl.hpp"
 
@@ -85,8 +86,7 @@ FrameWork FusionEngine::Impl::begin_frame(const FrameInput& in, bool registered)
     out.T_root_sensor.assign(n, Eigen::Isometry3d::Identity());
     out.t_ns.assign(n, 0);
     out.health.assign(n, SensorHealth{});
-    out.cloud = std::move(spare_cloud);  // empty, or a recycled cloud's buffers
-    spare_cloud = FusedCloud{};
+    out.cloud = std::exchange(spare_cloud, FusedCloud{});  // empty, or a recycled cloud's buffers
     out.cloud.clear();
     if (in.sensors.size() != n) return w;
     w.usable.assign(n, 0);

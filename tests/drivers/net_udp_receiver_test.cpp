@@ -252,9 +252,9 @@ TEST(UdpReceiver, DatagramsArrivingDuringTheWaitAreReadInOneWakeUp) {
 }
 
 // The control: without the wait, each datagram that arrives into an empty socket wakes the
-// receiver (20 ms apart, so even a slow machine reads most of them one by one).
+// receiver (40 ms apart, so even a loaded machine reads most of them one by one).
 TEST(UdpReceiver, WithoutTheWaitEachSpacedDatagramWakesTheReceiver) {
-    EXPECT_GE(wakeups_for_spaced_datagrams(0, 9, std::chrono::milliseconds(20)), 6u);
+    EXPECT_GE(wakeups_for_spaced_datagrams(0, 9, std::chrono::milliseconds(40)), 5u);
 }
 
 TEST(UdpReceiver, StopEndsTheWaitAfterAWakeUpAtOnce) {
