@@ -3,8 +3,9 @@
 // the line rate of an OS1-64 in 1024x20 mode (64 packets per frame x 20 Hz = 1280 packets/s
 // of 12,608 B per sensor). Prints `name value unit` lines: packets/s sustained, loss, kernel
 // drops and receiver CPU per socket (getrusage RUSAGE_THREAD of the receiving thread over the
-// phase, as % of one core). Each pair of phases runs with the receiver's default 32 MiB
-// buffer request and with Linux's stock 208 KiB.
+// phase, as % of one core) and datagrams read per wake-up. Each pair of phases runs with the
+// receiver's default 32 MiB buffer request and with Linux's stock 208 KiB; the paced phase
+// also with lidarfused's wait after a wake-up (network.receive_coalesce_ms, 5 ms).
 //
 // Usage: udp_loopback_bench [SECONDS_PER_PHASE=3]
 // Payloads: the 64 lidar packets of OS-1-64_1024x10_fw20.pcap when the sample data is found
@@ -75,21 +76,23 @@ std::vector<std::vector<std::uint8_t>> load_packets() {
 }
 
 struct PhaseResult {
-    std::uint64_t sent = 0, received = 0, kernel_drops = 0, send_errors = 0;
+    std::uint64_t sent = 0, received = 0, kernel_drops = 0, send_errors = 0, wakeups = 0;
     double seconds = 0;
     int rcvbuf_granted_bytes = 0;
     std::vector<double> receiver_cpu_s;
 };
 
-// paced_rate <= 0: as fast as possible. rcvbuf_bytes: receive buffer asked per socket.
+// paced_rate <= 0: as fast as possible. rcvbuf_bytes: receive buffer asked per socket;
+// coalesce_us: the receivers' wait after a wake-up (UdpReceiverParams::coalesce_us).
 PhaseResult run_phase(const std::vector<std::vector<std::uint8_t>>& packets, double seconds,
-                      double paced_rate, int rcvbuf_bytes) {
+                      double paced_rate, int rcvbuf_bytes, int coalesce_us = 0) {
     std::vector<std::unique_ptr<net::UdpReceiver>> receivers;
     for (int s = 0; s < kSensors; ++s) {
         net::UdpReceiverParams p;
         p.bind_address = "127.0.0.1";
         p.ports = {0};
         p.requested_rcvbuf_bytes = rcvbuf_bytes;
+        p.coalesce_us = coalesce_us;
         receivers.push_back(std::make_unique<net::UdpReceiver>(p));
     }
     PhaseResult result;
@@ -159,6 +162,7 @@ PhaseResult run_phase(const std::vector<std::vector<std::uint8_t>>& packets, dou
     for (auto& r : receivers) {
         result.received += r->stats().datagrams.load();
         result.kernel_drops += r->stats().kernel_drops.load();
+        result.wakeups += r->stats().wakeups.load();
     }
     return result;
 }
@@ -192,6 +196,8 @@ void report(const char* phase, const PhaseResult& r) {
                 100.0 * max_cpu / r.seconds);
     std::printf("udp_loopback_%s_receiver_cpu_per_packet %.2f us\n", phase,
                 r.received ? 1e6 * mean_cpu * kSensors / r.received : 0.0);
+    std::printf("udp_loopback_%s_datagrams_per_wakeup %.2f packets\n", phase,
+                r.wakeups ? static_cast<double>(r.received) / r.wakeups : 0.0);
 }
 
 }  // namespace
@@ -211,6 +217,8 @@ int main(int argc, char** argv) {
     report("maxrate", run_phase(packets, seconds, 0.0, kLarge));
     std::printf("udp_loopback_paced_target_per_sensor %.0f packets/s\n", kLineRatePacketsPerS);
     report("paced_1024x20", run_phase(packets, seconds, kLineRatePacketsPerS, kLarge));
+    report("paced_1024x20_wait_5ms",
+           run_phase(packets, seconds, kLineRatePacketsPerS, kLarge, 5000));
     // The same two with the kernel's default buffer, as an unprivileged process without a
     // raised net.core.rmem_max would get.
     report("maxrate_default_rcvbuf", run_phase(packets, seconds, 0.0, kLinuxDefault));

@@ -129,6 +129,9 @@ UdpReceiver::UdpReceiver(const UdpReceiverParams& params) : params_(params) {
         throw std::runtime_error("UDP receiver cannot open its sockets:" + problems);
     }
     last_drop_count_.assign(fds_.size(), 0);
+    int smallest = sockets_.front().granted_rcvbuf_bytes;
+    for (const auto& info : sockets_) smallest = std::min(smallest, info.granted_rcvbuf_bytes);
+    wait_limit_bytes_ = static_cast<std::uint64_t>(std::max(smallest, 0)) / 4;
     batch_ = std::make_unique<Batch>(params_.batch_size, params_.max_datagram_bytes);
 }
 
@@ -146,9 +149,13 @@ void UdpReceiver::stop() {
 
 void UdpReceiver::run(const DatagramHandler& handler) {
     while (!stopped()) {
-        if (poll_once(params_.poll_timeout_ms, handler) > 0 && params_.coalesce_us > 0) {
-            wait_to_coalesce();
+        const std::uint64_t bytes_before = stats_.bytes.load(std::memory_order_relaxed);
+        if (poll_once(params_.poll_timeout_ms, handler) == 0 || params_.coalesce_us == 0) continue;
+        if (stats_.bytes.load(std::memory_order_relaxed) - bytes_before >= wait_limit_bytes_) {
+            stats_.waits_skipped.fetch_add(1, std::memory_order_relaxed);
+            continue;
         }
+        wait_to_coalesce();
     }
 }
 

@@ -42,7 +42,10 @@ struct UdpReceiverParams {
     // poll, a recvmmsg, two context switches) costs several times the decoding of the
     // datagram: a wait of a few milliseconds trades that much latency for a fraction of the
     // wake-ups. Kernel timestamps keep each datagram's arrival time exact. 0..10 s; 0: poll
-    // again at once. stop() ends the wait at once.
+    // again at once. stop() ends the wait at once. A wake-up that read a quarter of the
+    // smallest granted receive buffer or more is not followed by a wait: the socket fills
+    // fast enough that waiting could overflow it (high-rate sensors, several on one port,
+    // a small buffer).
     int coalesce_us = 0;
     std::size_t max_batches_per_wakeup = 16;  // per socket, so one busy port cannot starve others
 };
@@ -69,6 +72,9 @@ struct UdpReceiverStats {
     std::atomic<std::uint64_t> errors{0};   // failed recvmmsg/poll calls (EINTR excepted)
     std::atomic<std::uint64_t> batches{0};  // recvmmsg calls that returned data
     std::atomic<std::uint64_t> wakeups{0};  // polls that returned with work
+    // run(): wake-ups not followed by the wait (UdpReceiverParams::coalesce_us), as they
+    // read a quarter of the receive buffer or more.
+    std::atomic<std::uint64_t> waits_skipped{0};
 };
 
 struct UdpSocketInfo {
@@ -119,6 +125,7 @@ private:
     std::vector<int> fds_;
     std::vector<UdpSocketInfo> sockets_;
     std::vector<std::uint32_t> last_drop_count_;  // kernel drop count seen last, per socket
+    std::uint64_t wait_limit_bytes_ = 0;          // a quarter of the smallest granted buffer
     int wake_fd_ = -1;                            // eventfd written by stop()
     std::unique_ptr<Batch> batch_;
     std::atomic<bool> stop_{false};

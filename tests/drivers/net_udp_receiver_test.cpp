@@ -257,6 +257,49 @@ TEST(UdpReceiver, WithoutTheWaitEachSpacedDatagramWakesTheReceiver) {
     EXPECT_GE(wakeups_for_spaced_datagrams(0, 9, std::chrono::milliseconds(40)), 5u);
 }
 
+// A receiver with a 64 KiB buffer request and a 2 s wait, run() on its own thread, handed a
+// burst of three datagrams of `burst_bytes` each (all three fit in the buffer) before it
+// starts, then one small datagram; stopped once all four are in. Returns the wake-ups not
+// followed by the wait.
+std::uint64_t waits_skipped_after_burst(std::size_t burst_bytes) {
+    UdpReceiverParams params = loopback_params(1);
+    params.requested_rcvbuf_bytes = 65536;
+    params.coalesce_us = 2'000'000;
+    UdpReceiver receiver(params);
+    EXPECT_LE(receiver.sockets()[0].granted_rcvbuf_bytes, 4 * 60'000);  // 60 kB are > 1/4
+    UdpSender sender({"127.0.0.1", 0});
+    const std::uint16_t port = receiver.sockets()[0].port;
+    const auto big = payload(burst_bytes, 1), small = payload(64, 2);
+    for (int i = 0; i < 3; ++i)
+        EXPECT_TRUE(sender.send_to(kLoopbackIpv4, port, big.data(), big.size()));
+    std::atomic<int> received{0};
+    auto running = std::async(std::launch::async, [&] {
+        receiver.run([&](const ReceivedDatagram&) { received.fetch_add(1); });
+    });
+    const auto wait_for = [&](int count) {
+        for (int i = 0; i < 10'000 && received.load() < count; ++i)
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    };
+    wait_for(3);
+    EXPECT_TRUE(sender.send_to(kLoopbackIpv4, port, small.data(), small.size()));
+    wait_for(4);
+    receiver.stop();
+    running.wait();
+    EXPECT_EQ(received.load(), 4);
+    return receiver.stats().waits_skipped.load();
+}
+
+// A wake-up that read a quarter of the receive buffer or more polls again at once: waiting
+// then could let a fast stream overflow a small buffer. The small datagram's wake-up waits.
+TEST(UdpReceiver, AWakeUpThatReadAQuarterOfTheBufferIsNotFollowedByTheWait) {
+    EXPECT_EQ(waits_skipped_after_burst(20'000), 1u);
+}
+
+// The control: the same burst of small datagrams is followed by the wait.
+TEST(UdpReceiver, AWakeUpThatReadLittleIsFollowedByTheWait) {
+    EXPECT_EQ(waits_skipped_after_burst(64), 0u);
+}
+
 TEST(UdpReceiver, StopEndsTheWaitAfterAWakeUpAtOnce) {
     UdpReceiverParams params = loopback_params(1);
     params.coalesce_us = 10'000'000;  // the longest allowed
