@@ -60,12 +60,12 @@
 #include <thread>
 #include <vector>
 
+#include "bench/daemon_bench_replay.hpp"
 #include "bench/daemon_process_usage.hpp"
 #include "bench/dds_bench_reader.hpp"
 #include "bench/foxglove_bench_client.hpp"
 #include "drivers/ouster/metadata.hpp"
 #include "drivers/ouster/packet_format.hpp"
-#include "drivers/pcap/pcap_reader.hpp"
 
 namespace {
 
@@ -79,6 +79,7 @@ using bench::Delivery;
 using bench::monotonic_ns;
 using bench::peak_rss_mib;
 using bench::Received;
+using bench::SensorReplay;
 using bench::StageUsage;
 using bench::usage_by_stage;
 namespace fs = std::filesystem;
@@ -87,22 +88,6 @@ std::string tool_dir() { return fs::path(LIDARFUSE_TOOL_PATH).parent_path().stri
 std::string daemon_path() {
     return (fs::path(tool_dir()).parent_path() / "daemon" / "lidarfused").string();
 }
-
-// One scan of one sensor as the replay sent it.
-struct ScanSent {
-    std::uint16_t min_measurement_id = 0xFFFF;
-    std::uint64_t reference_ns = 0;  // timestamp of its first column (the daemon's scan time)
-    std::int64_t last_send_ns = 0;   // monotonic time its last datagram left
-};
-
-struct SensorReplay {
-    std::uint16_t capture_port = 0;  // destination port in the capture
-    std::uint16_t send_port = 0;     // the daemon's port for this sensor
-    int socket = -1;
-    ouster::PacketFormat format;
-    std::map<std::uint32_t, ScanSent> scans;  // by frame_id
-    std::uint64_t datagrams = 0;
-};
 
 enum class FoxgloveMode { kOff, kServer, kClient };
 
@@ -115,50 +100,6 @@ struct DaemonSettings {
     FoxgloveMode foxglove = FoxgloveMode::kOff;
     double receive_coalesce_ms = -1;  // < 0: the daemon's default (network.receive_coalesce_ms)
 };
-
-// Sends the capture's datagrams for the chosen sensors at recorded speed (absolute
-// deadlines), noting per scan when its last datagram left.
-void replay(const fs::path& capture, std::vector<SensorReplay>* sensors) {
-    pcap::PcapReader reader(capture);
-    pcap::UdpDatagram d;
-    std::int64_t start_ns = 0, first_capture_ns = 0;
-    bool first = true;
-    while (reader.next(&d)) {
-        SensorReplay* s = nullptr;
-        for (auto& candidate : *sensors) {
-            if (candidate.capture_port == d.dst_port) s = &candidate;
-        }
-        if (!s) continue;
-        if (first) {
-            start_ns = monotonic_ns() + 20'000'000;
-            first_capture_ns = d.timestamp_ns;
-            first = false;
-        }
-        const std::int64_t deadline = start_ns + (d.timestamp_ns - first_capture_ns);
-        timespec ts{static_cast<time_t>(deadline / 1'000'000'000),
-                    static_cast<long>(deadline % 1'000'000'000)};
-        clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
-        sockaddr_in to{};
-        to.sin_family = AF_INET;
-        to.sin_port = htons(s->send_port);
-        to.sin_addr.s_addr = htonl(0x7F000001u);
-        ::sendto(s->socket, d.data, d.size, 0, reinterpret_cast<sockaddr*>(&to), sizeof(to));
-        const std::int64_t sent = monotonic_ns();
-        ++s->datagrams;
-        if (d.size != s->format.lidar_packet_size()) continue;
-        auto& scan = s->scans[s->format.frame_id(d.data)];
-        scan.last_send_ns = sent;
-        for (int c = 0; c < s->format.columns_per_packet(); ++c) {
-            const std::uint8_t* col = s->format.column(d.data, c);
-            if (!s->format.column_valid(col)) continue;
-            const std::uint16_t mid = s->format.column_measurement_id(col);
-            if (mid < scan.min_measurement_id) {
-                scan.min_measurement_id = mid;
-                scan.reference_ns = s->format.column_timestamp_ns(col);
-            }
-        }
-    }
-}
 
 // Frames dropped from the first diagnostics report at or after from_ns to the last one
 // (0 when none came after from_ns).
@@ -213,8 +154,6 @@ void print_accuracy(const fs::path& sim, const fs::path& out_dir, const std::str
 
 RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& settings,
               const Delivery& delivery) {
-    const bool record = settings.record;
-    const FoxgloveMode foxglove = settings.foxglove;
     RunResult result;
     const fs::path out_dir = sim / ("out" + std::to_string(n));
     std::ofstream config(sim / ("daemon" + std::to_string(n) + ".yaml"));
@@ -240,10 +179,10 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
            << (settings.when_behind.empty() ? "" : ", when_behind: " + settings.when_behind)
            << "}\noutput:\n  directory: " << out_dir.string() << "\n  dds: {domain_id: " << domain
            << ", frame_id: station, diagnostics_period_ms: 500}\n";
-    if (record)
+    if (settings.record)
         config << "  record: {enabled: true, directory: "
                << (sim / ("rec" + std::to_string(n))).string() << "}\n";
-    if (foxglove != FoxgloveMode::kOff) config << "  foxglove: {enabled: true, port: 0}\n";
+    if (settings.foxglove != FoxgloveMode::kOff) config << "  foxglove: {enabled: true, port: 0}\n";
     if (settings.fusion_threads > 0)
         config << "registration: {threads: " << settings.fusion_threads << "}\n";
     config.close();
@@ -271,7 +210,7 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     bench::FoxgloveBenchClient viewer;
-    if (foxglove == FoxgloveMode::kClient) {
+    if (settings.foxglove == FoxgloveMode::kClient) {
         const fs::path log = sim / ("daemon" + std::to_string(n) + ".log");
         std::uint16_t port = 0;
         for (int i = 0; i < 500 && port == 0; ++i) {
@@ -396,7 +335,7 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
     std::printf("daemon_mean_fusion_%s %s ms\n", tag.c_str(), value("mean_fusion_ms").c_str());
     std::printf("daemon_dds_write_failures_%s %s writes\n", tag.c_str(),
                 value("dds_write_failures").c_str());
-    if (foxglove != FoxgloveMode::kOff) {
+    if (settings.foxglove != FoxgloveMode::kOff) {
         std::printf("daemon_foxglove_messages_sent_%s %s messages\n", tag.c_str(),
                     value("foxglove_messages_sent").c_str());
         std::printf("daemon_foxglove_messages_dropped_%s %s messages\n", tag.c_str(),
@@ -407,7 +346,7 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
         std::printf("daemon_foxglove_client_cloud_bytes_%s %.1f MiB\n", tag.c_str(),
                     viewed.cloud_mib);
     }
-    if (record) {
+    if (settings.record) {
         std::printf("daemon_record_datagrams_%s %s datagrams\n", tag.c_str(),
                     value("record_datagrams").c_str());
         std::printf("daemon_record_queue_drops_%s %s datagrams\n", tag.c_str(),

@@ -18,11 +18,10 @@ namespace lidarfuse::daemon {
 struct NetworkConfig {
     std::string bind_address = "0.0.0.0";
     int receive_buffer_bytes = 32 * 1024 * 1024;
-    // How long a receiver waits after a wake-up before reading again, so that a sensor's
-    // datagrams are read a few at a time (net::UdpReceiverParams::coalesce_us): at 5 ms,
-    // 4 sensors' receivers take 9-11 instead of 17-19 % of a core, 8 sensors' 14-15
-    // instead of 33-35 % (bench/BENCHMARK.md, "The receivers' wake-ups"), for at most 5 ms
-    // more latency. 0: every datagram is read as it arrives.
+    // How long a receiver waits after a wake-up before reading again (ms), so that a
+    // sensor's datagrams are read a few at a time (net::UdpReceiverParams::coalesce_us):
+    // about half the receivers' CPU for at most this much more latency (bench/BENCHMARK.md,
+    // "The receivers' wake-ups"). 0: every datagram is read as it arrives.
     double receive_coalesce_ms = 5.0;
 };
 
