@@ -38,14 +38,24 @@ BackgroundModel::BackgroundModel(const BackgroundModelParams& params)
     }
 }
 
+BackgroundScratch* BackgroundModel::own_scratch() {
+    if (!own_scratch_) own_scratch_ = std::make_unique<BackgroundScratch>();
+    return own_scratch_.get();
+}
+
 void BackgroundModel::set_reference(const std::vector<Eigen::Vector3d>& reference_points) {
+    set_reference(reference_points, own_scratch());
+}
+
+void BackgroundModel::set_reference(const std::vector<Eigen::Vector3d>& reference_points,
+                                    BackgroundScratch* scratch) {
     num_reference_ = reference_points.size();
     reference_keys_.resize(num_reference_);
     for (std::size_t j = 0; j < num_reference_; ++j) {
         const auto& p = reference_points[j];
         reference_keys_[j] = std::isfinite(p.squaredNorm()) ? key_of(p) : kNoKey;
     }
-    detector_.set_reference(reference_points);
+    detector_.set_reference(reference_points, &scratch->detection);
     voxels_.clear();
     index_.clear();
 }
@@ -124,18 +134,25 @@ bool BackgroundModel::maybe_hot(std::uint64_t key) const {
 }
 
 void BackgroundModel::update(const std::vector<Eigen::Vector3d>& current, BackgroundUpdate* out) {
+    update(current, out, own_scratch());
+}
+
+void BackgroundModel::update(const std::vector<Eigen::Vector3d>& current, BackgroundUpdate* out,
+                             BackgroundScratch* scratch) {
     ++frame_;
-    detector_.detect(current, &changes_);
-    current_keys_.resize(current.size());
+    const ChangeDetectionResult& changes = scratch->changes;
+    std::vector<std::uint64_t>& current_keys = scratch->current_keys;
+    detector_.detect(current, &scratch->changes, &scratch->detection);
+    current_keys.resize(current.size());
     for (std::size_t i = 0; i < current.size(); ++i) {
         const auto& p = current[i];
-        current_keys_[i] = std::isfinite(p.squaredNorm()) ? key_of(p) : kNoKey;
+        current_keys[i] = std::isfinite(p.squaredNorm()) ? key_of(p) : kNoKey;
     }
     for (std::size_t i = 0; i < current.size(); ++i) {
-        if (changes_.added[i]) raise(current_keys_[i]);
+        if (changes.added[i]) raise(current_keys[i]);
     }
     for (std::size_t j = 0; j < num_reference_; ++j) {
-        if (changes_.removed[j]) raise(reference_keys_[j]);
+        if (changes.removed[j]) raise(reference_keys_[j]);
     }
     mark_hot_voxels();
     // Neighboring points of a scan row mostly share a voxel: the last key's answer is kept.
@@ -151,14 +168,14 @@ void BackgroundModel::update(const std::vector<Eigen::Vector3d>& current, Backgr
     out->dynamic.assign(current.size(), 0);
     out->num_dynamic = 0;
     for (std::size_t i = 0; i < current.size(); ++i) {
-        const bool dyn = changes_.added[i] || above_threshold(current_keys_[i]);
+        const bool dyn = changes.added[i] || above_threshold(current_keys[i]);
         out->dynamic[i] = dyn;
         out->num_dynamic += dyn;
     }
     out->reference_dynamic.assign(num_reference_, 0);
     out->num_reference_dynamic = 0;
     for (std::size_t j = 0; j < num_reference_; ++j) {
-        const bool dyn = changes_.removed[j] || above_threshold(reference_keys_[j]);
+        const bool dyn = changes.removed[j] || above_threshold(reference_keys_[j]);
         out->reference_dynamic[j] = dyn;
         out->num_reference_dynamic += dyn;
     }

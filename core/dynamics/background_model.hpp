@@ -13,6 +13,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <unordered_map>
 #include <vector>
 
@@ -36,16 +37,31 @@ struct BackgroundUpdate {
     std::size_t num_reference_dynamic = 0;
 };
 
+// What update() rebuilds for every frame and needs no longer: the change detection's
+// scratch, the current points' voxel keys and their change flags. Shared by the models run
+// one after another on one thread (see ChangeDetectionScratch).
+struct BackgroundScratch {
+    ChangeDetectionScratch detection;
+    std::vector<std::uint64_t> current_keys;
+    ChangeDetectionResult changes;
+};
+
 class BackgroundModel {
 public:
     explicit BackgroundModel(const BackgroundModelParams& params = {});
 
+    // `scratch`: the caller's, for the model's work on this thread; without one, the
+    // model's own (made on first use).
     void set_reference(const std::vector<Eigen::Vector3d>& reference_points);
+    void set_reference(const std::vector<Eigen::Vector3d>& reference_points,
+                       BackgroundScratch* scratch);
     bool has_reference() const { return detector_.has_reference(); }
 
     // One frame: attenuate, detect changes, raise the scores of changed cells, classify.
     void update(const std::vector<Eigen::Vector3d>& current_in_reference_frame,
                 BackgroundUpdate* out);
+    void update(const std::vector<Eigen::Vector3d>& current_in_reference_frame,
+                BackgroundUpdate* out, BackgroundScratch* scratch);
 
     double score_at(const Eigen::Vector3d& p_in_reference_frame) const;
 
@@ -62,6 +78,7 @@ private:
     void mark_hot_voxels();  // fills hot_slots_, forgets faded voxels
     void forget(std::size_t i);
     bool maybe_hot(std::uint64_t key) const;
+    BackgroundScratch* own_scratch();
 
     BackgroundModelParams params_;
     // 1 / voxel size where that is exact (a power of two: the default 0.5 m), else 0: key_of
@@ -74,9 +91,8 @@ private:
     std::unordered_map<std::uint64_t, std::uint32_t> index_;
     std::uint64_t frame_ = 0;
     std::size_t num_reference_ = 0;
-    // Voxel keys (kNoKey: not finite) of the reference points, computed once, and of the
-    // current points, per frame.
-    std::vector<std::uint64_t> reference_keys_, current_keys_;
+    // Voxel keys (kNoKey: not finite) of the reference points, computed once.
+    std::vector<std::uint64_t> reference_keys_;
     std::vector<double> attenuation_powers_;  // attenuation^k, k < size (std::pow values)
     // Per frame, one bit per hash slot of the voxels above the threshold: a point whose slot
     // is clear is below it without a lookup in voxels_ (most are: the dynamic regions are a
@@ -85,7 +101,7 @@ private:
     // A voxel not raised for this many frames has attenuated below 1e-12 and is forgotten,
     // so that a station running for days keeps only the regions that still change.
     std::uint64_t forget_after_frames_ = 0;
-    ChangeDetectionResult changes_;
+    std::unique_ptr<BackgroundScratch> own_scratch_;
 };
 
 }  // namespace lidarfuse::core

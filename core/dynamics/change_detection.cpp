@@ -68,6 +68,14 @@ double* BandedImage::row(int r) {
     return &data_[static_cast<std::size_t>(r) * static_cast<std::size_t>(cols_)];
 }
 
+void BandedImage::assign(const BandedImage& other) {
+    lo_ = other.lo_;
+    hi_ = other.hi_;
+    band_begin_ = other.band_begin_;
+    band_end_ = other.band_end_;
+    std::copy(&other.data_[band_begin_], &other.data_[band_end_], &data_[band_begin_]);
+}
+
 void BandedImage::fill(int first_row, int last_row) {
     const std::size_t cols = static_cast<std::size_t>(cols_);
     std::fill(&data_[static_cast<std::size_t>(first_row) * cols],
@@ -227,37 +235,69 @@ void SphericalRangeImage::compute_window_min(int cone_bins) {
 }
 
 ChangeDetector::ChangeDetector(const ChangeDetectionParams& params)
-    : params_(params), reference_image_(params.grid), current_image_(params.grid) {}
+    : params_(params),
+      reference_window_min_(params.grid.elevation_bins, params.grid.azimuth_bins) {}
+
+ChangeDetectionScratch* ChangeDetector::own_scratch() {
+    if (!own_scratch_) own_scratch_ = std::make_unique<ChangeDetectionScratch>(params_.grid);
+    return own_scratch_.get();
+}
+
+void ChangeDetector::fit(ChangeDetectionScratch* scratch) const {
+    const SphericalGridParams& have = scratch->image.grid().params();
+    const SphericalGridParams& want = params_.grid;
+    if (have.azimuth_bins != want.azimuth_bins || have.elevation_bins != want.elevation_bins ||
+        have.min_elevation_deg != want.min_elevation_deg ||
+        have.max_elevation_deg != want.max_elevation_deg) {
+        scratch->image = SphericalRangeImage(want);
+    }
+}
 
 void ChangeDetector::set_reference(const std::vector<Eigen::Vector3d>& reference_points) {
+    set_reference(reference_points, own_scratch());
+}
+
+void ChangeDetector::set_reference(const std::vector<Eigen::Vector3d>& reference_points,
+                                   ChangeDetectionScratch* scratch) {
+    fit(scratch);
     num_reference_ = reference_points.size();
-    reference_image_.build(reference_points, &reference_cells_, &reference_ranges_);
-    reference_image_.compute_window_min(params_.cone_bins);
+    scratch->image.build(reference_points, &reference_cells_, &reference_ranges_);
+    scratch->image.compute_window_min(params_.cone_bins);
+    reference_window_min_.assign(scratch->image.window_min_image());
     has_reference_ = true;
 }
 
 void ChangeDetector::detect(const std::vector<Eigen::Vector3d>& current,
                             ChangeDetectionResult* result) {
+    detect(current, result, own_scratch());
+}
+
+void ChangeDetector::detect(const std::vector<Eigen::Vector3d>& current,
+                            ChangeDetectionResult* result, ChangeDetectionScratch* scratch) {
     result->added.assign(current.size(), 0);
     result->removed.assign(num_reference_, 0);
     result->num_added = result->num_removed = 0;
     if (!has_reference_) return;
-    current_image_.build(current, &current_cells_, &current_ranges_);
-    current_image_.compute_window_min(params_.cone_bins);
+    fit(scratch);
+    SphericalRangeImage& image = scratch->image;
+    const std::vector<std::int32_t>& cells = scratch->cells;
+    const std::vector<double>& ranges = scratch->ranges_m;
+    image.build(current, &scratch->cells, &scratch->ranges_m);
+    image.compute_window_min(params_.cone_bins);
     const double threshold = params_.range_threshold_m;
     // The other scan saw through the point when even its nearest measurement in the cone
     // lies beyond the point (+inf: no measurement, no evidence).
     for (std::size_t i = 0; i < current.size(); ++i) {
-        if (current_cells_[i] < 0) continue;
-        const double other = reference_image_.window_min_at(current_cells_[i]);
-        if (std::isfinite(other) && other > current_ranges_[i] + threshold) {
+        if (cells[i] < 0) continue;
+        const double other = reference_window_min_.at(static_cast<std::size_t>(cells[i]));
+        if (std::isfinite(other) && other > ranges[i] + threshold) {
             result->added[i] = 1;
             ++result->num_added;
         }
     }
     for (std::size_t j = 0; j < num_reference_; ++j) {
         if (reference_cells_[j] < 0) continue;
-        const double other = current_image_.window_min_at(reference_cells_[j]);
+        const double other = image.window_min_at(reference_cells_[j]);
         if (std::isfinite(other) && other > reference_ranges_[j] + threshold) {
             result->removed[j] = 1;
             ++result->num_removed;

@@ -14,7 +14,9 @@
 //
 // The cone is a window of +-cone_bins cells in an azimuth x elevation grid; the minimum
 // range over the window is precomputed once per scan (separable min filter), so each point
-// costs O(1). Grid and buffers are reused between calls.
+// costs O(1). Grid and buffers are reused between calls. What is rebuilt for every scan (the
+// current scan's image, its points' cells and ranges) lives in a ChangeDetectionScratch,
+// which the detectors of several sensors share when they run one after another on one thread.
 
 #include <Eigen/Core>
 #include <cstddef>
@@ -68,6 +70,8 @@ public:
     double at(std::size_t cell) const {
         return cell >= band_begin_ && cell < band_end_ ? data_[cell] : kNone;
     }
+    // Becomes a copy of `other` (same size): its band of rows is copied, nothing else touched.
+    void assign(const BandedImage& other);
 
 private:
     static constexpr double kNone = std::numeric_limits<double>::infinity();
@@ -104,6 +108,8 @@ public:
         return nearest_.at(static_cast<std::size_t>(grid_.index(az, el)));
     }
     const SphericalGrid& grid() const { return grid_; }
+    // The image compute_window_min() wrote (what window_min() reads).
+    const BandedImage& window_min_image() const { return window_min_; }
 
 private:
     void clear_rows(BandedImage* image, int lo, int hi) const;
@@ -116,6 +122,17 @@ private:
     // Rows that hold finite values (lo > hi: none). A sensor covers a band of elevations
     // (an OS1-64 45 of the 120 degrees), so the window and the clearing skip the others.
     int nearest_lo_, nearest_hi_, window_lo_, window_hi_;
+};
+
+// What ChangeDetector rebuilds for every scan: the scan's range image (3 images of the grid,
+// about 1.8 MB resident for an OS1-64's band) and its points' cells and ranges (12 bytes per
+// point). One per thread serves every sensor prepared on it: per sensor it would be about
+// 2.5 MB each, held between frames for nothing.
+struct ChangeDetectionScratch {
+    explicit ChangeDetectionScratch(const SphericalGridParams& grid = {}) : image(grid) {}
+    SphericalRangeImage image;
+    std::vector<std::int32_t> cells;
+    std::vector<double> ranges_m;
 };
 
 struct ChangeDetectionParams {
@@ -131,7 +148,9 @@ struct ChangeDetectionResult {
     std::size_t num_removed = 0;
 };
 
-// Keeps both range images between calls; one object per sensor (not thread safe).
+// Keeps the reference scan's window minimum, cells and ranges between calls; one object per
+// sensor (not thread safe). The scan being compared is imaged in a scratch: the caller's
+// (shared by the detectors that run on one thread), or without one the detector's own.
 class ChangeDetector {
 public:
     explicit ChangeDetector(const ChangeDetectionParams& params = {});
@@ -139,21 +158,29 @@ public:
 
     // Sets the reference scan (points in its sensor frame); built once, reused per frame.
     void set_reference(const std::vector<Eigen::Vector3d>& reference_points);
+    void set_reference(const std::vector<Eigen::Vector3d>& reference_points,
+                       ChangeDetectionScratch* scratch);
     bool has_reference() const { return has_reference_; }
 
     // `current_in_reference_frame`: the current scan mapped into the reference sensor frame.
     void detect(const std::vector<Eigen::Vector3d>& current_in_reference_frame,
                 ChangeDetectionResult* result);
+    void detect(const std::vector<Eigen::Vector3d>& current_in_reference_frame,
+                ChangeDetectionResult* result, ChangeDetectionScratch* scratch);
 
 private:
+    // The detector's own scratch, made on first use; `scratch` made fit for this grid.
+    ChangeDetectionScratch* own_scratch();
+    void fit(ChangeDetectionScratch* scratch) const;
+
     ChangeDetectionParams params_;
-    SphericalRangeImage reference_image_;
-    SphericalRangeImage current_image_;
+    BandedImage reference_window_min_;
     std::size_t num_reference_ = 0;
-    // Per point: cell in its image (-1: outside) and range; the reference's computed once.
-    std::vector<std::int32_t> reference_cells_, current_cells_;
-    std::vector<double> reference_ranges_, current_ranges_;
+    // Per reference point: cell (-1: outside the grid) and range, computed once.
+    std::vector<std::int32_t> reference_cells_;
+    std::vector<double> reference_ranges_;
     bool has_reference_ = false;
+    std::unique_ptr<ChangeDetectionScratch> own_scratch_;
 };
 
 }  // namespace lidarfuse::core

@@ -50,6 +50,11 @@ FusionEngine::Impl::Impl(std::size_t num_sensors, const FusionParams& p)
     g.max_correspondence_distance_m = params.correspondence_factor * params.voxel_size_m;
     // One registration per thread, each on one thread: the edges run in parallel.
     for (int t = 0; t < std::max(1, params.num_threads); ++t) registrations.emplace_back(g);
+    scratch.resize(registrations.size());
+}
+
+TrackScratch* FusionEngine::Impl::thread_scratch() {
+    return &scratch[static_cast<std::size_t>(omp_get_thread_num())];
 }
 
 FusionEngine::Impl::~Impl() {
@@ -175,7 +180,7 @@ void FusionEngine::Impl::prepare_tracks(const FrameInput& in, FrameWork* w) {
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (std::size_t k = 0; k < w->active.size(); ++k) {
         const std::size_t s = w->active[k];
-        if (!is_fresh(*w, s)) tracks[s]->prepare(in.sensors[s], w->predicted[s]);
+        if (!is_fresh(*w, s)) tracks[s]->prepare(in.sensors[s], w->predicted[s], thread_scratch());
     }
     w->out.timings.preprocess_ms = prep_time.milliseconds();
 }

@@ -75,6 +75,7 @@ struct FusionEngine::Impl {
     std::vector<std::unique_ptr<SensorTrack>> tracks;
     PoseGraph graph;
     std::vector<GicpRegistration> registrations;  // one per thread
+    std::vector<TrackScratch> scratch;            // one per thread: what tracks prepare with
     std::int64_t frame_counter = 0;               // registered frames: the graph's frame index
     std::int64_t output_counter = 0;              // every frame: FrameOutput::frame_index
     // Each sensor's health in the last registered frame: a predicted frame reports its
@@ -115,6 +116,8 @@ struct FusionEngine::Impl {
     }
     FrameOutput process_predicted(const FrameInput& in, std::vector<Eigen::Isometry3d> poses);
     void report_predicted_poses(FrameWork* w) const;
+    // The calling thread's scratch (its number in the OpenMP team, 0 outside one).
+    TrackScratch* thread_scratch();
 
     // The steps of process(), in order (fusion_engine.cpp, fusion_engine_graph.cpp). A
     // predicted frame takes no graph frame index (FrameWork::frame: the last registered).

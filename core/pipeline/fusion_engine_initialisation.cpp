@@ -22,7 +22,8 @@ void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameI
     }
     const bool run_inline = params.initial_registration_inline;
     if (!run_inline && first) {
-        tracks[root]->start(frame, in.sensors[root], Eigen::Isometry3d::Identity());
+        tracks[root]->start(frame, in.sensors[root], Eigen::Isometry3d::Identity(),
+                            thread_scratch());
         graph.add_node(node_id(root, frame), Eigen::Isometry3d::Identity(), true);
         started->push_back(root);
         started_first[root] = true;
@@ -89,7 +90,8 @@ void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<st
     for (std::size_t r = 0; r < registered.size(); ++r) {
         const std::size_t k = registered[r];
         tracks[p.order[k]]->start(p.frame, p.scans[k],
-                                  p.T_root0_root * result.sensors[k].T_root_sensor);
+                                  p.T_root0_root * result.sensors[k].T_root_sensor,
+                                  thread_scratch());
     }
     for (const std::size_t k : registered) {
         const std::size_t s = p.order[k];

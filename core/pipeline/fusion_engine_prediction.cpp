@@ -52,7 +52,7 @@ FrameOutput FusionEngine::Impl::process_predicted(const FrameInput& in,
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (std::size_t k = 0; k < w.active.size(); ++k) {
         const std::size_t s = w.active[k];
-        tracks[s]->prepare_points(in.sensors[s], w.predicted[s]);
+        tracks[s]->prepare_points(in.sensors[s], w.predicted[s], thread_scratch());
     }
     w.out.timings.preprocess_ms = prep_time.milliseconds();
     w.out.initial_registration_pending = pending.has_value();

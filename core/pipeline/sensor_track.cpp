@@ -219,12 +219,14 @@ void SensorTrack::crop_and_deskew(const SensorScanInput& scan, const Vector6d& t
     if (params_.deskew && have_dt) deskew_points(twist_per_s, point_dt_s_, &points_);
 }
 
-void SensorTrack::build_current_target(bool static_only, const Eigen::Isometry3d& T_root_sensor) {
+void SensorTrack::build_current_target(bool static_only, const Eigen::Isometry3d& T_root_sensor,
+                                       TrackScratch* scratch) {
     const Eigen::Isometry3d* T_grid = params_.voxel_grid_in_root_frame ? &T_root_sensor : nullptr;
     static const std::vector<std::uint8_t> kAllStatic;
-    static_points_in_grid(points_, static_only ? dynamic_ : kAllStatic, T_grid, &static_points_);
+    std::vector<Eigen::Vector3d>& static_points = scratch->static_points;
+    static_points_in_grid(points_, static_only ? dynamic_ : kAllStatic, T_grid, &static_points);
     PointCloud cloud;
-    downsample_in_grid(&voxel_grid_, static_points_, params_.voxel_size_m, T_grid, &cloud, &twins_);
+    downsample_in_grid(&voxel_grid_, static_points, params_.voxel_size_m, T_grid, &cloud, &twins_);
     make_guesses();
     if (cloud.size() < 3) {
         current_target_ = GicpCloud(std::move(cloud));
@@ -237,7 +239,7 @@ void SensorTrack::build_current_target(bool static_only, const Eigen::Isometry3d
 }
 
 void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
-                        const Eigen::Isometry3d& T_root_sensor) {
+                        const Eigen::Isometry3d& T_root_sensor, TrackScratch* scratch) {
     initialised_ = true;
     reference_frame_ = frame;
     T_root_reference_ = T_root_sensor;
@@ -246,7 +248,7 @@ void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
     crop_and_deskew(scan, Vector6d::Zero());
     dynamic_.assign(points_.size(), 0);
     dynamic_count_ = 0;
-    background_.set_reference(points_);
+    background_.set_reference(points_, &scratch->background);
     // The last update's flags index the previous reference's points (a restarted track).
     background_update_ = BackgroundUpdate{};
     reference_points_ = points_;
@@ -254,7 +256,7 @@ void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
     reference_deskewed_ = false;
     reference_dynamic_at_build_ = 0;
     previous_in_reference_.clear();
-    build_current_target(false, T_root_sensor);
+    build_current_target(false, T_root_sensor, scratch);
     // The reference target is a copy of the first frame's cloud (the current one moves on).
     if (reference_voxel_size_m() == params_.voxel_size_m) {
         reference_target_ = current_target_.clone();
@@ -300,23 +302,25 @@ void SensorTrack::set_reference_correspondences(const std::vector<std::int32_t>&
     if (correspondences.size() == current_target_.size()) current_in_reference_ = correspondences;
 }
 
-void SensorTrack::prepare(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted) {
-    prepare_points(scan, T_root_predicted);
-    build_current_target(params_.remove_dynamic, T_root_predicted);
+void SensorTrack::prepare(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted,
+                          TrackScratch* scratch) {
+    prepare_points(scan, T_root_predicted, scratch);
+    build_current_target(params_.remove_dynamic, T_root_predicted, scratch);
 }
 
 void SensorTrack::prepare_points(const SensorScanInput& scan,
-                                 const Eigen::Isometry3d& T_root_predicted) {
+                                 const Eigen::Isometry3d& T_root_predicted, TrackScratch* scratch) {
     crop_and_deskew(scan, deskew_twist());
     dynamic_.assign(points_.size(), 0);
     dynamic_count_ = 0;
     if (params_.remove_dynamic && background_.has_reference()) {
         const Eigen::Isometry3d T_reference_current =
             T_root_reference_.inverse() * T_root_predicted;
-        in_reference_frame_.resize(points_.size());
+        std::vector<Eigen::Vector3d>& in_reference_frame = scratch->in_reference_frame;
+        in_reference_frame.resize(points_.size());
         for (std::size_t i = 0; i < points_.size(); ++i)
-            in_reference_frame_[i] = T_reference_current * points_[i];
-        background_.update(in_reference_frame_, &background_update_);
+            in_reference_frame[i] = T_reference_current * points_[i];
+        background_.update(in_reference_frame, &background_update_, &scratch->background);
         dynamic_ = background_update_.dynamic;
         dynamic_count_ = background_update_.num_dynamic;
         // Vehicles of the first frame that have left: drop them from the reference target

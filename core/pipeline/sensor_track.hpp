@@ -17,6 +17,16 @@
 
 namespace lidarfuse::core {
 
+// What preparing a scan builds and is done with before the next scan: the background
+// model's scratch and the current points in the reference frame and without the dynamic
+// ones (about 6 MB for an OS1-64). The engine keeps one per thread of its team, shared by
+// the tracks that thread prepares one after another, instead of one per sensor.
+struct TrackScratch {
+    BackgroundScratch background;
+    std::vector<Eigen::Vector3d> in_reference_frame;  // current points, reference sensor frame
+    std::vector<Eigen::Vector3d> static_points;       // current static points, sensor frame
+};
+
 class SensorTrack {
 public:
     explicit SensorTrack(const FusionParams& params);
@@ -26,8 +36,9 @@ public:
 
     // (Re)starts tracking: `scan` becomes the reference frame, at pose T_root_sensor.
     // Prepares the scan (no motion known yet: no deskew) and resets the background model.
+    // `scratch`: the calling thread's (also for prepare() and prepare_points()).
     void start(std::int64_t frame, const SensorScanInput& scan,
-               const Eigen::Isometry3d& T_root_sensor);
+               const Eigen::Isometry3d& T_root_sensor, TrackScratch* scratch);
 
     // Stops tracking (diverged; waiting for a new initial registration): no pose, no targets.
     void reset();
@@ -73,11 +84,13 @@ public:
     // Deskews with the current motion estimate, crops, flags dynamic points against the
     // reference (pre-aligned with T_root_predicted), downsamples the static points and
     // computes their covariances. Fills the "current" members below.
-    void prepare(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted);
+    void prepare(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted,
+                 TrackScratch* scratch);
     // The first half of prepare(): deskewed, cropped points and their dynamic flags (the
     // background model takes the scan), no G-ICP target. For a frame fused at its predicted
     // pose (FrameMode::kPredict): the current and previous targets stay as they were.
-    void prepare_points(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted);
+    void prepare_points(const SensorScanInput& scan, const Eigen::Isometry3d& T_root_predicted,
+                        TrackScratch* scratch);
 
     // Records the estimated pose of the current frame and makes it the previous frame.
     void finish_frame(std::int64_t frame, std::int64_t t_ns,
@@ -124,7 +137,8 @@ private:
     void check_prediction(std::int64_t t_ns, const Eigen::Isometry3d& T_root_sensor);
     void crop_and_deskew(const SensorScanInput& scan, const Vector6d& twist_per_s);
     // Downsamples on the grid of FusionParams::voxel_grid_in_root_frame, at T_root_sensor.
-    void build_current_target(bool static_only, const Eigen::Isometry3d& T_root_sensor);
+    void build_current_target(bool static_only, const Eigen::Isometry3d& T_root_sensor,
+                              TrackScratch* scratch);
     // Rebuilds the reference target without the reference points the background model
     // found to have left (vehicles present in the first frame).
     void rebuild_reference_target();
@@ -161,8 +175,6 @@ private:
     std::vector<float> intensity_;
     std::vector<std::uint8_t> dynamic_;
     std::size_t dynamic_count_ = 0;
-    std::vector<Eigen::Vector3d> in_reference_frame_;
-    std::vector<Eigen::Vector3d> static_points_;
     std::vector<Eigen::Vector3d> reference_points_;
     std::vector<float> reference_point_dt_s_;
     bool reference_deskewed_ = false;

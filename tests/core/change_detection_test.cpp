@@ -56,6 +56,7 @@ std::vector<Eigen::Vector3d> scan(const std::vector<Box>& boxes, unsigned seed,
 }
 
 const Box kCar{{9, -1, -2}, {13.5, 1, -0.5}};  // a car 9-13.5 m ahead, on the ground
+constexpr double kNoRange = std::numeric_limits<double>::infinity();
 
 TEST(ChangeDetection, IdenticalSceneWithNoiseFlagsNothing) {
     ChangeDetector detector;
@@ -140,6 +141,54 @@ TEST(BandedImage, RowsOutsideTheBandReadInfinityAndNewRowsStartThere) {
     EXPECT_EQ(image.at(2), 2.0);
     for (std::size_t cell = 3; cell < 6; ++cell) EXPECT_TRUE(std::isinf(image.at(cell)));
     for (std::size_t cell = 15; cell < 18; ++cell) EXPECT_TRUE(std::isinf(image.at(cell)));
+}
+
+// A copy holds the band of its source and nothing of what it held before: rows of its old
+// band outside the new one read +infinity, and a row used afterwards starts there.
+TEST(BandedImage, AssignedCopyHoldsTheSourcesBandOnly) {
+    BandedImage source(6, 3), copy(6, 3);
+    copy.row(0)[0] = 9.0;
+    copy.row(1)[1] = 9.0;
+    source.row(3)[2] = 5.0;
+    source.row(4)[0] = 6.0;
+    copy.assign(source);
+    for (std::size_t cell = 0; cell < 18; ++cell) {
+        const double want = cell == 11 ? 5.0 : cell == 12 ? 6.0 : kNoRange;
+        EXPECT_EQ(copy.at(cell), want) << "cell " << cell;
+    }
+    copy.row(1)[2] = 1.0;  // rows 1 and 2 join the band at +infinity
+    EXPECT_EQ(copy.at(5), 1.0);
+    EXPECT_EQ(copy.at(3), kNoRange);
+    EXPECT_EQ(copy.at(8), kNoRange);
+    EXPECT_EQ(copy.at(11), 5.0);
+}
+
+// The engine's threads share one scratch among the sensors they prepare. Two detectors on
+// one scratch, made for another grid and used by the other detector's scans in between,
+// flag exactly what each flags with a scratch of its own.
+TEST(ChangeDetection, DetectorsSharingOneScratchFlagAsWithTheirOwn) {
+    ChangeDetectionParams coarse;
+    coarse.grid.azimuth_bins = 512;
+    coarse.grid.elevation_bins = 96;
+    ChangeDetector arriving(coarse), leaving(coarse), arriving_alone(coarse), leaving_alone(coarse);
+    ChangeDetectionScratch shared;  // the default grid: refitted on first use
+    arriving.set_reference(scan({}, 1), &shared);
+    leaving.set_reference(scan({kCar}, 2), &shared);
+    arriving_alone.set_reference(scan({}, 1));
+    leaving_alone.set_reference(scan({kCar}, 2));
+    for (unsigned frame = 0; frame < 2; ++frame) {
+        ChangeDetectionResult a, l, a_alone, l_alone;
+        arriving.detect(scan({kCar}, 3 + frame), &a, &shared);
+        leaving.detect(scan({}, 5 + frame), &l, &shared);
+        arriving_alone.detect(scan({kCar}, 3 + frame), &a_alone);
+        leaving_alone.detect(scan({}, 5 + frame), &l_alone);
+        EXPECT_GT(a.num_added, 100u);
+        EXPECT_GT(l.num_removed, 50u);
+        EXPECT_EQ(a.added, a_alone.added);
+        EXPECT_EQ(a.removed, a_alone.removed);
+        EXPECT_EQ(l.added, l_alone.added);
+        EXPECT_EQ(l.removed, l_alone.removed);
+    }
 }
 
 TEST(SphericalRangeImage, WindowMinimumWrapsInAzimuth) {

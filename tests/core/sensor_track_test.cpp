@@ -41,28 +41,64 @@ FusionParams track_params() {
 TEST(SensorTrack, RestartedTrackForgetsTheOldReferencesDynamicPoints) {
     const FusionParams params = track_params();
     SensorTrack track(params);
+    TrackScratch scratch;
     const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    track.start(0, scan_of(street_with_van(), 1, 0), T);
+    track.start(0, scan_of(street_with_van(), 1, 0), T, &scratch);
     const testing::Scene empty_street = testing::street_scene();
     for (int f = 1; f <= 6; ++f) {
-        track.prepare(scan_of(empty_street, 1 + f, f * 50'000'000LL), T);
+        track.prepare(scan_of(empty_street, 1 + f, f * 50'000'000LL), T, &scratch);
         track.finish_frame(f, f * 50'000'000LL, T);
     }
     // The van's points were found gone from the reference, and the reference rebuilt without
     // them: the flags this test is about are set.
     SensorTrack fresh(params);
-    fresh.start(0, scan_of(street_with_van(), 1, 0), T);
+    fresh.start(0, scan_of(street_with_van(), 1, 0), T, &scratch);
     ASSERT_LT(track.reference_target().size(), fresh.reference_target().size());
 
     track.reset();
     const SensorScanInput restart = scan_of(street_with_van(), 20, 400'000'000LL);
-    track.start(8, restart, T);
+    track.start(8, restart, T, &scratch);
     SensorTrack restarted_fresh(params);
-    restarted_fresh.start(8, restart, T);
+    restarted_fresh.start(8, restart, T, &scratch);
     const auto& got = track.reference_target().points();
     const auto& want = restarted_fresh.reference_target().points();
     ASSERT_EQ(got.size(), want.size());
     for (std::size_t i = 0; i < got.size(); ++i) EXPECT_EQ(got[i], want[i]) << "point " << i;
+}
+
+// The engine keeps one scratch per thread for all the tracks that thread prepares: a track
+// must flag and downsample a scan the same after another sensor's scan went through that
+// scratch as with a scratch of its own. Here one track's van leaves while the other's
+// arrives, so their reference and current images differ wherever the flags come from.
+TEST(SensorTrack, TracksSharingOneScratchPrepareAsWithTheirOwn) {
+    const FusionParams params = track_params();
+    const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    const testing::Scene empty_street = testing::street_scene();
+    SensorTrack leaving(params), arriving(params), leaving_alone(params), arriving_alone(params);
+    TrackScratch shared, leaving_own, arriving_own;
+    const SensorScanInput first_leaving = scan_of(street_with_van(), 1, 0);
+    const SensorScanInput first_arriving = scan_of(empty_street, 2, 0);
+    leaving.start(0, first_leaving, T, &shared);
+    arriving.start(0, first_arriving, T, &shared);
+    leaving_alone.start(0, first_leaving, T, &leaving_own);
+    arriving_alone.start(0, first_arriving, T, &arriving_own);
+    for (int f = 1; f <= 4; ++f) {
+        const std::int64_t t = f * 50'000'000LL;
+        const SensorScanInput to_leaving = scan_of(empty_street, 10 + f, t);
+        const SensorScanInput to_arriving = scan_of(street_with_van(), 20 + f, t);
+        leaving.prepare(to_leaving, T, &shared);
+        arriving.prepare(to_arriving, T, &shared);
+        leaving_alone.prepare(to_leaving, T, &leaving_own);
+        arriving_alone.prepare(to_arriving, T, &arriving_own);
+        ASSERT_GT(arriving.current_dynamic_count(), 0u) << "frame " << f;
+        EXPECT_EQ(leaving.current_dynamic(), leaving_alone.current_dynamic()) << "frame " << f;
+        EXPECT_EQ(arriving.current_dynamic(), arriving_alone.current_dynamic()) << "frame " << f;
+        EXPECT_EQ(leaving.current_target().points(), leaving_alone.current_target().points());
+        EXPECT_EQ(arriving.current_target().points(), arriving_alone.current_target().points());
+        EXPECT_EQ(leaving.reference_target().points(), leaving_alone.reference_target().points());
+        for (SensorTrack* track : {&leaving, &arriving, &leaving_alone, &arriving_alone})
+            track->finish_frame(f, t, T);
+    }
 }
 
 }  // namespace
