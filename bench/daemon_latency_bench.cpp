@@ -26,6 +26,9 @@
 //                             [--receive-coalesce-ms MS]  (network.receive_coalesce_ms;
 //                                 default: the daemon's, 5)
 //                             [--keep 1]          (leave the folder: daemon logs, outputs)
+//                             [--daemon PATH]     (another lidarfused, e.g. a build of the
+//                                 parent commit, for side-by-side runs; default: the one
+//                                 built beside this bench)
 //                             [--cyclonedds bench|default|FILE]  (Cyclone's configuration of the
 //                                 daemon and the reader: bench = loopback with 64 kB fragments,
 //                                 below; default = none, Cyclone's defaults; FILE, e.g.
@@ -99,6 +102,7 @@ struct DaemonSettings {
     bool record = false;      // --record 1: output.record on (into the bench's folder)
     FoxgloveMode foxglove = FoxgloveMode::kOff;
     double receive_coalesce_ms = -1;  // < 0: the daemon's default (network.receive_coalesce_ms)
+    std::string executable = daemon_path();  // the lidarfused that runs
 };
 
 // Frames dropped from the first diagnostics report at or after from_ns to the last one
@@ -199,7 +203,7 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
         std::freopen(log.c_str(), "w", stderr);
         std::freopen(log.c_str(), "a", stdout);
         set_cyclone_uri(delivery.daemon_uri);
-        ::execl(daemon_path().c_str(), "lidarfused", "--config", cfg.c_str(), nullptr);
+        ::execl(settings.executable.c_str(), "lidarfused", "--config", cfg.c_str(), nullptr);
         ::_exit(127);
     }
     Received received;
@@ -407,6 +411,8 @@ int main(int argc, char** argv) {
                                                    : FoxgloveMode::kOff;
         } else if (arg == "--receive-coalesce-ms") {
             settings.receive_coalesce_ms = std::stod(argv[i + 1]);
+        } else if (arg == "--daemon") {
+            settings.executable = argv[i + 1];
         } else if (arg == "--keep") {
             keep = argv[i + 1] == std::string("1");
         } else if (arg == "--cyclonedds") {

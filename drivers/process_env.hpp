@@ -10,6 +10,12 @@
 // is out of its reach. keep_frame_buffers_in_heap() sets both thresholds, from the start,
 // to the largest values glibc's own dynamic thresholds reach (bench/BENCHMARK.md, "Frame
 // buffers handed back to their producer": RSS steadier over 30 minutes, not higher).
+// It also caps the allocator at kMallocArenas arenas (heaps) instead of glibc's 8 per core:
+// each thread that allocates gets an arena of its own up to that cap, and memory freed in one
+// arena serves only the threads of that arena, so with a dozen threads (receivers, fusion and its
+// team, the initial registration's team, the output, Cyclone's) each arena kept its own tens
+// of MB of freed frame buffers and registration scratch (bench/BENCHMARK.md, "8 sensors in
+// 250 MiB").
 //
 // OpenMP threads spin while they wait by default (OMP_WAIT_POLICY=active). On a 2-core
 // station that spinning competes with the receiver threads and made 2-thread G-ICP 30x
@@ -23,9 +29,10 @@ namespace lidarfuse::drivers {
 // the program simply runs with the default policy).
 void ensure_passive_openmp(char** argv);
 
-// Buffers up to 32 MiB from the heap, and up to 64 MiB of freed heap kept mapped. Call
-// early in main(), before any thread starts. Leaves glibc's settings alone when the user set
-// any `glibc.malloc.` tunable in GLIBC_TUNABLES.
+// Buffers up to 32 MiB from the heap, up to 64 MiB of freed heap kept mapped, at most
+// kMallocArenas arenas. Call early in main(), before any thread starts. Leaves glibc's settings
+// alone when the user set any `glibc.malloc.` tunable in GLIBC_TUNABLES.
+inline constexpr int kMallocArenas = 2;
 void keep_frame_buffers_in_heap();
 
 }  // namespace lidarfuse::drivers

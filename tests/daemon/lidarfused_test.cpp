@@ -122,6 +122,12 @@ TEST(Lidarfused, FusesAReplayedStationOntoDdsAndStopsCleanlyOnSigterm) {
         listening = text.find("listening on UDP") != std::string::npos;
     }
     ASSERT_TRUE(listening);
+    // Named after its program, also after its re-exec for OpenMP's wait policy (`ps`, `top`,
+    // `pidof lidarfused`).
+    std::ifstream comm("/proc/" + std::to_string(pid) + "/comm");
+    std::string process_name;
+    std::getline(comm, process_name);
+    EXPECT_EQ(process_name, "lidarfused");
     ASSERT_TRUE(readers.points.wait_matched()) << "the daemon's writer was not discovered";
     out.clear();
     std::atomic<int> replay_status{-1};

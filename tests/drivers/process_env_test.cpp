@@ -1,12 +1,19 @@
 #include "drivers/process_env.hpp"
 
 #include <gtest/gtest.h>
+#include <malloc.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <functional>
+#include <thread>
+#include <vector>
 
 namespace lidarfuse::drivers {
 namespace {
@@ -61,6 +68,57 @@ TEST(ProcessEnv, AFreedFrameBufferIsReusedWithoutFaultingItsPagesAgain) {
                   keep_frame_buffers_in_heap();
               }),
               1);
+}
+
+// The allocator's arenas (malloc_info's heaps) after six threads allocated at once, each
+// holding its block until all have one, counted in a child process (the test process has
+// arenas of its own already).
+int arenas_in_child(const std::function<void()>& setup) {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        setup();
+        std::atomic<int> holding{0};
+        std::vector<std::thread> threads;
+        for (int t = 0; t < 6; ++t) {
+            threads.emplace_back([&holding] {
+                void* block = std::malloc(std::size_t{1} << 20);
+                ++holding;
+                while (holding.load() < 6) std::this_thread::yield();
+                std::free(block);
+            });
+        }
+        for (auto& thread : threads) thread.join();
+        char* xml = nullptr;
+        std::size_t size = 0;
+        FILE* out = ::open_memstream(&xml, &size);
+        if (out == nullptr || ::malloc_info(0, out) != 0) ::_exit(255);
+        std::fclose(out);
+        int heaps = 0;
+        for (const char* at = xml; (at = std::strstr(at, "<heap nr=")) != nullptr; ++at) ++heaps;
+        ::_exit(heaps);
+    }
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// The most arenas seen in five children: on a loaded machine the six threads sometimes end
+// up in fewer arenas than glibc would give them, never in more.
+int most_arenas(const std::function<void()>& setup) {
+    int most = 0;
+    for (int run = 0; run < 5; ++run) most = std::max(most, arenas_in_child(setup));
+    return most;
+}
+
+TEST(ProcessEnv, ThreadsShareAtMostTheCappedNumberOfArenas) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+    GTEST_SKIP() << "the sanitizers' allocators have no glibc arenas; the release build checks it";
+#endif
+    const int capped = most_arenas([] { keep_frame_buffers_in_heap(); });
+    EXPECT_GE(capped, 1);
+    EXPECT_LE(capped, kMallocArenas);
+    // The control: with room for more, the six threads take more arenas than the cap.
+    EXPECT_GT(most_arenas([] { ::mallopt(M_ARENA_MAX, 8); }), kMallocArenas);
 }
 
 }  // namespace
