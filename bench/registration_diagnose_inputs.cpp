@@ -4,6 +4,7 @@
 #include <map>
 #include <stdexcept>
 
+#include "core/common/point_cloud.hpp"
 #include "drivers/capture/station_capture.hpp"
 #include "drivers/io/cloud_file.hpp"
 #include "drivers/io/pose_csv.hpp"
@@ -14,7 +15,8 @@ namespace lidarfuse::bench {
 
 namespace {
 
-// The first complete scan of every sensor in `order`, and its time (ns).
+// The first complete scan of every sensor in `order`, and its time (ns). Its points rounded
+// to float, as the FusionEngine's scan input (core::SensorScanInput) holds them.
 void first_scans(const station::StationConfig& config, const std::string& pcap,
                  const std::vector<std::size_t>& order, std::vector<core::PointCloud>* clouds,
                  std::vector<std::int64_t>* t_ns) {
@@ -24,7 +26,9 @@ void first_scans(const station::StationConfig& config, const std::string& pcap,
     std::size_t have = 0;
     capture.run([&](const capture::CaptureScan& scan) {
         if (!scan.scan->complete() || (*t_ns)[scan.sensor] >= 0) return true;
-        (*clouds)[scan.sensor] = scan.cloud->cloud;
+        std::vector<Eigen::Vector3f> as_scanned;
+        core::cast_points(scan.cloud->cloud.points, &as_scanned);
+        core::cast_points(as_scanned, &(*clouds)[scan.sensor].points);
         (*t_ns)[scan.sensor] = scan.t_ns;
         return ++have < order.size();
     });

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <utility>
 
+#include "core/common/point_cloud.hpp"
+
 namespace lidarfuse::daemon {
 
 namespace {
@@ -85,7 +87,7 @@ void DdsInput::on_cloud(const ReceivedCloud& cloud) {
     m.t_ns = cloud.stamp_ns + sensor_->time_offset_ns;
     m.complete_steady_ns = steady_ns();
     m.complete_realtime_ns = cloud.received_ns;
-    m.points = cloud.points->points;
+    core::cast_points(cloud.points->points, &m.points);
     note_rate(m.t_ns);
     sensor_->scans.fetch_add(1);
     sensor_->last_completeness.store(1.0);

@@ -6,6 +6,7 @@
 #include <limits>
 #include <set>
 
+#include "core/common/point_cloud.hpp"
 #include "core/pipeline/frame_input.hpp"
 #include "core/pipeline/frame_synchroniser.hpp"
 #include "core/pipeline/fusion_engine.hpp"
@@ -27,7 +28,7 @@ namespace {
 
 struct PendingScan {
     std::int64_t t_ns = 0;
-    std::vector<Eigen::Vector3d> points;
+    std::vector<Eigen::Vector3f> points;  // as core::SensorScanInput's
     std::vector<float> point_dt_s;
     std::vector<float> intensity;
 };
@@ -112,7 +113,7 @@ std::set<long long> saved_frames(const Args& args) {
 PendingScan pending_scan(const capture::CaptureScan& scan) {
     PendingScan pending;
     pending.t_ns = scan.t_ns;
-    pending.points = scan.cloud->cloud.points;
+    core::cast_points(scan.cloud->cloud.points, &pending.points);
     ouster::point_times_s(*scan.cloud, static_cast<std::uint64_t>(scan.sensor_t_ns),
                           &pending.point_dt_s);
     ouster::point_intensity(*scan.scan, *scan.cloud, &pending.intensity);

@@ -30,4 +30,13 @@ struct PointCloud {
     }
 };
 
+// `in`'s points in `out`'s precision (a projected cloud into a scan's single-precision
+// points, a scan's points into a cloud the core computes on); out's capacity is reused.
+template <typename To, typename From>
+void cast_points(const std::vector<From>& in, std::vector<To>* out) {
+    out->resize(in.size());
+    for (std::size_t i = 0; i < in.size(); ++i)
+        (*out)[i] = in[i].template cast<typename To::Scalar>();
+}
+
 }  // namespace lidarfuse::core

@@ -34,7 +34,7 @@ void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameI
     for (std::size_t s : p.order) {
         p.scans.push_back(in.sensors[s]);
         PointCloud c;
-        c.points = in.sensors[s].points;
+        cast_points(in.sensors[s].points, &c.points);
         clouds.push_back(std::move(c));
     }
     const int threads =

@@ -205,7 +205,7 @@ void SensorTrack::crop_and_deskew(const SensorScanInput& scan, const Vector6d& t
     intensity_.resize(n);
     std::size_t kept = 0;
     for (std::size_t i = 0; i < n; ++i) {
-        const Eigen::Vector3d& p = scan.points[i];
+        const Eigen::Vector3d p = scan.points[i].cast<double>();
         const double r2 = p.squaredNorm();
         if (!std::isfinite(r2) || r2 < min2 || r2 > max2) continue;
         points_[kept] = p;

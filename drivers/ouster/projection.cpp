@@ -2,9 +2,14 @@
 
 namespace lidarfuse::ouster {
 
-bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionParams& params,
-                  ScanCloud* out) {
-    out->cloud.clear();
+namespace {
+
+template <typename Point>
+bool project_points(const LidarScan& scan, const XyzLut& lut, const ProjectionParams& params,
+                    ScanCloud* out, std::vector<Point>* points) {
+    using Scalar = typename Point::Scalar;
+    points->clear();
+    out->num_points = 0;
     out->pixel_index.clear();
     out->frame_id = scan.frame_id;
     out->rows = scan.rows();
@@ -20,7 +25,7 @@ bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionPara
         static_cast<std::size_t>(lut.offset.rows()) != n) {
         return false;
     }
-    out->cloud.points.reserve(n);
+    points->reserve(n);
     if (params.keep_pixel_index) out->pixel_index.reserve(n);
 
     const double* dir = lut.direction.data();  // row-major (H*W) x 3
@@ -35,11 +40,28 @@ bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionPara
             const double r_m = r_mm * 1e-3;
             const double* d = dir + 3 * i;
             const double* o = off + 3 * i;
-            out->cloud.points.emplace_back(o[0] + r_m * d[0], o[1] + r_m * d[1], o[2] + r_m * d[2]);
+            points->emplace_back(static_cast<Scalar>(o[0] + r_m * d[0]),
+                                 static_cast<Scalar>(o[1] + r_m * d[1]),
+                                 static_cast<Scalar>(o[2] + r_m * d[2]));
             if (params.keep_pixel_index) out->pixel_index.push_back(static_cast<std::uint32_t>(i));
         }
     }
+    out->num_points = points->size();
     return true;
+}
+
+}  // namespace
+
+bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionParams& params,
+                  ScanCloud* out) {
+    out->cloud.clear();
+    return project_points(scan, lut, params, out, &out->cloud.points);
+}
+
+bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionParams& params,
+                  ScanCloud* out, std::vector<Eigen::Vector3f>* points) {
+    out->cloud.clear();
+    return project_points(scan, lut, params, out, points);
 }
 
 std::uint64_t scan_reference_time_ns(const LidarScan& scan) {
@@ -50,8 +72,8 @@ std::uint64_t scan_reference_time_ns(const LidarScan& scan) {
 }
 
 void point_times_s(const ScanCloud& cloud, std::uint64_t reference_ns, std::vector<float>* out) {
-    out->assign(cloud.cloud.size(), 0.0f);
-    if (cloud.pixel_index.size() != cloud.cloud.size() || cloud.columns == 0) return;
+    out->assign(cloud.num_points, 0.0f);
+    if (cloud.pixel_index.size() != cloud.num_points || cloud.columns == 0) return;
     // Differences of unsigned sensor timestamps, taken without a signed overflow: a
     // corrupted or jumping column timestamp may lie anywhere in 0..2^64 - 1.
     for (std::size_t i = 0; i < out->size(); ++i) {
@@ -63,8 +85,8 @@ void point_times_s(const ScanCloud& cloud, std::uint64_t reference_ns, std::vect
 }
 
 void point_intensity(const LidarScan& scan, const ScanCloud& cloud, std::vector<float>* out) {
-    out->assign(cloud.cloud.size(), 0.0f);
-    if (cloud.pixel_index.size() != cloud.cloud.size()) return;
+    out->assign(cloud.num_points, 0.0f);
+    if (cloud.pixel_index.size() != cloud.num_points) return;
     const std::size_t pixels = cloud.rows * cloud.columns;
     const auto fill = [&](const auto& field) {
         if (field.size() != pixels) return false;

@@ -10,6 +10,7 @@
 // project_scan() reuses the capacity of `out`: after the first frame of a sensor it does
 // not allocate. Thread safety: pure functions; the LUT is read-only.
 
+#include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -27,7 +28,8 @@ struct ProjectionParams {
 };
 
 struct ScanCloud {
-    core::PointCloud cloud;  // sensor frame, metres
+    core::PointCloud cloud;      // sensor frame, metres; empty when projected as float points
+    std::size_t num_points = 0;  // points projected (in `cloud` or the caller's float points)
     // Staggered pixel index (row * columns + measurement_id) of every point, when kept.
     std::vector<std::uint32_t> pixel_index;
     // Copy of the scan's per-column timestamps (ns, sensor clock), indexed by
@@ -61,5 +63,11 @@ void point_intensity(const LidarScan& scan, const ScanCloud& cloud, std::vector<
 // H x W; a mismatch, or a second return the scan lacks, yields an empty cloud and false.
 bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionParams& params,
                   ScanCloud* out);
+
+// The same projection with the points in single precision into `points` (the fusion's scan
+// input, core::SensorScanInput::points), computed in double and rounded once; `out` gets
+// everything else (pixel indices, column times), its cloud left empty.
+bool project_scan(const LidarScan& scan, const XyzLut& lut, const ProjectionParams& params,
+                  ScanCloud* out, std::vector<Eigen::Vector3f>* points);
 
 }  // namespace lidarfuse::ouster

@@ -71,7 +71,7 @@ inline SensorScanInput moving_scan(const testing::Scene& scene, int sensor, doub
             const double range = hit + noise(rng);
             if (!std::isfinite(hit) || hit > pattern.max_range_m || range < pattern.min_range_m)
                 continue;
-            scan.points.push_back(range * dir);
+            scan.points.push_back((range * dir).cast<float>());
             scan.point_dt_s.push_back(static_cast<float>(dt));
         }
     }

@@ -62,9 +62,10 @@ FrameInput make_frame(int frame, const std::vector<Eigen::Isometry3d>& poses,
         scan.present = present[static_cast<std::size_t>(s)];
         scan.t_ns = 1'000'000'000LL + frame * 50'000'000LL + s * 1'000'000LL;
         if (!scan.present) continue;
-        scan.points = testing::scan_scene(scene, poses[static_cast<std::size_t>(s)], pattern,
-                                          static_cast<std::uint32_t>(1000 * frame + s))
-                          .points;
+        cast_points(testing::scan_scene(scene, poses[static_cast<std::size_t>(s)], pattern,
+                                        static_cast<std::uint32_t>(1000 * frame + s))
+                        .points,
+                    &scan.points);
     }
     return in;
 }

@@ -16,7 +16,7 @@ SensorScanInput scan_of(const testing::Scene& scene, std::uint32_t seed, std::in
     SensorScanInput scan;
     scan.present = true;
     scan.t_ns = t_ns;
-    scan.points = testing::scan_scene(scene, kSensorPose, pattern, seed).points;
+    cast_points(testing::scan_scene(scene, kSensorPose, pattern, seed).points, &scan.points);
     return scan;
 }
 

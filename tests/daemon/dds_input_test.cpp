@@ -129,7 +129,7 @@ TEST(DdsInput, CloudsBecomeScansAndBadOnesAreRefusedAndCounted) {
         EXPECT_EQ(m->sensor, 3u);
         EXPECT_EQ(m->t_ns, kT0 + kStampMs[f] * 1'000'000LL - 1000);
         ASSERT_EQ(m->points.size(), static_cast<std::size_t>(10 + f));
-        EXPECT_EQ(m->points[2], Eigen::Vector3d(1.0, f, -1.0));
+        EXPECT_EQ(m->points[2], Eigen::Vector3f(1.0f, static_cast<float>(f), -1.0f));
         EXPECT_TRUE(m->point_dt_s.empty());  // no per-point times: no deskew
         EXPECT_GT(m->complete_steady_ns, 0);
     }

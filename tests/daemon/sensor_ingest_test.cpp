@@ -52,7 +52,7 @@ TEST(SensorIngest, AScanGivenBackCarriesTheNextWithEveryFieldFilled) {
     // Between scans the receiver holds no points buffer of its own: the message took it.
     EXPECT_EQ(sensor.cloud.cloud.points.capacity(), 0u);
 
-    const Eigen::Vector3d* points = first->points.data();
+    const Eigen::Vector3f* points = first->points.data();
     const float* times = first->point_dt_s.data();
     const float* intensity = first->intensity.data();
     sensor.spare_scans.give(std::move(*first));
@@ -83,10 +83,10 @@ TEST(SensorIngest, ASpareScanIsEmptyButKeepsItsStorage) {
     ScanMessage used;
     used.sensor = 3;
     used.t_ns = 42;
-    used.points.assign(5000, Eigen::Vector3d::Ones());
+    used.points.assign(5000, Eigen::Vector3f::Ones());
     used.point_dt_s.assign(5000, 0.01f);
     used.intensity.assign(5000, 7.0f);
-    const Eigen::Vector3d* points = used.points.data();
+    const Eigen::Vector3f* points = used.points.data();
     const float* times = used.point_dt_s.data();
     const float* intensity = used.intensity.data();
     sensor.spare_scans.give(std::move(used));

@@ -91,5 +91,42 @@ TEST(Projection, IntensityIsSignalOrElseReflectivityOfEachPointsPixel) {
     }
 }
 
+// The daemon's scans (core::SensorScanInput) hold their points in float: the same points
+// rounded once, with the same pixel indices, times and intensities as the double cloud.
+TEST(Projection, InFloatEveryPointIsTheDoublePointRoundedOnce) {
+    const auto info = make_info(UdpProfileLidar::kRng19Rfl8Sig16Nir16Dual);
+    Rig rig(info);
+    rig.send_frame(3);
+    const LidarScan& s = rig.last;
+    const XyzLut lut = make_xyz_lut(info);
+    ScanCloud in_double, in_float;
+    std::vector<Eigen::Vector3f> points = {Eigen::Vector3f::Ones()};  // replaced, not appended
+    ASSERT_TRUE(project_scan(s, lut, {}, &in_double));
+    ASSERT_TRUE(project_scan(s, lut, {}, &in_float, &points));
+    ASSERT_FALSE(in_double.cloud.empty());
+    EXPECT_TRUE(in_float.cloud.empty());
+    EXPECT_EQ(in_float.num_points, in_double.num_points);
+    ASSERT_EQ(points.size(), in_double.cloud.size());
+    for (std::size_t k = 0; k < points.size(); ++k) {
+        ASSERT_EQ(points[k], in_double.cloud.points[k].cast<float>()) << "point " << k;
+    }
+    EXPECT_EQ(in_float.pixel_index, in_double.pixel_index);
+    std::vector<float> times_double, times_float, intensity_double, intensity_float;
+    const std::uint64_t t0 = scan_reference_time_ns(s);
+    point_times_s(in_double, t0, &times_double);
+    point_times_s(in_float, t0, &times_float);
+    point_intensity(s, in_double, &intensity_double);
+    point_intensity(s, in_float, &intensity_float);
+    ASSERT_EQ(times_float.size(), points.size());
+    EXPECT_EQ(times_float, times_double);
+    EXPECT_EQ(intensity_float, intensity_double);
+    EXPECT_GT(*std::max_element(times_float.begin(), times_float.end()), 0.0f);
+
+    const XyzLut wrong = make_xyz_lut(make_info(UdpProfileLidar::kRng15Rfl8Nir8, 16, 128));
+    EXPECT_FALSE(project_scan(s, wrong, {}, &in_float, &points));
+    EXPECT_TRUE(points.empty());
+    EXPECT_EQ(in_float.num_points, 0u);
+}
+
 }  // namespace
 }  // namespace lidarfuse::ouster

@@ -31,9 +31,10 @@ core::FrameInput frame(int f, bool sensor2_empty) {
         scan.present = true;  // the scan arrived ...
         scan.t_ns = 1'000'000'000LL + f * 50'000'000LL + s * 1'000'000LL;
         if (s == 2 && sensor2_empty) continue;  // ... but without a single valid point
-        scan.points = lidarfuse::testing::scan_scene(scene, pose(s), pattern,
-                                                     static_cast<std::uint32_t>(1000 * f + s))
-                          .points;
+        core::cast_points(lidarfuse::testing::scan_scene(scene, pose(s), pattern,
+                                                         static_cast<std::uint32_t>(1000 * f + s))
+                              .points,
+                          &scan.points);
     }
     return in;
 }

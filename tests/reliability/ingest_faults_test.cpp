@@ -320,7 +320,7 @@ TEST(IngestFaults, ColumnTimestampsAnywhereInTheRangeGiveFinitePointTimes) {
     ouster::ScanCloud cloud;
     cloud.columns = 2;
     cloud.rows = 1;
-    cloud.cloud.points.resize(2);
+    cloud.num_points = 2;
     cloud.pixel_index = {0, 1};
     cloud.column_timestamp_ns = {0, kMax};
     std::vector<float> t;
