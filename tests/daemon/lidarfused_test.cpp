@@ -300,9 +300,17 @@ TEST(Lidarfused, FramesThatWaitWhileFusionIsBehindAreFusedAtPredictedPoses) {
     std::printf("lidarfused behind: %zu frames fused, %zu at predicted poses, %s dropped\n", fused,
                 predicted, seen.last_pipeline["frame_queue_drops"].c_str());
     EXPECT_EQ(seen.last_pipeline["frame_queue_drops"], "0") << log;
-    // Three registered root frames, then one predicted, at the least (the sanitizers' fusion
-    // on a loaded machine fuses about a dozen in the test's time).
-    if (fused < 5) GTEST_SKIP() << "fusion too slow for the run: " << fused << " frames fused";
+    // A frame is fused at predicted poses once every tracked sensor's fit is confirmed:
+    // prediction_min_poses (4) registered poses, then a registered frame checked against
+    // them. So lidar1, tracked from when its initial registration is applied, needs five
+    // registered frames before one can be predicted; the sanitizers' fusion on a loaded
+    // machine may fuse fewer in the test's time (5 frames in all, none predicted, once).
+    std::size_t lidar1_frames = 0;
+    for (const auto& p : io::read_pose_csv(d / "out" / "poses.csv"))
+        lidar1_frames += p.sensor == "lidar1";
+    if (predicted == 0 && lidar1_frames < 6)
+        GTEST_SKIP() << "fusion too slow for the run: " << fused << " frames fused, "
+                     << lidar1_frames << " with lidar1";
     EXPECT_GT(predicted, 0u) << log;
     EXPECT_LE(predicted, fused / 2 + 1)
         << "a predicted frame is always followed by a registered one";
