@@ -27,11 +27,14 @@ void read_network(YamlReader& r, const YAML::Node& n, NetworkConfig* c) {
 void read_sync(YamlReader& r, const YAML::Node& n, SyncConfig* c) {
     if (!n || !r.optional_map(n, "sync")) return;
     r.only_keys(n, "sync",
-                {"max_offset_ms", "deadline_ms", "reset_jump_ms", "queue_depth", "when_behind"});
+                {"max_offset_ms", "deadline_ms", "reset_jump_ms", "max_clock_skew_ms",
+                 "queue_depth", "when_behind"});
     set_if(r.number(n["max_offset_ms"], "sync.max_offset_ms", 0, 1000, false), &c->max_offset_ms);
     set_if(r.number(n["deadline_ms"], "sync.deadline_ms", 1, 10000, false), &c->deadline_ms);
     set_if(r.number(n["reset_jump_ms"], "sync.reset_jump_ms", 100, 3.6e6, false),
            &c->reset_jump_ms);
+    set_if(r.number(n["max_clock_skew_ms"], "sync.max_clock_skew_ms", 0, 3.6e6, false),
+           &c->max_clock_skew_ms);
     set_if(r.integer(n["queue_depth"], "sync.queue_depth", 1, 64, false), &c->queue_depth);
     if (auto when = r.choice(n["when_behind"], "sync.when_behind", {"predict", "drop"}))
         c->predict_when_behind = *when == 0;

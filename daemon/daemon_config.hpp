@@ -29,6 +29,9 @@ struct SyncConfig {
     double max_offset_ms = 0.0;  // 0: one frame period of the root sensor (1/SR)
     double deadline_ms = 75.0;   // how long a frame waits for late members
     double reset_jump_ms = 2000.0;
+    // A sensor whose clock differs from the root sensor's by more than this has its scans
+    // refused before synchronisation (daemon/clock_check.hpp); 0: not checked.
+    double max_clock_skew_ms = 1000.0;
     // Synchronised frames waiting for the fusion thread (and fused ones for the output
     // thread); when full the oldest is dropped and counted. While fusion is slower than the
     // frame rate, a frame waits up to this many fusion times: 1 gives the freshest output

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <utility>
 
+#include "daemon/status_line.hpp"
+
 namespace lidarfuse::daemon {
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
@@ -189,6 +191,9 @@ std::pair<std::uint8_t, std::string> sensor_level(const SensorStats& s, bool fus
     } else if (s.state == SensorState::kModeMismatch) {
         level = kError;
         message += ": " + s.mode_seen;
+    } else if (s.state == SensorState::kClockSkew) {
+        level = kError;
+        message += ": " + clock_skew_reason(s.clock_skew_ms);
     } else if (s.state == SensorState::kNoMetadata) {
         level = kError;
         if (!s.metadata.last_error.empty()) message += ": " + s.metadata.last_error;
@@ -237,6 +242,7 @@ void DiagnosticsBuilder::add_sensor_values(KeyValues* v, const SensorStats& s) {
     add(v, "completeness", number(s.last_completeness, "%.4f"));
     add(v, "ms_since_last_scan", number(s.ms_since_last_scan, "%.1f"));
     add(v, "clock_offset_ms", number(s.clock_offset_ms, "%.3f"));
+    add(v, "clock_skew_ms", number(s.clock_skew_ms, "%.3f"));
     add(v, "offset_to_root_ms", number(s.offset_to_root_ms, "%.3f"));
     add(v, "track_state", s.track_state);
     add(v, "pose_valid", s.pose_valid ? "true" : "false");

@@ -28,6 +28,8 @@ const char* to_string(SensorState state) {
             return "MODE_MISMATCH";
         case SensorState::kNoMetadata:
             return "NO_METADATA";
+        case SensorState::kClockSkew:
+            return "CLOCK_SKEW";
     }
     return "?";
 }

@@ -41,7 +41,9 @@ namespace lidarfuse::daemon {
 // profile (drivers/ouster/mode_check.hpp); its scans are not fused until it agrees again.
 // kNoMetadata: a sensor named by hostname whose metadata could not be fetched yet
 // (daemon/metadata_fetcher.hpp); its datagrams cannot be read until it is.
-enum class SensorState { kOk, kStale, kLost, kDisabled, kModeMismatch, kNoMetadata };
+// kClockSkew: the sensor's clock disagrees with the root's by more than
+// sync.max_clock_skew_ms (daemon/clock_check.hpp); its scans are not fused until it agrees.
+enum class SensorState { kOk, kStale, kLost, kDisabled, kModeMismatch, kNoMetadata, kClockSkew };
 const char* to_string(SensorState state);
 
 struct SensorStats {
@@ -56,6 +58,10 @@ struct SensorStats {
     // scans not fused for it, and the last disagreement seen vs what the metadata says.
     std::uint64_t mode_mismatch_frames = 0, mode_mismatches = 0, scans_mode_rejected = 0;
     std::string mode_seen;
+    // Scans refused for a clock that disagrees with the root's, and the latest refused
+    // scan's clock minus the root's (ms; positive: ahead).
+    std::uint64_t scans_off_clock = 0;
+    double clock_skew_ms = 0.0;
     double last_completeness = 0.0;
     double ms_since_last_scan = -1.0;
     // Sensor clock minus host clock (CLOCK_REALTIME) when its last scan completed (large
@@ -80,7 +86,7 @@ struct SensorCounter {
 };
 
 // Every counter of SensorStats once, in the order of the diagnostics' values.
-inline constexpr std::array<SensorCounter, 13> kSensorCounters{{
+inline constexpr std::array<SensorCounter, 14> kSensorCounters{{
     {"packets", &SensorStats::packets, "packets", &ouster::AssemblyCounters::packets},
     {"lidar_packets", &SensorStats::lidar_packets, "packets",
      &ouster::AssemblyCounters::lidar_packets},
@@ -99,6 +105,7 @@ inline constexpr std::array<SensorCounter, 13> kSensorCounters{{
     {"mode_mismatches", &SensorStats::mode_mismatches, "mismatches",
      &ouster::AssemblyCounters::mode_mismatches},
     {"scans_mode_rejected", &SensorStats::scans_mode_rejected, "scans", nullptr},
+    {"scans_off_clock", &SensorStats::scans_off_clock, "scans", nullptr},
 }};
 
 // Every figure of PipelineStats the diagnostics publish has its row in kPipelineFigures

@@ -3,9 +3,11 @@
 #include <pthread.h>
 
 #include <algorithm>
+#include <cstdlib>
 
 #include "core/pipeline/frame_input.hpp"
 #include "daemon/pipeline_impl.hpp"
+#include "daemon/status_line.hpp"
 
 namespace lidarfuse::daemon {
 
@@ -24,6 +26,8 @@ void Pipeline::Impl::sync_loop() {
     params.deadline_ns = static_cast<std::int64_t>(config.sync.deadline_ms * 1e6);
     params.reset_jump_ns = static_cast<std::int64_t>(config.sync.reset_jump_ms * 1e6);
     core::FrameSynchroniser<ScanMessage> sync(sensors.size(), params);
+    ClockCheck clocks(sensors.size(), config.fusion.root_sensor,
+                      static_cast<std::int64_t>(config.sync.max_clock_skew_ms * 1e6));
     while (!stopping.load(std::memory_order_acquire)) {
         if (const std::int64_t offset = max_offset_ns(); offset != sync.max_offset_ns()) {
             sync.set_max_offset_ns(offset);
@@ -34,6 +38,7 @@ void Pipeline::Impl::sync_loop() {
         const auto take = [&](DropOldestQueue<ScanMessage>& queue) {
             while (auto m = queue.try_pop()) {
                 any = true;
+                if (refused_off_clock(&clocks, &*m)) continue;
                 const std::size_t sensor = m->sensor;
                 const std::int64_t t = m->t_ns;
                 sync.push(sensor, t, steady_ns(), std::move(*m));
@@ -52,6 +57,25 @@ void Pipeline::Impl::sync_loop() {
         if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
     frames.close();
+}
+
+bool Pipeline::Impl::refused_off_clock(ClockCheck* check, ScanMessage* scan) {
+    SensorIngest& s = *sensors[scan->sensor];
+    const auto skew_ns = check->refuse(scan->sensor, scan->t_ns, scan->complete_steady_ns);
+    s.clock_skewed.store(skew_ns.has_value());
+    if (!skew_ns) return false;
+    s.clock_skew_ns.store(*skew_ns);
+    const std::uint64_t refused = s.scans_off_clock.fetch_add(1) + 1;
+    // A sensor off by seconds is off at every scan: the 1st, 2nd, 4th, 8th ... refusal logged.
+    if ((refused & (refused - 1)) == 0) {
+        sync_log->warn(
+            "sensor \"{}\": {} (more than sync.max_clock_skew_ms, {:.0f} ms): {} scan(s) not "
+            "fused; check its time synchronisation (PTP)",
+            s.name, clock_skew_reason(static_cast<double>(*skew_ns) * 1e-6),
+            config.sync.max_clock_skew_ms, refused);
+    }
+    s.spare_scans.give(std::move(*scan));
+    return true;
 }
 
 void Pipeline::Impl::record_frame_time(const core::SyncedFrame<ScanMessage>& frame) {

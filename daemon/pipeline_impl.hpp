@@ -18,6 +18,7 @@
 #include "core/pipeline/fusion_engine.hpp"
 #include "core/pipeline/world_frame.hpp"
 #include "daemon/buffer_pool.hpp"
+#include "daemon/clock_check.hpp"
 #include "daemon/dds_input.hpp"
 #include "daemon/dds_publisher.hpp"
 #include "daemon/frame_stamps.hpp"
@@ -96,6 +97,9 @@ struct Pipeline::Impl {
     // pipeline_fusion.cpp
     std::int64_t max_offset_ns() const;
     void sync_loop();
+    // Sync thread: whether `scan`'s clock disagrees with the root's (ClockCheck), counted,
+    // reported and its buffers handed back to its producer when it does.
+    bool refused_off_clock(ClockCheck* check, ScanMessage* scan);
     void record_frame_time(const core::SyncedFrame<ScanMessage>& frame);
     // The frame's entry of the ring; empty t_ns when it is no longer known.
     FrameTime frame_time(const core::FrameOutput& out);

@@ -172,6 +172,8 @@ void copy_counters(const SensorIngest& s, SensorStats* out) {
         out->metadata = s.metadata_status;
     }
     out->scans_mode_rejected = s.scans_mode_rejected.load();
+    out->scans_off_clock = s.scans_off_clock.load();
+    out->clock_skew_ms = static_cast<double>(s.clock_skew_ns.load()) * 1e-6;
     out->scans = s.scans.load();
     out->scans_incomplete = s.scans_incomplete.load();
     out->scans_rejected = s.scans_rejected.load();
@@ -186,6 +188,8 @@ SensorState state_of(const SensorIngest& s, bool enabled, const HealthConfig& he
     if (last_scan_steady_ns == 0 || ms_since_last_scan > health.lost_after_ms)
         return SensorState::kLost;
     if (ms_since_last_scan > health.stale_after_ms) return SensorState::kStale;
+    // A sensor that sends, but on a clock its scans cannot be synchronised by.
+    if (s.clock_skewed.load()) return SensorState::kClockSkew;
     return SensorState::kOk;
 }
 

@@ -64,6 +64,11 @@ struct SensorIngest {
     // Scans not fused because the data disagrees with the metadata's mode (ModeCheck).
     std::atomic<std::uint64_t> scans_mode_rejected{0};
     std::atomic<bool> mode_mismatch{false};
+    // Scans refused because the sensor's clock disagrees with the root's (ClockCheck, on the
+    // sync thread): how many, whether the latest scan was, and by how much it differed (ns).
+    std::atomic<std::uint64_t> scans_off_clock{0};
+    std::atomic<bool> clock_skewed{false};
+    std::atomic<std::int64_t> clock_skew_ns{0};
     std::atomic<std::int64_t> last_scan_steady_ns{0};
     std::atomic<std::int64_t> clock_offset_ns{0};  // sensor clock - host clock at the last scan
     std::atomic<double> last_completeness{0.0};

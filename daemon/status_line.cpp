@@ -1,10 +1,18 @@
 #include "daemon/status_line.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
 
 namespace lidarfuse::daemon {
+
+std::string clock_skew_reason(double skew_ms) {
+    char buffer[96];
+    std::snprintf(buffer, sizeof(buffer), "clock %.3f s %s the root's", std::abs(skew_ms) / 1e3,
+                  skew_ms >= 0 ? "ahead of" : "behind");
+    return buffer;
+}
 
 std::string sensor_reason(const SensorStats& s) {
     char buffer[96];
@@ -14,6 +22,8 @@ std::string sensor_reason(const SensorStats& s) {
             return "";
         case SensorState::kModeMismatch:
             return "sends " + s.mode_seen;
+        case SensorState::kClockSkew:
+            return clock_skew_reason(s.clock_skew_ms);
         case SensorState::kNoMetadata:
             return s.metadata.last_error.empty() ? "fetching from " + s.metadata.source
                                                  : s.metadata.last_error;
@@ -32,7 +42,7 @@ std::string sensors_summary(const std::vector<SensorStats>& sensors) {
     std::string text;
     for (const SensorState state :
          {SensorState::kOk, SensorState::kStale, SensorState::kLost, SensorState::kModeMismatch,
-          SensorState::kNoMetadata, SensorState::kDisabled}) {
+          SensorState::kClockSkew, SensorState::kNoMetadata, SensorState::kDisabled}) {
         std::vector<const SensorStats*> group;
         for (const auto& s : sensors) {
             if (s.state == state) group.push_back(&s);

@@ -10,8 +10,13 @@
 namespace lidarfuse::daemon {
 
 // Why a sensor is in its state: the age of its last scan when it is STALE or LOST, the mode
-// it sends when that disagrees with its metadata; empty when OK or disabled.
+// it sends when that disagrees with its metadata, how far its clock is from the root's;
+// empty when OK or disabled.
 std::string sensor_reason(const SensorStats& sensor);
+
+// A CLOCK_SKEW sensor's reason, from its clock minus the root's (ms): "clock 5.012 s ahead of
+// the root's", "clock 1.500 s behind the root's".
+std::string clock_skew_reason(double skew_ms);
 
 // "4 OK", or "3 OK; 1 LOST: last scan 3.1 s ago (lidar2)": one group per state, the reason
 // said once when every member shares it; the members are named unless all are OK.

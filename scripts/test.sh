@@ -100,10 +100,11 @@ for t in "${tsan_tests[@]}"; do
 done
 
 # The host wall-clock jump (host_clock_jump_test re-runs itself under its LD_PRELOAD shim,
-# tests/reliability/realtime_shift_shim.c, built without sanitizers) and the mode change
-# (ingest_faults_test) drive the daemon's threads too: the same TSan build, DDS off.
-stage "thread sanitizer: host clock jump and mode change"
-tsan_clock_tests=(host_clock_jump_test ingest_faults_test)
+# tests/reliability/realtime_shift_shim.c, built without sanitizers), the mode change
+# (ingest_faults_test) and a sensor clock off by 37 s (clock_skew_test) drive the daemon's
+# threads too: the same TSan build, DDS off.
+stage "thread sanitizer: host clock jump, mode change, sensor clock skew"
+tsan_clock_tests=(host_clock_jump_test ingest_faults_test clock_skew_test)
 CCACHE_BASEDIR="$top" CCACHE_NOHASHDIR=true cmake --build "$top/build-tsan" -j "$jobs" --target "${tsan_clock_tests[@]}"
 for t in "${tsan_clock_tests[@]}"; do
     echo "-- $t"

@@ -105,6 +105,24 @@ TEST_F(DaemonConfigTest, FramesArePredictedWhenBehindUnlessTheConfigSaysDrop) {
     }
 }
 
+TEST_F(DaemonConfigTest, SensorClocksAreCheckedWithinASecondUnlessTheConfigSaysOtherwise) {
+    EXPECT_DOUBLE_EQ(parse_daemon_config(sensors_, "s.yaml", dir_.path()).sync.max_clock_skew_ms,
+                     1000.0);
+    EXPECT_DOUBLE_EQ(
+        parse_daemon_config(sensors_ + "sync: {max_clock_skew_ms: 0}\n", "s.yaml", dir_.path())
+            .sync.max_clock_skew_ms,
+        0.0);
+    for (const char* bad : {"-1", "1e7", "soon"}) {
+        try {
+            parse_daemon_config(sensors_ + "sync: {max_clock_skew_ms: " + bad + "}\n", "s.yaml",
+                                dir_.path());
+            ADD_FAILURE() << bad << ": no error";
+        } catch (const station::ConfigError& error) {
+            EXPECT_THAT(error.what(), HasSubstr("sync.max_clock_skew_ms")) << bad;
+        }
+    }
+}
+
 TEST_F(DaemonConfigTest, EveryPaperParameterIsAKey) {
     const auto c = parse_daemon_config(sensors_ + R"(
 registration:

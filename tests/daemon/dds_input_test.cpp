@@ -16,6 +16,7 @@
 
 #include "daemon/dds_messages.hpp"
 #include "daemon/pipeline.hpp"
+#include "daemon/status_line.hpp"
 #include "drivers/capture/station_capture.hpp"
 #include "tests/daemon/dds_test_support.hpp"
 #include "tests/daemon/lidarfused_test_support.hpp"
@@ -161,6 +162,24 @@ TEST(DdsInputPipeline, TheDaemonsOwnCloudTopicIsRefusedAsASource) {
     }
 }
 
+// The pipeline's figures once each reader has made a scan of every cloud it took (a cloud is
+// counted when taken, its scan after its points are copied: a snapshot between the two, slow
+// under the sanitizers, differs by one) and fusion has stopped taking frames (or after 1 s).
+PipelineStats settled_stats(Pipeline* pipeline) {
+    std::uint64_t fused = 0;
+    test::eventually(
+        [&] {
+            const PipelineStats now = pipeline->stats();
+            bool settled = now.frames_fused == fused && now.frames_fused > 0;
+            for (const auto& sensor : now.sensors)
+                settled = settled && sensor.dds && sensor.scans == sensor.dds->clouds;
+            fused = now.frames_fused;
+            return settled;
+        },
+        1000);
+    return pipeline->stats();
+}
+
 // A ROS 2 driver's view of a simulated station: each Ouster scan of `capture` as a
 // PointCloud2 in its sensor's frame, stamped with the scan time, on its own topic, paced
 // as captured. Returns the clouds written.
@@ -224,22 +243,8 @@ TEST(DdsInputPipeline, SensorsFromDdsTopicsAreRegisteredAndFused) {
     const std::size_t written =
         publish_as_driver_clouds(sim_station, sim / "capture.pcap", prefix, &writers);
     EXPECT_EQ(written, 200u);  // 2 sensors x 5 s x 20 Hz
-    // Fusion catches up (the initial registration ran beside it), and each reader has made
-    // a scan of every cloud it took (a cloud is counted when taken, its scan after its points
-    // are copied: a snapshot between the two, slow under the sanitizers, differs by one);
-    // then the pipeline stops.
-    std::uint64_t fused = 0;
-    test::eventually(
-        [&] {
-            const PipelineStats now = pipeline.stats();
-            bool settled = now.frames_fused == fused && now.frames_fused > 0;
-            for (const auto& sensor : now.sensors)
-                settled = settled && sensor.dds && sensor.scans == sensor.dds->clouds;
-            fused = now.frames_fused;
-            return settled;
-        },
-        1000);
-    const PipelineStats stats = pipeline.stats();
+    // Fusion catches up (the initial registration ran beside it); then the pipeline stops.
+    const PipelineStats stats = settled_stats(&pipeline);
     pipeline.stop();
     for (std::size_t s = 0; s < 2; ++s) {
         ASSERT_TRUE(stats.sensors[s].dds);
@@ -275,6 +280,109 @@ TEST(DdsInputPipeline, SensorsFromDdsTopicsAreRegisteredAndFused) {
     std::printf("strict RMSE against the truth: %.2f cm / %.4f deg\n", strict_m * 100, strict_deg);
     EXPECT_LE(strict_m, 0.02) << eval;
     EXPECT_LE(strict_deg, 0.1) << eval;
+}
+
+// A street corner as a sensor sees it (its frame, metres): a floor and two walls, enough for
+// the root's track.
+core::FusedCloud corner_cloud() {
+    core::FusedCloud c;
+    const auto add = [&](float x, float y, float z) {
+        c.points.emplace_back(x, y, z);
+        c.intensity.push_back(1.0f);
+        c.sensor.push_back(0);
+        c.dynamic.push_back(0);
+    };
+    for (int i = 0; i < 40; ++i) {
+        for (int j = 0; j < 40; ++j) {
+            const float u = 0.5f * static_cast<float>(i), v = 0.25f * static_cast<float>(j);
+            add(u - 5.0f, v - 5.0f, -2.0f);         // floor
+            add(u - 5.0f, 6.0f, v * 0.5f - 2.0f);   // wall ahead
+            add(8.0f, v - 5.0f, u * 0.25f - 2.0f);  // wall to the side
+        }
+    }
+    return c;
+}
+
+// A station whose sources disagree about the time: the root on time, one source 1.5 s ahead
+// and one 5 s behind (clocks not synchronised). Without the clock check
+// (sync.max_clock_skew_ms: 0) the synchroniser's frames jumped by seconds back and forth,
+// every sensor was reported OK, and the root was not registered in a single frame (poses.csv
+// had no row of it). With it the root is synchronised and registered at every frame, and the
+// others' scans are refused, counted and reported CLOCK_SKEW with their skew.
+TEST(DdsInputPipeline, SourcesWhoseClocksAreOffBySecondsAreRefusedWhileTheRootIsFused) {
+    test::use_loopback_dds();
+    test::TempDir dir("ddsclock");
+    const int domain = test::unique_domain_id();
+    const std::string prefix = "rt/ddsclock" + std::to_string(domain) + "/";
+    const char* names[3] = {"root", "ahead", "behind"};
+    const std::int64_t skew_ns[3] = {0, 1'500'000'000, -5'000'000'000};
+    std::ofstream yaml(dir.path() / "station.yaml");
+    yaml << "station: clocks\nsensors:\n";
+    for (const char* name : names) {
+        yaml << "  - {name: " << name << ", source: {dds: {topic: " << prefix << name
+             << "/points, domain_id: " << domain << "}}}\n";
+    }
+    yaml << "world: {frame: sensor}\noutput: {directory: " << (dir.path() / "out").string()
+         << ", dds: {enabled: false}}\n";
+    yaml.close();
+    Pipeline pipeline(load_daemon_config(dir.path() / "station.yaml"));
+    pipeline.start();
+    CloudWriters writers(domain);
+    ASSERT_TRUE(writers.ok());
+    for (const char* name : names) ASSERT_TRUE(writers.open(prefix + name + "/points"));
+    ASSERT_TRUE(test::eventually([&] {
+        const auto stats = pipeline.stats();
+        bool matched = true;
+        for (const auto& sensor : stats.sensors) matched = matched && sensor.dds->publishers > 0;
+        return matched;
+    }));
+    constexpr int kFrames = 40;
+    const core::FusedCloud cloud = corner_cloud();
+    const std::int64_t t0 = realtime_ns();
+    const auto start = std::chrono::steady_clock::now();
+    for (int k = 0; k < kFrames; ++k) {
+        std::this_thread::sleep_until(start + std::chrono::milliseconds(50 * k));
+        for (int s = 0; s < 3; ++s) {
+            ASSERT_TRUE(writers.write(prefix + names[s] + "/points", names[s], cloud,
+                                      t0 + 50'000'000LL * k + skew_ns[s]));
+        }
+    }
+    // Every cloud taken has become a scan or a refusal, and fusion has caught up.
+    const PipelineStats stats = settled_stats(&pipeline);
+    pipeline.stop();
+    const std::string line = status_line(stats);
+    std::printf("clocks: %s; %llu synchronised, %llu late\n", line.c_str(),
+                static_cast<unsigned long long>(stats.frames_synchronised),
+                static_cast<unsigned long long>(stats.scans_late));
+    const auto& root = stats.sensors[0];
+    EXPECT_EQ(root.scans_off_clock, 0u);
+    EXPECT_EQ(root.state, SensorState::kOk);
+    // The reader keeps its last 8 clouds: a loaded machine may lose one, by design.
+    EXPECT_GE(root.scans, kFrames - 4u);
+    for (int s = 1; s < 3; ++s) {
+        const auto& off = stats.sensors[static_cast<std::size_t>(s)];
+        // A scan that came before the root's first has nothing to be compared with.
+        EXPECT_GE(off.scans_off_clock + 2, off.scans) << off.name;
+        EXPECT_GE(off.scans_off_clock, kFrames - 6u) << off.name;
+        EXPECT_EQ(off.state, SensorState::kClockSkew) << off.name;
+        // The skew is the clocks' difference and the sources' delivery latencies' (ms here).
+        EXPECT_NEAR(off.clock_skew_ms, static_cast<double>(skew_ns[s]) * 1e-6, 100.0) << off.name;
+    }
+    EXPECT_THAT(line, ::testing::HasSubstr("2 CLOCK_SKEW"));
+    EXPECT_THAT(line, ::testing::HasSubstr("ahead: clock 1."));
+    EXPECT_THAT(line, ::testing::HasSubstr("behind: clock 5."));
+    EXPECT_THAT(line, ::testing::HasSubstr(" s behind the root's"));
+    // The root went on: in a frame of its own every time, none of its scans late, and
+    // registered (poses.csv has its row) in every frame fused.
+    EXPECT_LE(stats.scans_late, 1u);
+    // (The last frame may still wait for its deadline when the figures are taken.)
+    EXPECT_GE(stats.frames_synchronised, root.scans - 2);
+    std::size_t root_rows = 0;
+    for (const auto& r : io::read_pose_csv(dir.path() / "out" / "poses.csv"))
+        root_rows += r.sensor == "root" ? 1 : 0;
+    // Fusion takes as many of those frames as the machine allows (a loaded one drops some).
+    EXPECT_GT(root_rows, 0u);
+    EXPECT_GE(root_rows + 1, stats.frames_fused - stats.frames_predicted);
 }
 
 }  // namespace
