@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
+#include <atomic>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -383,6 +384,79 @@ TEST(DdsInputPipeline, SourcesWhoseClocksAreOffBySecondsAreRefusedWhileTheRootIs
     // Fusion takes as many of those frames as the machine allows (a loaded one drops some).
     EXPECT_GT(root_rows, 0u);
     EXPECT_GE(root_rows + 1, stats.frames_fused - stats.frames_predicted);
+}
+
+// A source that floods its topic (clouds as fast as its writer can send them, each stamped
+// when it is sent) beside a root at 20 Hz: the flood's surplus is dropped oldest-first in
+// its reader and its scan queue and counted, the root's scans all become frames, fusion goes
+// on, and the pipeline stops promptly: never a stalled pipeline.
+TEST(DdsInputPipeline, AFloodOfCloudsIsDroppedAndCountedWhileTheRootKeepsBeingFused) {
+    test::use_loopback_dds();
+    test::TempDir dir("ddsflood");
+    const int domain = test::unique_domain_id();
+    const std::string prefix = "rt/ddsflood" + std::to_string(domain) + "/";
+    std::ofstream(dir.path() / "station.yaml")
+        << "station: flood\nsensors:\n"
+        << "  - {name: root, source: {dds: {topic: " << prefix
+        << "root/points, domain_id: " << domain << "}}}\n"
+        << "  - {name: flood, source: {dds: {topic: " << prefix
+        << "flood/points, domain_id: " << domain << "}}}\n"
+        << "world: {frame: sensor}\noutput: {directory: " << (dir.path() / "out").string()
+        << ", dds: {enabled: false}}\n";
+    Pipeline pipeline(load_daemon_config(dir.path() / "station.yaml"));
+    pipeline.start();
+    CloudWriters root_writer(domain), flood_writer(domain);
+    ASSERT_TRUE(root_writer.ok() && flood_writer.ok());
+    ASSERT_TRUE(root_writer.open(prefix + "root/points"));
+    ASSERT_TRUE(flood_writer.open(prefix + "flood/points"));
+    ASSERT_TRUE(test::eventually([&] {
+        const auto stats = pipeline.stats();
+        return stats.sensors[0].dds->publishers > 0 && stats.sensors[1].dds->publishers > 0;
+    }));
+    const core::FusedCloud cloud = corner_cloud();
+    const std::int64_t t0 = realtime_ns();
+    const auto start = std::chrono::steady_clock::now();
+    constexpr int kFrames = 40;  // 2 s at 20 Hz, stamped as the time passes
+    std::atomic<bool> done{false};
+    std::uint64_t flooded = 0;
+    std::thread flood([&] {
+        // Each stamped when it is sent, on the clock the root's stamps follow.
+        while (!done.load()) {
+            flood_writer.write(prefix + "flood/points", "flood", cloud, realtime_ns());
+            ++flooded;
+        }
+    });
+    for (int k = 0; k < kFrames; ++k) {
+        std::this_thread::sleep_until(start + std::chrono::milliseconds(50 * k));
+        ASSERT_TRUE(
+            root_writer.write(prefix + "root/points", "root", cloud, t0 + 50'000'000LL * k));
+    }
+    done.store(true);
+    flood.join();
+    const PipelineStats stats = settled_stats(&pipeline);
+    const auto stop_started = std::chrono::steady_clock::now();
+    pipeline.stop();
+    const double stop_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - stop_started).count();
+    const auto& root = stats.sensors[0];
+    const auto& flood_sensor = stats.sensors[1];
+    std::printf(
+        "flood: %llu clouds written, %llu taken, %llu scan-queue drops; root %llu scans, "
+        "%llu frames synchronised, %llu fused; stopped in %.2f s\n",
+        static_cast<unsigned long long>(flooded),
+        static_cast<unsigned long long>(flood_sensor.dds->clouds),
+        static_cast<unsigned long long>(stats.scan_queue_drops),
+        static_cast<unsigned long long>(root.scans),
+        static_cast<unsigned long long>(stats.frames_synchronised),
+        static_cast<unsigned long long>(stats.frames_fused), stop_s);
+    // The flood outran the pipeline (or the machine) and its surplus was dropped, counted.
+    EXPECT_GT(flooded, 5u * kFrames);
+    EXPECT_LT(flood_sensor.dds->clouds, flooded);
+    // The root lost nothing to it: every one of its clouds became a scan and a frame.
+    EXPECT_GE(root.scans, kFrames - 4u);  // its own reader keeps 8 on a loaded machine
+    EXPECT_GE(stats.frames_synchronised + 2, root.scans);
+    EXPECT_GT(stats.frames_fused, 0u);
+    EXPECT_LT(stop_s, 5.0);
 }
 
 }  // namespace
