@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "core/common/point_cloud.hpp"
+#include "daemon/log_throttle.hpp"
 
 namespace lidarfuse::daemon {
 
@@ -22,8 +23,6 @@ PointCloud2SourceConfig source_config(const SensorIngest& sensor,
     c.depth = 8;
     return c;
 }
-
-bool power_of_two(std::uint64_t n) { return n != 0 && (n & (n - 1)) == 0; }
 
 }  // namespace
 
@@ -47,8 +46,7 @@ void DdsInput::refuse(const std::string& why) {
         last_error_ = "sensor \"" + sensor_->name + "\" (" + config_.topic + "): " + why;
     }
     sensor_->scans_rejected.fetch_add(1);
-    // A flood of bad clouds must not flood the log: the 1st, 2nd, 4th, 8th ... refusal.
-    if (power_of_two(refused)) {
+    if (logged_occurrence(refused)) {
         log_->warn("sensor \"{}\": cloud refused ({} so far): {}", sensor_->name, refused, why);
     }
 }

@@ -3,9 +3,9 @@
 #include <pthread.h>
 
 #include <algorithm>
-#include <cstdlib>
 
 #include "core/pipeline/frame_input.hpp"
+#include "daemon/log_throttle.hpp"
 #include "daemon/pipeline_impl.hpp"
 #include "daemon/status_line.hpp"
 
@@ -66,8 +66,7 @@ bool Pipeline::Impl::refused_off_clock(ClockCheck* check, ScanMessage* scan) {
     if (!skew_ns) return false;
     s.clock_skew_ns.store(*skew_ns);
     const std::uint64_t refused = s.scans_off_clock.fetch_add(1) + 1;
-    // A sensor off by seconds is off at every scan: the 1st, 2nd, 4th, 8th ... refusal logged.
-    if ((refused & (refused - 1)) == 0) {
+    if (logged_occurrence(refused)) {
         sync_log->warn(
             "sensor \"{}\": {} (more than sync.max_clock_skew_ms, {:.0f} ms): {} scan(s) not "
             "fused; check its time synchronisation (PTP)",
