@@ -22,11 +22,12 @@ export CYCLONEDDS_URI='<General><Interfaces><NetworkInterface name="lo"/></Inter
 "$tool" sim --scenario straight --stations "$stations" --sensors-per-station "$sensors" \
     --station-spacing-m "$spacing" --seconds "$seconds" --quiet --out "$work/sim" >/dev/null
 
-# The segment's config: its sensors are the stations' clouds.
+# The segment's config: its sensors are the stations' clouds, in the stations' fused frames,
+# so that each station's tf tree (its frame_prefix) hangs below the segment's frame.
 {
     echo "station: segment"; echo "root: station0"; echo "sensors:"
     for j in $(seq 0 $((stations - 1))); do
-        echo "  - {name: station$j, source: {dds: {topic: rt/station$j/points, domain_id: $domain}}}"
+        echo "  - {name: station$j, source: {dds: {topic: rt/station$j/points, domain_id: $domain, frame_id: station$j/lidarfuse/fused}}}"
     done
     echo "world: {frame: sensor}"
     echo "output: {directory: $work/segment, dds: {domain_id: $domain, namespace: segment}}"
@@ -43,7 +44,7 @@ for j in $(seq 0 $((stations - 1))); do
         done
         echo "network: {bind_address: 127.0.0.1}"
         echo "world: {frame: $station_world}"
-        echo "output: {directory: $work/station$j, dds: {domain_id: $domain, namespace: station$j}}"
+        echo "output: {directory: $work/station$j, dds: {domain_id: $domain, namespace: station$j, frame_prefix: station$j/}}"
     } >"$work/station$j.yaml"
     "$daemon" --config "$work/station$j.yaml" >"$work/station$j.log" 2>&1 &
     pids+=($!)

@@ -60,23 +60,20 @@ bool valid_ros_namespace(const std::string& ns) {
     return true;
 }
 
-// A tf2 frame id: no leading '/' (tf2 refuses it), no spaces or control characters.
-bool valid_frame_id(const std::string& frame) {
-    if (frame.empty() || frame.size() > 128 || frame.front() == '/') return false;
-    for (const char c : frame) {
-        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
-                        (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '/' || c == '-';
-        if (!ok) return false;
-    }
-    return true;
+// output.dds.frame_prefix: "" (none), or the start of a tf frame id; what it makes of each
+// frame is checked with the sensors (check_frame_names).
+void read_frame_prefix(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
+    if (n && n.IsScalar() && n.Scalar().empty()) return;
+    set_if(r.frame_id(n, "output.dds.frame_prefix"), &c->frame_prefix);
 }
 
 void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
     if (!n || !r.optional_map(n, "output.dds")) return;
     const std::string p = "output.dds.";
-    r.only_keys(n, "output.dds",
-                {"enabled", "domain_id", "namespace", "frame_id", "depth", "max_blocking_ms",
-                 "publish_points", "points_voxel_size_m", "diagnostics_period_ms"});
+    r.only_keys(
+        n, "output.dds",
+        {"enabled", "domain_id", "namespace", "frame_id", "frame_prefix", "depth",
+         "max_blocking_ms", "publish_points", "points_voxel_size_m", "diagnostics_period_ms"});
     set_if(r.boolean(n["enabled"], p + "enabled"), &c->enabled);
     // Cyclone maps domain d to UDP ports 7400 + 250 d + ..., so 232 is the largest id.
     set_if(r.integer(n["domain_id"], p + "domain_id", -1, 232, false), &c->domain_id);
@@ -94,17 +91,8 @@ void read_dds(YamlReader& r, const YAML::Node& n, DdsConfig* c) {
                 *ns + "\"");
         }
     }
-    if (auto frame = r.string(n["frame_id"], p + "frame_id", false)) {
-        if (valid_frame_id(*frame)) {
-            c->frame_id = *frame;
-        } else {
-            r.problems.push_back(
-                p +
-                "frame_id: expected 1..128 characters of [A-Za-z0-9_./-], not starting "
-                "with '/' (tf2 refuses a leading slash), got \"" +
-                *frame + "\"");
-        }
-    }
+    set_if(r.frame_id(n["frame_id"], p + "frame_id"), &c->frame_id);
+    read_frame_prefix(r, n["frame_prefix"], c);
     set_if(r.integer(n["depth"], p + "depth", 1, 100, false), &c->depth);
     set_if(r.number(n["max_blocking_ms"], p + "max_blocking_ms", 0, 1000, false),
            &c->max_blocking_ms);
@@ -196,27 +184,48 @@ void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path
     read_record(r, n["record"], base, &c->record);
 }
 
+// What makes a sensor's tf frame collide with `other`, for the config's message.
+std::string frame_source(const station::StationConfig& station, std::size_t i) {
+    const std::string at = "sensors[" + std::to_string(i) + "]";
+    return station.sensors[i].dds && station.sensors[i].dds->frame_id
+               ? at + ".source.dds.frame_id"
+               : "the name of " + at + ", whose tf frame it is";
+}
+
 // tf2 keeps one parent per frame: the fused frame must not be a sensor's frame too, or that
-// sensor would be its own parent (and dropped from tf).
+// sensor would be its own parent (and dropped from tf), and no two sensors may share one.
 // geo's world frame is the fused frame's parent on rt/tf_static: it must be neither the
 // fused frame nor a sensor's frame.
 void check_frame_names(const station::StationConfig& station, const DdsConfig& dds,
                        const station::WorldConfig& world, std::vector<std::string>* problems) {
     const bool geo = world.params.kind == core::WorldFrameKind::kGeo;
-    for (std::size_t i = 0; i < station.sensors.size(); ++i) {
-        if (station.sensors[i].name == dds.frame_id) {
-            problems->push_back("output.dds.frame_id: \"" + dds.frame_id +
-                                "\" is also the name of sensors[" + std::to_string(i) +
-                                "], whose tf frame it is; pick a name no sensor has "
-                                "(the default, lidarfuse/fused, cannot collide)");
+    const std::string fused = fused_frame_of(dds);
+    if (!station::valid_frame_id(fused)) {
+        problems->push_back("output.dds.frame_prefix: \"" + dds.frame_prefix +
+                            "\" makes the fused frame \"" + fused +
+                            "\", longer than tf's 128 characters");
+    }
+    const std::vector<std::string> frames = sensor_frames_of(station, dds);
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        if (frames[i] == fused) {
+            problems->push_back("output.dds.frame_id: \"" + fused + "\" is also " +
+                                frame_source(station, i) +
+                                "; pick a name no sensor has (the default, lidarfuse/fused, "
+                                "cannot collide)");
         }
-        if (geo && station.sensors[i].name == world.frame_id) {
-            problems->push_back("world.frame_id: \"" + world.frame_id +
-                                "\" is also the name of sensors[" + std::to_string(i) +
-                                "], whose tf frame it is; pick a name no sensor has");
+        for (std::size_t j = 0; j < i; ++j) {
+            if (frames[j] != frames[i]) continue;
+            problems->push_back("sensors[" + std::to_string(i) + "]: its tf frame \"" + frames[i] +
+                                "\" is also sensors[" + std::to_string(j) +
+                                "]'s; each sensor needs a frame of its own "
+                                "(source.dds.frame_id)");
+        }
+        if (geo && frames[i] == world.frame_id) {
+            problems->push_back("world.frame_id: \"" + world.frame_id + "\" is also " +
+                                frame_source(station, i) + "; pick a name no sensor has");
         }
     }
-    if (geo && world.frame_id == dds.frame_id) {
+    if (geo && world.frame_id == fused) {
         problems->push_back(
             "world.frame_id: \"" + world.frame_id +
             "\" is also output.dds.frame_id; the world frame is the fused frame's parent, "
@@ -303,6 +312,18 @@ DaemonConfig load_daemon_config(const std::filesystem::path& file) {
         parse_daemon_config(station::read_config_file(file), file.string(), file.parent_path());
     config.station.source_file = file;
     return config;
+}
+
+std::string fused_frame_of(const DdsConfig& dds) { return dds.frame_prefix + dds.frame_id; }
+
+std::vector<std::string> sensor_frames_of(const station::StationConfig& station,
+                                          const DdsConfig& dds) {
+    std::vector<std::string> frames;
+    for (const auto& sensor : station.sensors) {
+        const bool given = sensor.dds && sensor.dds->frame_id;
+        frames.push_back(given ? *sensor.dds->frame_id : dds.frame_prefix + sensor.name);
+    }
+    return frames;
 }
 
 std::filesystem::path record_directory(const OutputConfig& output) {

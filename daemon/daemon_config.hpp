@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "core/pipeline/fusion_types.hpp"
 #include "drivers/station/station_config.hpp"
@@ -59,6 +60,10 @@ struct DdsConfig {
     // have, so it never names a sensor's own frame; a config naming it after a sensor is
     // refused.
     std::string frame_id = "lidarfuse/fused";
+    // Put before the fused frame and every sensor's frame (its name) in clouds, tf, poses and
+    // diagnostics, e.g. "station0/": stations sharing a DDS domain then keep their tf trees
+    // apart, and a segment daemon hangs each below its own frame (a DDS source's frame_id).
+    std::string frame_prefix;
     int depth = 2;                 // keep-last history of every writer
     double max_blocking_ms = 5.0;  // longest a write may wait for a slow reader
     bool publish_points = true;    // rt/<ns>/points (the poses, tf and diagnostics always)
@@ -148,6 +153,13 @@ struct DaemonConfig {
 
 // output.record.directory, or its default <output.directory>/recordings.
 std::filesystem::path record_directory(const OutputConfig& output);
+
+// The fused frame's tf name: output.dds.frame_prefix + output.dds.frame_id.
+std::string fused_frame_of(const DdsConfig& dds);
+// Each sensor's tf frame, in config order: its source.dds.frame_id where given, else
+// output.dds.frame_prefix + its name.
+std::vector<std::string> sensor_frames_of(const station::StationConfig& station,
+                                          const DdsConfig& dds);
 
 DaemonConfig parse_daemon_config(const std::string& yaml_text, const std::string& source_name,
                                  const std::filesystem::path& base_dir);

@@ -35,6 +35,7 @@ DdsInput::DdsInput(SensorIngest* sensor, const station::DdsSource& source,
               [this](const ReceivedCloud& cloud) { on_cloud(cloud); }) {
     // Nothing to wait for: the clouds carry their points, in their own frame.
     sensor_->metadata_known.store(true);
+    if (source.frame_id) frame_id_ = *source.frame_id;
     sensor_->metadata_status.source = "dds " + source.topic;
 }
 
@@ -77,8 +78,9 @@ void DdsInput::on_cloud(const ReceivedCloud& cloud) {
         if (frame_id_.empty()) frame_id_ = cloud.frame_id;
     }
     if (cloud.frame_id != frame_id_) {
-        return refuse("frame_id \"" + cloud.frame_id + "\", expected \"" + frame_id_ +
-                      "\" (the first cloud's)");
+        const char* whose = config_.frame_id ? "source.dds.frame_id" : "the first cloud's";
+        return refuse("frame_id \"" + cloud.frame_id + "\", expected \"" + frame_id_ + "\" (" +
+                      whose + ")");
     }
     ScanMessage m = sensor_->take_spare_scan();
     m.sensor = sensor_->index;

@@ -59,9 +59,12 @@ Eigen::Isometry3d from_ros_transform(const geometry_msgs_msg_dds__Transform_& t)
 }
 
 FrameMessageBuilder::FrameMessageBuilder(StationFrames frames) : frames_(std::move(frames)) {
-    for (const auto& name : frames_.sensor_names) {
-        if (name == frames_.fused_frame)
-            throw std::invalid_argument("fused frame \"" + name + "\" is also a sensor's name");
+    if (frames_.sensor_frames.empty()) frames_.sensor_frames = frames_.sensor_names;
+    if (frames_.sensor_frames.size() != frames_.sensor_names.size())
+        throw std::invalid_argument("a tf frame for each sensor, or none");
+    for (const auto& frame : frames_.sensor_frames) {
+        if (frame == frames_.fused_frame)
+            throw std::invalid_argument("fused frame \"" + frame + "\" is also a sensor's frame");
     }
     static const char* const kNames[6] = {"x", "y", "z", "intensity", "sensor_id", "dynamic"};
     const std::uint32_t offsets[6] = {kOffsetX,         kOffsetY,        kOffsetZ,
@@ -121,7 +124,7 @@ const tf2_msgs_msg_dds__TFMessage_& FrameMessageBuilder::tf(const core::FrameOut
         geometry_msgs_msg_dds__TransformStamped_ t{};
         t.header.stamp = to_ros_time(stamps.sensor_ns[s]);
         t.header.frame_id = c_str(frames_.fused_frame);
-        t.child_frame_id = c_str(frames_.sensor_names[s]);
+        t.child_frame_id = c_str(frames_.sensor_frames[s]);
         t.transform = to_ros_transform(frame.T_root_sensor[s]);
         transforms_.push_back(t);
     }

@@ -41,14 +41,17 @@ Eigen::Isometry3d from_ros_transform(const geometry_msgs_msg_dds__Transform_& t)
 struct StationFrames {
     std::string station;
     std::string fused_frame;                // header.frame_id of clouds, tf and poses
-    std::vector<std::string> sensor_names;  // config order; child_frame_id of tf
+    std::vector<std::string> sensor_names;  // config order; the poses' names
     std::size_t root = 0;
+    // Config order: child_frame_id of tf (daemon_config.hpp, sensor_frames_of); empty: the
+    // names.
+    std::vector<std::string> sensor_frames = {};
 };
 
 // Messages of one fused frame, every stamp from daemon/frame_stamps.hpp.
 class FrameMessageBuilder {
 public:
-    // Throws std::invalid_argument when the fused frame is also a sensor's name (tf2 would
+    // Throws std::invalid_argument when the fused frame is also a sensor's frame (tf2 would
     // see that sensor as its own parent; the config check refuses such a config first).
     explicit FrameMessageBuilder(StationFrames frames);
 

@@ -161,9 +161,10 @@ void Pipeline::Impl::make_publishers() {
     if (!config.output.dds.enabled) return;
     StationFrames names;
     names.station = config.station.station;
-    names.fused_frame = config.output.dds.frame_id;
+    names.fused_frame = fused_frame_of(config.output.dds);
     for (const auto& sc : config.station.sensors) names.sensor_names.push_back(sc.name);
     names.root = config.fusion.root_sensor;
+    names.sensor_frames = sensor_frames_of(config.station, config.output.dds);
     // geo: the world frame is the fused frame's parent on rt/tf_static (the offset).
     const bool geo = config.world.params.kind == core::WorldFrameKind::kGeo;
     dds =

@@ -30,7 +30,7 @@ const std::set<std::string> kSensorKeys = {
     "name",      "udp_port",       "metadata",       "hostname", "http_port",
     "configure", "source_address", "time_offset_ns", "enabled",  "source"};
 const std::set<std::string> kSourceKeys = {"dds"};
-const std::set<std::string> kDdsSourceKeys = {"topic", "domain_id"};
+const std::set<std::string> kDdsSourceKeys = {"topic", "domain_id", "frame_id"};
 const std::set<std::string> kConfigureKeys = {"udp_dest", "lidar_mode", "timestamp_mode"};
 
 bool ascii_alnum(char c) {
@@ -168,7 +168,7 @@ bool valid_dds_topic(const std::string& topic) {
     return true;
 }
 
-// sensors[i].source: {dds: {topic, domain_id}}.
+// sensors[i].source: {dds: {topic, domain_id, frame_id}}.
 void read_source(const YAML::Node& node, const std::string& path, YamlReader* r,
                  SensorConfig* sensor) {
     if (!node.IsMap() || !node["dds"].IsDefined() || !node["dds"].IsMap()) {
@@ -193,6 +193,7 @@ void read_source(const YAML::Node& node, const std::string& path, YamlReader* r,
     if (auto d = r->integer(dds["domain_id"], path + ".dds.domain_id", 0, 232, false)) {
         source.domain_id = static_cast<int>(*d);
     }
+    source.frame_id = r->frame_id(dds["frame_id"], path + ".dds.frame_id");
     sensor->dds = source;
 }
 

@@ -26,12 +26,16 @@ struct SensorConfigure {
     std::optional<std::string> timestamp_mode;  // "TIME_FROM_PTP_1588", ...; absent: left
 };
 
-// sensors[].source: {dds: {topic, domain_id}}: the sensor's scans are sensor_msgs/PointCloud2
-// clouds on a DDS topic (another station's fused cloud, or a ROS 2 LiDAR driver's), not
-// Ouster packets. lidarfused only; the offline tools read Ouster captures.
+// sensors[].source: {dds: {topic, domain_id, frame_id}}: the sensor's scans are
+// sensor_msgs/PointCloud2 clouds on a DDS topic (another station's fused cloud, or a ROS 2 LiDAR
+// driver's), not Ouster packets. lidarfused only; the offline tools read Ouster captures.
 struct DdsSource {
     std::string topic;  // the DDS topic name as on the wire, e.g. rt/station1/points
     int domain_id = 0;  // 0..232
+    // The frame its clouds are in (others refused) and the sensor's tf frame, e.g. another
+    // station's fused frame, so that that station's tree of tf frames hangs below this
+    // daemon's. Absent: the first cloud's frame is kept, and the tf frame is the name.
+    std::optional<std::string> frame_id;
 };
 
 struct SensorConfig {

@@ -47,17 +47,6 @@ std::optional<Eigen::Isometry3d> read_transform(YamlReader& r, const YAML::Node&
     return T;
 }
 
-// tf2 frame id rules (as output.dds.frame_id): no leading '/', no spaces.
-bool valid_frame_id(const std::string& frame) {
-    if (frame.empty() || frame.size() > 128 || frame.front() == '/') return false;
-    for (const char c : frame) {
-        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
-                        (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '/' || c == '-';
-        if (!ok) return false;
-    }
-    return true;
-}
-
 // world.frame; false (and a problem) when it names no world frame kind.
 bool read_frame_kind(YamlReader& r, const YAML::Node& n, core::WorldFrameParams* p) {
     if (const auto frame = r.string(n["frame"], "world.frame", false)) {
@@ -70,19 +59,6 @@ bool read_frame_kind(YamlReader& r, const YAML::Node& n, core::WorldFrameParams*
         }
     }
     return true;
-}
-
-void read_frame_id(YamlReader& r, const YAML::Node& n, WorldConfig* world) {
-    if (const auto id = r.string(n["frame_id"], "world.frame_id", false)) {
-        if (valid_frame_id(*id)) {
-            world->frame_id = *id;
-        } else {
-            r.problems.push_back(
-                "world.frame_id: expected 1..128 characters of [A-Za-z0-9_./-], not starting "
-                "with '/', got \"" +
-                *id + "\"");
-        }
-    }
 }
 
 // world.positions: sensor name -> [x, y, z] (m, world frame), at least 3 of them.
@@ -148,7 +124,7 @@ void read_world_section(YamlReader& r, const YAML::Node& document, const Station
     if (!n || !r.optional_map(n, "world")) return;
     r.only_keys(n, "world", {"frame", "frame_id", "positions", "T_world_root", "average_frames"});
     if (!read_frame_kind(r, n, &p)) return;
-    read_frame_id(r, n, world);
+    set_if(r.frame_id(n["frame_id"], "world.frame_id"), &world->frame_id);
     const bool geo = p.kind == core::WorldFrameKind::kGeo;
     const YAML::Node positions = n["positions"];
     const YAML::Node given = n["T_world_root"];

@@ -31,6 +31,28 @@ std::optional<std::string> YamlReader::string(const YAML::Node& node, const std:
     return node.Scalar();
 }
 
+bool valid_frame_id(const std::string& frame) {
+    if (frame.empty() || frame.size() > 128 || frame.front() == '/') return false;
+    for (const char c : frame) {
+        const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                        (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '/' || c == '-';
+        if (!ok) return false;
+    }
+    return true;
+}
+
+std::optional<std::string> YamlReader::frame_id(const YAML::Node& node, const std::string& path) {
+    auto frame = string(node, path, false);
+    if (frame && !valid_frame_id(*frame)) {
+        problems.push_back(path +
+                           ": expected 1..128 characters of [A-Za-z0-9_./-], not starting with "
+                           "'/' (tf2 refuses a leading slash), got \"" +
+                           *frame + "\"");
+        return std::nullopt;
+    }
+    return frame;
+}
+
 std::optional<long long> YamlReader::integer(const YAML::Node& node, const std::string& path,
                                              long long min, long long max, bool required) {
     if (!node) {

@@ -23,6 +23,9 @@ public:
     std::optional<double> number(const YAML::Node& node, const std::string& path, double min,
                                  double max, bool required);
     std::optional<bool> boolean(const YAML::Node& node, const std::string& path);
+    // A tf2 frame id (valid_frame_id below), optional; anything else reported as
+    // `path: expected 1..128 characters of [A-Za-z0-9_./-], ...`.
+    std::optional<std::string> frame_id(const YAML::Node& node, const std::string& path);
     // One of `options` (at least two): its index; anything else reported as
     // `path: expected a, b or c, got "x"`.
     std::optional<std::size_t> choice(const YAML::Node& node, const std::string& path,
@@ -35,6 +38,9 @@ public:
 
     static std::string describe(const YAML::Node& node);
 };
+
+// A tf2 frame id: 1..128 characters of [A-Za-z0-9_./-], no leading '/' (tf2 refuses it).
+bool valid_frame_id(const std::string& frame);
 
 // The YAML document of a config file's text, which must be a mapping at the top level;
 // ConfigError (station_config.hpp) naming `source_name` otherwise.

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include "drivers/station/fusion_config.hpp"
 #include "tests/support/test_data.hpp"
@@ -243,6 +245,67 @@ TEST_F(DaemonConfigTest, FrameNamesThatCollideOrTf2RefusesAreRefused) {
     }
     EXPECT_NO_THROW(parse_daemon_config(sensors_ + "output: {dds: {frame_id: site_7/fused}}\n",
                                         "s.yaml", dir_.path()));
+}
+
+// A station's frames carry output.dds.frame_prefix, so that stations sharing a domain keep
+// their tf trees apart; a segment daemon names the frame of a station's clouds
+// (source.dds.frame_id), which becomes that sensor's tf frame: station0's tree then hangs
+// below the segment's fused frame.
+TEST_F(DaemonConfigTest, AFramePrefixKeepsStationsApartAndADdsSourceNamesItsFrame) {
+    const auto station =
+        parse_daemon_config(sensors_ + "  - {name: b, udp_port: 7504, metadata: a.json}\n" +
+                                "output: {dds: {frame_prefix: station0/, frame_id: road}}\n",
+                            "s.yaml", dir_.path());
+    EXPECT_EQ(station.output.dds.frame_prefix, "station0/");
+    EXPECT_EQ(fused_frame_of(station.output.dds), "station0/road");
+    EXPECT_EQ(sensor_frames_of(station.station, station.output.dds),
+              (std::vector<std::string>{"station0/a", "station0/b"}));
+    EXPECT_EQ(fused_frame_of(parse_daemon_config(sensors_, "s.yaml", dir_.path()).output.dds),
+              "lidarfuse/fused");  // no prefix by default
+
+    const std::string segment_sensors =
+        "root: station0\nsensors:\n"
+        "  - {name: station0, source: {dds: {topic: rt/station0/points, frame_id: "
+        "station0/road}}}\n"
+        "  - {name: station1, source: {dds: {topic: rt/station1/points}}}\n";
+    const auto segment = parse_daemon_config(
+        segment_sensors + "output: {dds: {frame_id: segment}}\n", "s.yaml", dir_.path());
+    EXPECT_EQ(segment.station.sensors[0].dds->frame_id.value_or(""), "station0/road");
+    EXPECT_FALSE(segment.station.sensors[1].dds->frame_id);  // the first cloud's frame is kept
+    EXPECT_EQ(sensor_frames_of(segment.station, segment.output.dds),
+              (std::vector<std::string>{"station0/road", "station1"}));
+
+    const auto problems_of = [&](const std::string& yaml) {
+        try {
+            parse_daemon_config(yaml, "s.yaml", dir_.path());
+        } catch (const station::ConfigError& error) {
+            return error.problems();
+        }
+        return std::vector<std::string>{};
+    };
+    // The segment's own fused frame, a frame another sensor has, characters tf2 refuses.
+    EXPECT_THAT(problems_of(segment_sensors + "output: {dds: {frame_id: station0/road}}\n"),
+                ::testing::ElementsAre(
+                    "output.dds.frame_id: \"station0/road\" is also sensors[0].source.dds."
+                    "frame_id; pick a name no sensor has (the default, lidarfuse/fused, cannot "
+                    "collide)"));
+    EXPECT_THAT(
+        problems_of("root: a\n" + sensors_ +
+                    "  - {name: b, source: {dds: {topic: rt/b/points, frame_id: a}}}\n"),
+        ::testing::ElementsAre("sensors[1]: its tf frame \"a\" is also sensors[0]'s; "
+                               "each sensor needs a frame of its own (source.dds.frame_id)"));
+    EXPECT_THAT(problems_of(sensors_ +
+                            "  - {name: b, source: {dds: {topic: rt/b/points, frame_id: /b}}}\n"),
+                ::testing::ElementsAre(HasSubstr(
+                    "sensors[1].source.dds.frame_id: expected 1..128 characters of "
+                    "[A-Za-z0-9_./-], not starting with '/' (tf2 refuses a leading slash), got "
+                    "\"/b\"")));
+    EXPECT_THAT(problems_of(sensors_ + "output: {dds: {frame_prefix: \"/s\"}}\n"),
+                ::testing::ElementsAre(HasSubstr("output.dds.frame_prefix: expected 1..128")));
+    EXPECT_THAT(
+        problems_of(sensors_ + "output: {dds: {frame_prefix: " + std::string(120, 's') + "}}\n"),
+        ::testing::ElementsAre(HasSubstr("longer than tf's 128 characters")));
+    EXPECT_TRUE(problems_of(sensors_ + "output: {dds: {frame_prefix: \"\"}}\n").empty());
 }
 
 TEST_F(DaemonConfigTest, EveryDdsProblemIsListed) {

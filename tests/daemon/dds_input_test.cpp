@@ -13,6 +13,8 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <set>
+#include <sstream>
 #include <thread>
 
 #include "daemon/dds_messages.hpp"
@@ -79,6 +81,22 @@ constexpr std::int64_t kT0 = 1'763'700'000'000'000'000;
 // A 20 Hz publisher that dropped three frames (a station whose fusion fell behind).
 constexpr std::int64_t kStampMs[6] = {0, 50, 100, 200, 250, 400};
 
+// Opens `topic`'s writer and waits until `input` has matched it.
+void open_for(CloudWriters* writers, const DdsInput& input, const std::string& topic) {
+    ASSERT_TRUE(writers->ok());
+    ASSERT_TRUE(writers->open(topic));
+    ASSERT_TRUE(test::eventually([&] { return input.status().publishers > 0; }));
+}
+
+// One cloud, then a wait until `input` has taken it: a burst beyond the reader's keep-last
+// depth would replace the oldest.
+void send_one(CloudWriters* writers, const DdsInput& input, const std::string& topic,
+              const std::string& frame, const core::FusedCloud& c, std::int64_t t_ns) {
+    const std::uint64_t before = input.status().clouds;
+    ASSERT_TRUE(writers->write(topic, frame, c, t_ns));
+    ASSERT_TRUE(test::eventually([&] { return input.status().clouds == before + 1; }));
+}
+
 TEST(DdsInput, CloudsBecomeScansAndBadOnesAreRefusedAndCounted) {
     test::use_loopback_dds();
     const int domain = test::unique_domain_id();
@@ -87,20 +105,14 @@ TEST(DdsInput, CloudsBecomeScansAndBadOnesAreRefusedAndCounted) {
     sensor.name = "station1";
     sensor.time_offset_ns = -1000;
     const std::string topic = "rt/station1/points";
-    DdsInput input(&sensor, {topic, domain}, spdlog::default_logger());
+    DdsInput input(&sensor, {topic, domain, std::nullopt}, spdlog::default_logger());
     EXPECT_TRUE(sensor.metadata_known.load());  // nothing to wait for
     EXPECT_EQ(input.sensor_index(), 3u);
     input.start();
     CloudWriters writers(domain);
-    ASSERT_TRUE(writers.ok());
-    ASSERT_TRUE(writers.open(topic));
-    ASSERT_TRUE(test::eventually([&] { return input.status().publishers > 0; }));
-    // One at a time: a burst beyond the reader's keep-last depth replaces the oldest.
-    std::uint64_t sent = 0;
+    ASSERT_NO_FATAL_FAILURE(open_for(&writers, input, topic));
     const auto send = [&](const std::string& frame, const core::FusedCloud& c, std::int64_t t) {
-        ASSERT_TRUE(writers.write(topic, frame, c, t));
-        ++sent;
-        ASSERT_TRUE(test::eventually([&] { return input.status().clouds == sent; }));
+        send_one(&writers, input, topic, frame, c, t);
     };
     for (int f = 0; f < 6; ++f) {
         ASSERT_NO_FATAL_FAILURE(send("road", line_cloud(10 + f, static_cast<float>(f)),
@@ -136,6 +148,36 @@ TEST(DdsInput, CloudsBecomeScansAndBadOnesAreRefusedAndCounted) {
         EXPECT_GT(m->complete_steady_ns, 0);
     }
     EXPECT_FALSE(input.queue().try_pop());
+}
+
+// With source.dds.frame_id, the frame is known before any cloud: one in another frame is
+// refused even when it comes first (a station started with the wrong frame_prefix).
+TEST(DdsInput, AConfiguredFrameIsTheOnlyOneTakenFromTheFirstCloudOn) {
+    test::use_loopback_dds();
+    const int domain = test::unique_domain_id();
+    SensorIngest sensor;
+    sensor.name = "station0";
+    const std::string topic = "rt/station0/points";
+    DdsInput input(&sensor, {topic, domain, std::string("station0/road")},
+                   spdlog::default_logger());
+    EXPECT_EQ(input.status().frame_id, "station0/road");
+    input.start();
+    CloudWriters writers(domain);
+    ASSERT_NO_FATAL_FAILURE(open_for(&writers, input, topic));
+    std::int64_t t_ns = kT0;
+    for (const char* frame : {"road", "station0/road", "road", "station0/road"}) {
+        ASSERT_NO_FATAL_FAILURE(
+            send_one(&writers, input, topic, frame, line_cloud(10, 1.0f), t_ns));
+        t_ns += 50'000'000LL;
+    }
+    input.stop();
+    const DdsInputStatus status = input.status();
+    EXPECT_EQ(status.refused, 2u);
+    EXPECT_EQ(sensor.scans.load(), 2u);
+    EXPECT_EQ(status.frame_id, "station0/road");
+    EXPECT_THAT(status.last_error,
+                ::testing::HasSubstr(
+                    "frame_id \"road\", expected \"station0/road\" (source.dds.frame_id)"));
 }
 
 // A sensor fed by this daemon's own cloud topic would register the fused cloud against
@@ -208,6 +250,54 @@ std::size_t publish_as_driver_clouds(const station::StationConfig& station, cons
     return written;
 }
 
+// Two simulated sensors (5 s of lidarfused_test::simulate_two_sensors) that a test publishes
+// as ROS 2 driver clouds, on rt/<tag><domain>/lidar<k>/points in a domain of this process.
+class DriverTopics {
+public:
+    DriverTopics(const fs::path& dir, const std::string& tag)
+        : sim_(dir / "sim"),
+          domain_(test::unique_domain_id()),
+          prefix_("rt/" + tag + std::to_string(domain_) + "/"),
+          writers_(domain_) {}
+    int domain() const { return domain_; }
+    const fs::path& sim() const { return sim_; }
+
+    // 5 s: the initial registration (about 1 s idle, 3 s and more under a parallel ctest) is
+    // applied on the first frame after it finishes, so frames must still come then.
+    void simulate() const { lidarfused_test::simulate_two_sensors(sim_, 5.0); }
+    // The config's sensors: lidar0 and lidar1, each from its topic.
+    std::string sensors_yaml() const {
+        std::ostringstream yaml;
+        for (const char* name : {"lidar0", "lidar1"}) {
+            yaml << "  - {name: " << name << ", source: {dds: {topic: " << prefix_ << name
+                 << "/points, domain_id: " << domain_ << "}}}\n";
+        }
+        return yaml.str();
+    }
+    // Opens the writers and waits until `pipeline`'s two inputs have matched them.
+    void open_for(Pipeline* pipeline) {
+        ASSERT_TRUE(writers_.ok());
+        for (const char* name : {"lidar0", "lidar1"})
+            ASSERT_TRUE(writers_.open(prefix_ + name + "/points"));
+        ASSERT_TRUE(test::eventually([&] {
+            const auto stats = pipeline->stats();
+            return stats.sensors[0].dds->publishers > 0 && stats.sensors[1].dds->publishers > 0;
+        }));
+    }
+    // Every scan of the capture, paced as captured; the clouds written.
+    std::size_t publish() {
+        const station::StationConfig sim_station =
+            station::load_station_config(sim_ / "station.yaml");
+        return publish_as_driver_clouds(sim_station, sim_ / "capture.pcap", prefix_, &writers_);
+    }
+
+private:
+    fs::path sim_;
+    int domain_;
+    std::string prefix_;
+    CloudWriters writers_;
+};
+
 // A station whose two sensors are ROS 2 driver topics: lidarfused registers them from
 // nothing and tracks them as it would Ouster sensors. Without per-point times there is no
 // deskew, so the bound is looser than an Ouster station's (1.5 cm strict in the daemon's
@@ -215,35 +305,18 @@ std::size_t publish_as_driver_clouds(const station::StationConfig& station, cons
 TEST(DdsInputPipeline, SensorsFromDdsTopicsAreRegisteredAndFused) {
     test::use_loopback_dds();
     test::TempDir dir("ddsin");
-    const fs::path sim = dir.path() / "sim";
-    // 5 s: the initial registration (about 1 s idle, 3 s and more under a parallel ctest) is
-    // applied on the first frame after it finishes, so frames must still come then.
-    ASSERT_NO_FATAL_FAILURE(lidarfused_test::simulate_two_sensors(sim, 5.0));
-    const int domain = test::unique_domain_id();
-    const std::string prefix = "rt/ddsin" + std::to_string(domain) + "/";
+    DriverTopics drivers(dir.path(), "ddsin");
+    ASSERT_NO_FATAL_FAILURE(drivers.simulate());
+    const fs::path sim = drivers.sim();
     std::ofstream(dir.path() / "station.yaml")
         << "station: ros-drivers\nsensors:\n"
-        << "  - {name: lidar0, source: {dds: {topic: " << prefix
-        << "lidar0/points, domain_id: " << domain << "}}}\n"
-        << "  - {name: lidar1, source: {dds: {topic: " << prefix
-        << "lidar1/points, domain_id: " << domain << "}}}\n"
-        << "world: {frame: sensor}\n"
+        << drivers.sensors_yaml() << "world: {frame: sensor}\n"
         << "output: {directory: " << (dir.path() / "out").string() << ", dds: {enabled: false}}\n";
     const DaemonConfig config = load_daemon_config(dir.path() / "station.yaml");
     Pipeline pipeline(config);
     pipeline.start();
-    CloudWriters writers(domain);
-    ASSERT_TRUE(writers.ok());
-    for (const char* name : {"lidar0", "lidar1"})
-        ASSERT_TRUE(writers.open(prefix + name + "/points"));
-    ASSERT_TRUE(test::eventually([&] {
-        const auto stats = pipeline.stats();
-        return stats.sensors[0].dds->publishers > 0 && stats.sensors[1].dds->publishers > 0;
-    }));
-    const station::StationConfig sim_station = station::load_station_config(sim / "station.yaml");
-    const std::size_t written =
-        publish_as_driver_clouds(sim_station, sim / "capture.pcap", prefix, &writers);
-    EXPECT_EQ(written, 200u);  // 2 sensors x 5 s x 20 Hz
+    ASSERT_NO_FATAL_FAILURE(drivers.open_for(&pipeline));
+    EXPECT_EQ(drivers.publish(), 200u);  // 2 sensors x 5 s x 20 Hz
     // Fusion catches up (the initial registration ran beside it); then the pipeline stops.
     const PipelineStats stats = settled_stats(&pipeline);
     pipeline.stop();
@@ -281,6 +354,97 @@ TEST(DdsInputPipeline, SensorsFromDdsTopicsAreRegisteredAndFused) {
     std::printf("strict RMSE against the truth: %.2f cm / %.4f deg\n", strict_m * 100, strict_deg);
     EXPECT_LE(strict_m, 0.02) << eval;
     EXPECT_LE(strict_deg, 0.1) << eval;
+}
+
+// Every transform heard on rt/tf, by child frame: its parents (tf2 allows one) and the
+// newest transform.
+struct TfTree {
+    std::map<std::string, std::set<std::string>> parents;
+    std::map<std::string, Eigen::Isometry3d> newest;
+
+    void add(const tf2_msgs_msg_dds__TFMessage_& m) {
+        for (std::uint32_t i = 0; i < m.transforms._length; ++i) {
+            const auto& t = m.transforms._buffer[i];
+            parents[t.child_frame_id].insert(t.header.frame_id);
+            newest[t.child_frame_id] = from_ros_transform(t.transform);
+        }
+    }
+    std::string parent(const std::string& child) const {
+        const auto it = parents.find(child);
+        return it == parents.end() || it->second.size() != 1 ? "" : *it->second.begin();
+    }
+};
+
+// A road segment's frames (issue 20): a station publishes its tf tree under its frame
+// prefix, and a segment daemon whose sensor is that station's cloud names the cloud's frame
+// (source.dds.frame_id), so that the segment's tf hangs the station's tree below its own
+// fused frame: segment -> station0/lidarfuse/fused -> station0/lidar0, station0/lidar1, each
+// frame with one parent. Here the segment has one station, its root, so that the chain is
+// checked without registering stations to each other; in the segment's sensor world frame
+// the station stays where it was first seen (within 2 cm / 0.1 deg).
+TEST(DdsInputPipeline, AStationsTfTreeHangsBelowTheSegmentThatFusesItsCloud) {
+    test::use_loopback_dds();
+    test::TempDir dir("ddstf");
+    DriverTopics drivers(dir.path(), "ddstf");
+    ASSERT_NO_FATAL_FAILURE(drivers.simulate());
+    const int domain = drivers.domain();
+    const std::string dds = "dds: {domain_id: " + std::to_string(domain) + ", namespace: ";
+    std::ofstream(dir.path() / "station.yaml")
+        << "station: station0\nsensors:\n"
+        << drivers.sensors_yaml() << "output: {directory: " << (dir.path() / "s0").string() << ", "
+        << dds << "station0, frame_prefix: station0/}}\n";
+    std::ofstream(dir.path() / "segment.yaml")
+        << "station: segment\nsensors:\n"
+        << "  - {name: station0, source: {dds: {topic: rt/station0/points, domain_id: " << domain
+        << ", frame_id: station0/lidarfuse/fused}}}\n"
+        << "world: {frame: sensor}\n"
+        << "output: {directory: " << (dir.path() / "seg").string() << ", " << dds
+        << "segment, frame_id: segment}}\n";
+    Pipeline segment(load_daemon_config(dir.path() / "segment.yaml"));
+    Pipeline station(load_daemon_config(dir.path() / "station.yaml"));
+    dds_entity_t participant =
+        dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr);
+    ASSERT_GT(participant, 0);
+    test::DdsReader<tf2_msgs_msg_dds__TFMessage_> tf(
+        participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", test::reader_qos(100));
+    segment.start();
+    station.start();
+    ASSERT_NO_FATAL_FAILURE(drivers.open_for(&station));
+    ASSERT_TRUE(test::eventually([&] { return segment.stats().sensors[0].dds->publishers > 0; }));
+    TfTree tree;
+    std::atomic<bool> publishing{true};
+    std::thread listener([&] {
+        while (publishing.load()) {
+            tf.take([&](const tf2_msgs_msg_dds__TFMessage_& m) { tree.add(m); });
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        }
+    });
+    drivers.publish();
+    const PipelineStats station_stats = settled_stats(&station);
+    const PipelineStats segment_stats = settled_stats(&segment);
+    publishing.store(false);
+    listener.join();
+    tf.take([&](const tf2_msgs_msg_dds__TFMessage_& m) { tree.add(m); });
+    station.stop();
+    segment.stop();
+    dds_delete(participant);
+    if (!station_stats.sensors[1].pose_valid || segment_stats.frames_fused == 0) {
+        GTEST_SKIP() << "the station's initial registration did not finish within the run ("
+                     << segment_stats.frames_fused << " segment frames): a loaded machine or a "
+                     << "sanitizer";
+    }
+    const std::string station_frame = "station0/lidarfuse/fused";
+    EXPECT_EQ(segment_stats.sensors[0].dds->frame_id, station_frame);
+    EXPECT_EQ(segment_stats.sensors[0].dds->refused, 0u);
+    EXPECT_EQ(tree.parent(station_frame), "segment");
+    EXPECT_EQ(tree.parent("station0/lidar0"), station_frame);
+    EXPECT_EQ(tree.parent("station0/lidar1"), station_frame);
+    EXPECT_FALSE(tree.parents.count("segment"));  // the top of the tree
+    EXPECT_EQ(tree.parents.size(), 3u);           // no frame under another name
+    ASSERT_TRUE(tree.newest.count(station_frame));
+    const Eigen::Isometry3d& T_segment_station = tree.newest.at(station_frame);
+    EXPECT_LT(T_segment_station.translation().norm(), 0.02);
+    EXPECT_LT(Eigen::AngleAxisd(T_segment_station.rotation()).angle() * 180.0 / M_PI, 0.1);
 }
 
 // A street corner as a sensor sees it (its frame, metres): a floor and two walls, enough for

@@ -111,7 +111,7 @@ TEST(StationCapture, ADdsSourceIsRefusedNamingTheSensorAndTopic) {
     station::StationConfig config;
     station::SensorConfig sensor;
     sensor.name = "station1";
-    sensor.dds = station::DdsSource{"rt/station1/points", 0};
+    sensor.dds = station::DdsSource{"rt/station1/points", 0, std::nullopt};
     config.sensors.push_back(sensor);
     try {
         StationCapture capture(config, dir.path() / "none.pcap");
