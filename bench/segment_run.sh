@@ -4,17 +4,21 @@
 # captures replayed into it, its fused cloud on rt/station<j>/points), and a segment
 # lidarfused whose sensors are those clouds (station.yaml `source: {dds: ...}`). The
 # segment's poses of every station are compared with the simulator's truth (`lidarfuse
-# eval`, station0 as the root; a station's truth is its root sensor's first pose, since a
-# station publishes in its root sensor's first frame with `world: {frame: sensor}`).
+# eval`, station0 as the root).
 #   bench/segment_run.sh BUILD_DIR [STATIONS=2] [SENSORS=4] [SECONDS=16] [RATE=0.3]
-#       [SPACING_M=80] [STATION_WORLD=sensor]
+#       [SPACING_M=80] [STATION_WORLD=road]
 # RATE slows the replays so that K stations' daemons and the segment's share 2 cores.
-# STATION_WORLD=road publishes the stations' clouds in their road frames instead.
+# STATION_WORLD=road (default): the stations publish in their road frames and the segment
+# registers them with `registration.initial_method: stations` (core/initial/
+# station_registration.hpp); a station's truth is its road frame in the simulator's world
+# (segment_registration_bench truth). STATION_WORLD=sensor: in their root sensors' first
+# frames, registered by the features (the mirrored pose of bench/BENCHMARK.md); a station's
+# truth is then its root sensor's first pose.
 # Loopback DDS (domain 77), ports 7502 + 100 j + 2 k; prints `name value unit`, and keeps
 # the daemons' logs and outputs in the printed folder.
 set -euo pipefail
 build="$(cd "$1" && pwd)"; stations="${2:-2}"; sensors="${3:-4}"; seconds="${4:-16}"
-rate="${5:-0.3}"; spacing="${6:-80}"; station_world="${7:-sensor}"
+rate="${5:-0.3}"; spacing="${6:-80}"; station_world="${7:-road}"
 tool="$build/tools/lidarfuse"; daemon="$build/daemon/lidarfused"
 work="$(mktemp -d /tmp/lidarfuse-segment.XXXXXX)"
 domain=77
@@ -30,6 +34,7 @@ export CYCLONEDDS_URI='<General><Interfaces><NetworkInterface name="lo"/></Inter
         echo "  - {name: station$j, source: {dds: {topic: rt/station$j/points, domain_id: $domain, frame_id: station$j/lidarfuse/fused}}}"
     done
     echo "world: {frame: sensor}"
+    [ "$station_world" = road ] && echo "registration: {initial_method: stations}"
     echo "output: {directory: $work/segment, dds: {domain_id: $domain, namespace: segment}}"
 } >"$work/segment.yaml"
 pids=()
@@ -63,16 +68,22 @@ kill -TERM "${pids[@]}"; wait "${pids[@]}" || true
 sleep 3
 kill -TERM "$segment_pid"; wait "$segment_pid" || true
 
-# The truth of station j in the segment: the frame its cloud is published in, its root
-# sensor (lidar0) at its first frame in the road's one frame, at every stamp (a station's
-# sensor world frame does not sway with its root; its first fused frame may be a few
-# frames after the capture's first, a few mm of sway).
+# The truth of station j in the segment: the frame its cloud is published in, at every
+# stamp of its root. road: its road frame (fixed once) in the simulator's world. sensor: its
+# root sensor (lidar0) at its first frame (a station's sensor world frame does not sway with
+# its root; its first fused frame may be a few frames after the capture's first, a few mm
+# of sway).
 {
     echo "frame,sensor,t_ns,x,y,z,qw,qx,qy,qz"
     for j in $(seq 0 $((stations - 1))); do
-        awk -F, -v name="station$j" 'NR > 1 && $2 == "lidar0" {
-            if (!pose) pose = $4 "," $5 "," $6 "," $7 "," $8 "," $9 "," $10
-            print $1 "," name "," $3 "," pose }' "$work/sim/station$j/ground_truth.csv"
+        if [ "$station_world" = road ]; then
+            "$build/bench/segment_registration_bench" truth "$work/sim/station$j" \
+                "$work/station$j/poses.csv" "station$j" | tail -n +2
+        else
+            awk -F, -v name="station$j" 'NR > 1 && $2 == "lidar0" {
+                if (!pose) pose = $4 "," $5 "," $6 "," $7 "," $8 "," $9 "," $10
+                print $1 "," name "," $3 "," pose }' "$work/sim/station$j/ground_truth.csv"
+        fi
     done
 } >"$work/segment_truth.csv"
 for j in $(seq 1 $((stations - 1))); do

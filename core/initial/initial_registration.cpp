@@ -9,6 +9,7 @@
 #include "core/common/se3.hpp"
 #include "core/common/stopwatch.hpp"
 #include "core/initial/edge_consensus.hpp"
+#include "core/initial/station_registration.hpp"
 
 namespace lidarfuse::core {
 
@@ -403,6 +404,9 @@ StageTimeSums sum_stage_timings(const InitialRegistrationResult& result) {
 InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds,
                                            const InitialRegistrationParams& params,
                                            int num_threads) {
+    if (params.method == InitialRegistrationMethod::kStations) {
+        return register_stations(clouds, params, num_threads);
+    }
     const Stopwatch whole;
     InitialRegistrationResult result;
     const std::size_t n = clouds.size();

@@ -34,11 +34,35 @@
 #include "core/graph/pose_graph.hpp"
 #include "core/initial/edge_consensus.hpp"
 #include "core/initial/edge_polish.hpp"
+#include "core/initial/road_grid_search.hpp"
 #include "core/registration/pair_registration.hpp"
 
 namespace lidarfuse::core {
 
+// How the sensors are placed against each other from nothing.
+enum class InitialRegistrationMethod {
+    kFeatures,  // the paper's: one station's sensors, each in its own sensor frame
+    kStations,  // a road segment's stations, each cloud in its road frame
+                // (station_registration.hpp)
+};
+
+// Ours (issue 20): the stations' initial registration (station_registration.hpp).
+struct StationRegistrationParams {
+    RoadGridSearchParams search{};
+    double gicp_voxel_m = 0.5;  // the G-ICP clouds' voxel
+    int covariance_neighbors = 10;
+    // One G-ICP run per bound (m), each from the previous result.
+    std::vector<double> gicp_max_correspondence_m{1.5, 0.5};
+    // G-ICP may move the grid's placement this far (m at the source origin, deg) and must
+    // keep this many inliers; otherwise the pair is refused.
+    double max_refinement_move_m = 1.5;
+    double max_refinement_move_deg = 1.5;
+    std::size_t min_inliers = 200;
+};
+
 struct InitialRegistrationParams {
+    InitialRegistrationMethod method = InitialRegistrationMethod::kFeatures;
+    StationRegistrationParams stations{};
     SensorFeatureParams features{};
     PairRegistrationParams pair{};
     PoseGraphParams pose_graph{};

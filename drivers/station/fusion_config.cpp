@@ -6,17 +6,27 @@ namespace lidarfuse::station {
 
 namespace {
 
+// registration.initial_method: features (one station's sensors) or stations (a segment
+// daemon's sensors are stations' fused clouds in their road frames).
+void read_initial_method(YamlReader& r, const YAML::Node& n, core::InitialRegistrationParams* p) {
+    if (const auto k = r.choice(n, "registration.initial_method", {"features", "stations"})) {
+        p->method = *k == 0 ? core::InitialRegistrationMethod::kFeatures
+                            : core::InitialRegistrationMethod::kStations;
+    }
+}
+
 // The parameters PAPER.md names are all here: voxel sizes, k_w, r_c, RANSAC iterations,
 // Huber delta (and the attenuation, under dynamics).
 void read_registration(YamlReader& r, const YAML::Node& n, core::FusionParams* f) {
     if (!n || !r.optional_map(n, "registration")) return;
     const std::string p = "registration.";
-    r.only_keys(
-        n, "registration",
-        {"voxel_size_m", "window_frames", "covariance_neighbors", "correspondence_factor",
-         "huber_delta", "deskew", "min_fitness", "max_jump_m", "max_jump_deg", "divergence_frames",
-         "retry_interval_frames", "threads", "initial_max_voxel_size_m", "initial_min_voxel_size_m",
-         "ransac_iterations", "ransac_inlier_threshold_m", "p2p_cutoff_m", "seed"});
+    r.only_keys(n, "registration",
+                {"voxel_size_m", "window_frames", "covariance_neighbors", "correspondence_factor",
+                 "huber_delta", "deskew", "min_fitness", "max_jump_m", "max_jump_deg",
+                 "divergence_frames", "retry_interval_frames", "threads",
+                 "initial_max_voxel_size_m", "initial_min_voxel_size_m", "ransac_iterations",
+                 "ransac_inlier_threshold_m", "p2p_cutoff_m", "seed", "initial_method"});
+    read_initial_method(r, n["initial_method"], &f->initial);
     set_if(r.number(n["voxel_size_m"], p + "voxel_size_m", 0.05, 20, false), &f->voxel_size_m);
     set_if(r.integer(n["window_frames"], p + "window_frames", 2, 100, false), &f->window_frames);
     if (const auto k =
