@@ -161,6 +161,64 @@ TEST(CalibrateCommand, EveryStationOfARoadSegmentRegistersOnItsOwn) {
     }
 }
 
+// Station j's road frame in the simulator's world at `frame`: its root's true pose times the
+// inverse of the station's estimate of it (its fused frame is that road frame).
+Eigen::Isometry3d world_from_road(const std::string& sim, const std::string& poses, int frame) {
+    Eigen::Isometry3d truth = Eigen::Isometry3d::Identity(), estimate = truth;
+    for (const auto& r : io::read_pose_csv(sim + "/ground_truth.csv"))
+        if (r.frame == frame && r.sensor == "lidar0") truth = r.pose;
+    for (const auto& r : io::read_pose_csv(poses))
+        if (r.frame == frame && r.sensor == "lidar0") estimate = r.pose;
+    return truth * estimate.inverse();
+}
+
+// The same segment as one registration (issue 20): each station fused in its road frame,
+// and `calibrate --cloud` of the two fused clouds with `registration.initial_method:
+// stations` places station1 against station0 from nothing, within 5 cm / 0.1 deg of the
+// truth (bench/segment_registration_check.sh: 0.7-2.8 cm / 0.012-0.047 deg at 60-80 m).
+TEST(CalibrateCommand, TwoStationsOfARoadSegmentArePlacedFromTheirFusedClouds) {
+    test::TempDir dir("calibrate_stations");
+    const std::string d = dir.path().string(), tool = test::tool_path();
+    std::string out;
+    ASSERT_EQ(test::run_command(tool +
+                                    " sim --scenario straight --stations 2 "
+                                    "--sensors-per-station 4 --seconds 0.35 --seed 2 --quiet "
+                                    "--out " +
+                                    d + "/sim",
+                                &out),
+              0)
+        << out;
+    for (const char* j : {"0", "1"}) {
+        const std::string station = d + "/sim/station" + j;
+        ASSERT_EQ(test::run_command(tool + " fuse " + station + "/capture.pcap --config " +
+                                        station + "/station.yaml --out " + d + "/F" + j +
+                                        " --world road --save-cloud 5 --quiet",
+                                    &out),
+                  0)
+            << out;
+    }
+    std::ofstream(d + "/segment.yaml") << "registration: {initial_method: stations}\n";
+    ASSERT_EQ(test::run_command(tool + " calibrate --cloud station0=" + d +
+                                    "/F0/fused_5.ply --cloud station1=" + d +
+                                    "/F1/fused_5.ply --config " + d + "/segment.yaml --out " + d +
+                                    "/extrinsics.yaml --quiet",
+                                &out),
+              0)
+        << out;
+    const auto estimates = read_extrinsics(d + "/extrinsics.yaml");
+    ASSERT_TRUE(estimates.at("station1").registered) << out;
+    const Eigen::Isometry3d truth =
+        world_from_road(d + "/sim/station0", d + "/F0/poses.csv", 5).inverse() *
+        world_from_road(d + "/sim/station1", d + "/F1/poses.csv", 5);
+    const Eigen::Isometry3d error = truth.inverse() * estimates.at("station1").T_root_sensor;
+    std::printf("station1 against the truth: %.2f cm / %.3f deg (%.1f m away)\n",
+                error.translation().norm() * 100,
+                Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI,
+                truth.translation().norm());
+    EXPECT_LT(error.translation().norm(), 0.05) << out;
+    EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI, 0.1) << out;
+}
+
 TEST(CalibrateCommand, MissingCaptureFailsWithItsName) {
     test::TempDir dir("calibrate_bad");
     const std::string d = dir.path().string();
