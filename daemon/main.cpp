@@ -152,10 +152,35 @@ std::string log_started(spdlog::logger& log, const Pipeline& pipeline, const Dae
     return ports;
 }
 
-// Once a second: systemd's STATUS= line and every sensor's counters (debug).
-void report(spdlog::logger& log, const Pipeline& pipeline, const SystemdNotifier& notifier) {
+// A sensor's change of state, once: to a degraded state at warning, back to OK at info.
+// `previous` holds each sensor's state at the last report (empty before the first, whose
+// states are taken as they are).
+void log_state_changes(spdlog::logger& log, const PipelineStats& st,
+                       std::vector<SensorState>* previous) {
+    if (previous->size() != st.sensors.size()) {
+        for (const auto& s : st.sensors) previous->push_back(s.state);
+        return;
+    }
+    for (std::size_t i = 0; i < st.sensors.size(); ++i) {
+        const SensorState was = (*previous)[i], now = st.sensors[i].state;
+        if (now == was) continue;
+        (*previous)[i] = now;
+        if (now == SensorState::kOk) {
+            log.info("sensor \"{}\": OK (was {})", st.sensors[i].name, to_string(was));
+        } else {
+            log.warn("sensor \"{}\": {} (was {})", st.sensors[i].name, to_string(now),
+                     to_string(was));
+        }
+    }
+}
+
+// Once a second: systemd's STATUS= line, every sensor's change of state, and every sensor's
+// counters (debug).
+void report(spdlog::logger& log, const Pipeline& pipeline, const SystemdNotifier& notifier,
+            std::vector<SensorState>* states) {
     const auto st = pipeline.stats();
     notifier.status(status_line(st));
+    log_state_changes(log, st, states);
     for (const auto& s : st.sensors) {
         log.debug("{}: {} packets {} scans {} bad {} late {} completeness {:.3f} track {}", s.name,
                   to_string(s.state), s.packets, s.scans, s.bad_packets, s.late_packets,
@@ -169,6 +194,7 @@ void run_until_stopped(const sigset_t& signals, spdlog::logger& log, Pipeline& p
                        const SystemdNotifier& notifier) {
     const auto watchdog_period = notifier.watchdog_period().value_or(std::chrono::seconds(5));
     auto last_report = std::chrono::steady_clock::now();
+    std::vector<SensorState> states;
     while (true) {
         timespec timeout{0, 200'000'000};
         const int sig = sigtimedwait(&signals, nullptr, &timeout);
@@ -182,7 +208,7 @@ void run_until_stopped(const sigset_t& signals, spdlog::logger& log, Pipeline& p
         if (now - pipeline.heartbeat() < 2 * watchdog_period) notifier.watchdog();
         if (now - last_report >= std::chrono::seconds(1)) {
             last_report = now;
-            report(log, pipeline, notifier);
+            report(log, pipeline, notifier, &states);
         }
     }
 }
