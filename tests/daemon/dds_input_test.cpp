@@ -21,6 +21,7 @@
 #include "daemon/pipeline.hpp"
 #include "daemon/status_line.hpp"
 #include "drivers/capture/station_capture.hpp"
+#include "tests/daemon/dds_sources.hpp"
 #include "tests/daemon/dds_test_support.hpp"
 #include "tests/daemon/lidarfused_test_support.hpp"
 
@@ -28,43 +29,9 @@ namespace lidarfuse::daemon {
 namespace {
 
 namespace fs = std::filesystem;
-
-// A writer per topic in one domain, sending the daemon's own cloud messages, whose frame
-// is each cloud's `frame_id`.
-class CloudWriters {
-public:
-    explicit CloudWriters(int domain)
-        : participant_(
-              dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr)) {}
-    ~CloudWriters() { dds_delete(participant_); }
-    bool ok() const { return participant_ > 0; }
-
-    // Creates the topic's writer (before a reader should wait for it); false on failure.
-    bool open(const std::string& topic) {
-        if (writers_.count(topic)) return true;
-        const dds_entity_t t = dds_create_topic(
-            participant_, &sensor_msgs_msg_dds__PointCloud2__desc, topic.c_str(), nullptr, nullptr);
-        if (t < 0) return false;
-        dds_qos_t* qos = test::reader_qos(16);
-        const dds_entity_t w = dds_create_writer(participant_, t, qos, nullptr);
-        dds_delete_qos(qos);
-        if (w < 0) return false;
-        writers_.emplace(topic, w);
-        return true;
-    }
-    bool write(const std::string& topic, const std::string& frame_id, const core::FusedCloud& c,
-               std::int64_t stamp_ns) {
-        if (!open(topic)) return false;
-        FrameMessageBuilder builder({"test", frame_id, {"unused"}, 0});
-        FrameStamps stamps;
-        stamps.frame_ns = stamp_ns;
-        return dds_write(writers_.at(topic), &builder.cloud(c, stamps)) == DDS_RETCODE_OK;
-    }
-
-private:
-    dds_entity_t participant_;
-    std::map<std::string, dds_entity_t> writers_;
-};
+using dds_sources::CloudWriters;
+using dds_sources::DriverTopics;
+using dds_sources::settled_stats;
 
 core::FusedCloud line_cloud(int n, float y) {
     core::FusedCloud c;
@@ -205,99 +172,6 @@ TEST(DdsInputPipeline, TheDaemonsOwnCloudTopicIsRefusedAsASource) {
     }
 }
 
-// The pipeline's figures once each reader has made a scan of every cloud it took (a cloud is
-// counted when taken, its scan after its points are copied: a snapshot between the two, slow
-// under the sanitizers, differs by one) and fusion has stopped taking frames (or after 1 s).
-PipelineStats settled_stats(Pipeline* pipeline) {
-    std::uint64_t fused = 0;
-    test::eventually(
-        [&] {
-            const PipelineStats now = pipeline->stats();
-            bool settled = now.frames_fused == fused && now.frames_fused > 0;
-            for (const auto& sensor : now.sensors)
-                settled = settled && sensor.dds && sensor.scans == sensor.dds->clouds;
-            fused = now.frames_fused;
-            return settled;
-        },
-        1000);
-    return pipeline->stats();
-}
-
-// A ROS 2 driver's view of a simulated station: each Ouster scan of `capture` as a
-// PointCloud2 in its sensor's frame, stamped with the scan time, on its own topic, paced
-// as captured. Returns the clouds written.
-std::size_t publish_as_driver_clouds(const station::StationConfig& station, const fs::path& capture,
-                                     const std::string& prefix, CloudWriters* writers) {
-    capture::StationCapture scans(station, capture);
-    std::size_t written = 0;
-    std::int64_t first_capture_ns = 0;
-    const auto start = std::chrono::steady_clock::now();
-    scans.run([&](const capture::CaptureScan& scan) {
-        if (first_capture_ns == 0) first_capture_ns = scan.capture_time_ns;
-        std::this_thread::sleep_until(
-            start + std::chrono::nanoseconds(scan.capture_time_ns - first_capture_ns));
-        core::FusedCloud cloud;
-        for (const auto& p : scan.cloud->cloud.points) {
-            cloud.points.push_back(p.cast<float>());
-            cloud.intensity.push_back(0.0f);
-            cloud.sensor.push_back(0);
-            cloud.dynamic.push_back(0);
-        }
-        const std::string& name = station.sensors[scan.sensor].name;
-        if (writers->write(prefix + name + "/points", name, cloud, scan.t_ns)) ++written;
-        return true;
-    });
-    return written;
-}
-
-// Two simulated sensors (5 s of lidarfused_test::simulate_two_sensors) that a test publishes
-// as ROS 2 driver clouds, on rt/<tag><domain>/lidar<k>/points in a domain of this process.
-class DriverTopics {
-public:
-    DriverTopics(const fs::path& dir, const std::string& tag)
-        : sim_(dir / "sim"),
-          domain_(test::unique_domain_id()),
-          prefix_("rt/" + tag + std::to_string(domain_) + "/"),
-          writers_(domain_) {}
-    int domain() const { return domain_; }
-    const fs::path& sim() const { return sim_; }
-
-    // 5 s: the initial registration (about 1 s idle, 3 s and more under a parallel ctest) is
-    // applied on the first frame after it finishes, so frames must still come then.
-    void simulate() const { lidarfused_test::simulate_two_sensors(sim_, 5.0); }
-    // The config's sensors: lidar0 and lidar1, each from its topic.
-    std::string sensors_yaml() const {
-        std::ostringstream yaml;
-        for (const char* name : {"lidar0", "lidar1"}) {
-            yaml << "  - {name: " << name << ", source: {dds: {topic: " << prefix_ << name
-                 << "/points, domain_id: " << domain_ << "}}}\n";
-        }
-        return yaml.str();
-    }
-    // Opens the writers and waits until `pipeline`'s two inputs have matched them.
-    void open_for(Pipeline* pipeline) {
-        ASSERT_TRUE(writers_.ok());
-        for (const char* name : {"lidar0", "lidar1"})
-            ASSERT_TRUE(writers_.open(prefix_ + name + "/points"));
-        ASSERT_TRUE(test::eventually([&] {
-            const auto stats = pipeline->stats();
-            return stats.sensors[0].dds->publishers > 0 && stats.sensors[1].dds->publishers > 0;
-        }));
-    }
-    // Every scan of the capture, paced as captured; the clouds written.
-    std::size_t publish() {
-        const station::StationConfig sim_station =
-            station::load_station_config(sim_ / "station.yaml");
-        return publish_as_driver_clouds(sim_station, sim_ / "capture.pcap", prefix_, &writers_);
-    }
-
-private:
-    fs::path sim_;
-    int domain_;
-    std::string prefix_;
-    CloudWriters writers_;
-};
-
 // A station whose two sensors are ROS 2 driver topics: lidarfused registers them from
 // nothing and tracks them as it would Ouster sensors. Without per-point times there is no
 // deskew, so the bound is looser than an Ouster station's (1.5 cm strict in the daemon's
@@ -354,97 +228,6 @@ TEST(DdsInputPipeline, SensorsFromDdsTopicsAreRegisteredAndFused) {
     std::printf("strict RMSE against the truth: %.2f cm / %.4f deg\n", strict_m * 100, strict_deg);
     EXPECT_LE(strict_m, 0.02) << eval;
     EXPECT_LE(strict_deg, 0.1) << eval;
-}
-
-// Every transform heard on rt/tf, by child frame: its parents (tf2 allows one) and the
-// newest transform.
-struct TfTree {
-    std::map<std::string, std::set<std::string>> parents;
-    std::map<std::string, Eigen::Isometry3d> newest;
-
-    void add(const tf2_msgs_msg_dds__TFMessage_& m) {
-        for (std::uint32_t i = 0; i < m.transforms._length; ++i) {
-            const auto& t = m.transforms._buffer[i];
-            parents[t.child_frame_id].insert(t.header.frame_id);
-            newest[t.child_frame_id] = from_ros_transform(t.transform);
-        }
-    }
-    std::string parent(const std::string& child) const {
-        const auto it = parents.find(child);
-        return it == parents.end() || it->second.size() != 1 ? "" : *it->second.begin();
-    }
-};
-
-// A road segment's frames (issue 20): a station publishes its tf tree under its frame
-// prefix, and a segment daemon whose sensor is that station's cloud names the cloud's frame
-// (source.dds.frame_id), so that the segment's tf hangs the station's tree below its own
-// fused frame: segment -> station0/lidarfuse/fused -> station0/lidar0, station0/lidar1, each
-// frame with one parent. Here the segment has one station, its root, so that the chain is
-// checked without registering stations to each other; in the segment's sensor world frame
-// the station stays where it was first seen (within 2 cm / 0.1 deg).
-TEST(DdsInputPipeline, AStationsTfTreeHangsBelowTheSegmentThatFusesItsCloud) {
-    test::use_loopback_dds();
-    test::TempDir dir("ddstf");
-    DriverTopics drivers(dir.path(), "ddstf");
-    ASSERT_NO_FATAL_FAILURE(drivers.simulate());
-    const int domain = drivers.domain();
-    const std::string dds = "dds: {domain_id: " + std::to_string(domain) + ", namespace: ";
-    std::ofstream(dir.path() / "station.yaml")
-        << "station: station0\nsensors:\n"
-        << drivers.sensors_yaml() << "output: {directory: " << (dir.path() / "s0").string() << ", "
-        << dds << "station0, frame_prefix: station0/}}\n";
-    std::ofstream(dir.path() / "segment.yaml")
-        << "station: segment\nsensors:\n"
-        << "  - {name: station0, source: {dds: {topic: rt/station0/points, domain_id: " << domain
-        << ", frame_id: station0/lidarfuse/fused}}}\n"
-        << "world: {frame: sensor}\n"
-        << "output: {directory: " << (dir.path() / "seg").string() << ", " << dds
-        << "segment, frame_id: segment}}\n";
-    Pipeline segment(load_daemon_config(dir.path() / "segment.yaml"));
-    Pipeline station(load_daemon_config(dir.path() / "station.yaml"));
-    dds_entity_t participant =
-        dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr);
-    ASSERT_GT(participant, 0);
-    test::DdsReader<tf2_msgs_msg_dds__TFMessage_> tf(
-        participant, &tf2_msgs_msg_dds__TFMessage__desc, "rt/tf", test::reader_qos(100));
-    segment.start();
-    station.start();
-    ASSERT_NO_FATAL_FAILURE(drivers.open_for(&station));
-    ASSERT_TRUE(test::eventually([&] { return segment.stats().sensors[0].dds->publishers > 0; }));
-    TfTree tree;
-    std::atomic<bool> publishing{true};
-    std::thread listener([&] {
-        while (publishing.load()) {
-            tf.take([&](const tf2_msgs_msg_dds__TFMessage_& m) { tree.add(m); });
-            std::this_thread::sleep_for(std::chrono::milliseconds(5));
-        }
-    });
-    drivers.publish();
-    const PipelineStats station_stats = settled_stats(&station);
-    const PipelineStats segment_stats = settled_stats(&segment);
-    publishing.store(false);
-    listener.join();
-    tf.take([&](const tf2_msgs_msg_dds__TFMessage_& m) { tree.add(m); });
-    station.stop();
-    segment.stop();
-    dds_delete(participant);
-    if (!station_stats.sensors[1].pose_valid || segment_stats.frames_fused == 0) {
-        GTEST_SKIP() << "the station's initial registration did not finish within the run ("
-                     << segment_stats.frames_fused << " segment frames): a loaded machine or a "
-                     << "sanitizer";
-    }
-    const std::string station_frame = "station0/lidarfuse/fused";
-    EXPECT_EQ(segment_stats.sensors[0].dds->frame_id, station_frame);
-    EXPECT_EQ(segment_stats.sensors[0].dds->refused, 0u);
-    EXPECT_EQ(tree.parent(station_frame), "segment");
-    EXPECT_EQ(tree.parent("station0/lidar0"), station_frame);
-    EXPECT_EQ(tree.parent("station0/lidar1"), station_frame);
-    EXPECT_FALSE(tree.parents.count("segment"));  // the top of the tree
-    EXPECT_EQ(tree.parents.size(), 3u);           // no frame under another name
-    ASSERT_TRUE(tree.newest.count(station_frame));
-    const Eigen::Isometry3d& T_segment_station = tree.newest.at(station_frame);
-    EXPECT_LT(T_segment_station.translation().norm(), 0.02);
-    EXPECT_LT(Eigen::AngleAxisd(T_segment_station.rotation()).angle() * 180.0 / M_PI, 0.1);
 }
 
 // A street corner as a sensor sees it (its frame, metres): a floor and two walls, enough for
