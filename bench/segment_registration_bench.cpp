@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "core/common/angles.hpp"
+#include "core/common/se3.hpp"
 #include "core/initial/initial_registration.hpp"
 #include "core/initial/road_grid_search.hpp"
 #include "drivers/io/cloud_file.hpp"
@@ -117,9 +118,10 @@ void run_case(const fs::path& dir, std::int64_t frame, int threads) {
     std::printf("%s_registration_time %.1f ms\n", name.c_str(), registered.timings.total_s * 1e3);
     if (!registered.sensors[1].registered) return;
     const Eigen::Isometry3d error = truth.inverse() * registered.sensors[1].T_root_sensor;
-    std::printf("%s_error %.3f m\n", name.c_str(), error.translation().norm());
+    std::printf("%s_error %.3f m\n", name.c_str(),
+                core::translation_error_m(registered.sensors[1].T_root_sensor, truth));
     std::printf("%s_error_rotation %.3f deg\n", name.c_str(),
-                Eigen::AngleAxisd(error.linear()).angle() * 180.0 / core::kPi);
+                core::rotation_error_deg(registered.sensors[1].T_root_sensor, truth));
     std::printf("%s_error_yaw %.3f deg\n", name.c_str(), yaw_deg(error));
     // Between the two road frames' up axes: roll and pitch together.
     std::printf("%s_error_tilt %.3f deg\n", name.c_str(),

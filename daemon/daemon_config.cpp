@@ -184,7 +184,7 @@ void read_output(YamlReader& r, const YAML::Node& n, const std::filesystem::path
     read_record(r, n["record"], base, &c->record);
 }
 
-// What makes a sensor's tf frame collide with `other`, for the config's message.
+// Where sensors[i]'s tf frame comes from, for a message about a frame it collides with.
 std::string frame_source(const station::StationConfig& station, std::size_t i) {
     const std::string at = "sensors[" + std::to_string(i) + "]";
     return station.sensors[i].dds && station.sensors[i].dds->frame_id

@@ -95,10 +95,6 @@ SensorRegistrationStatus from_features(SensorFeatureStatus status) {
     return SensorRegistrationStatus::kEmptyCloud;
 }
 
-bool cancel_requested(const InitialRegistrationParams& params) {
-    return params.cancel != nullptr && params.cancel->load(std::memory_order_acquire);
-}
-
 // One report at a time: the callback need not be thread-safe.
 void report_progress(const InitialRegistrationParams& params, const char* stage, std::size_t done,
                      std::size_t total) {
@@ -131,7 +127,7 @@ std::vector<SensorFeatures> compute_all_features(const std::vector<PointCloud>& 
     const int inner = std::max(1, threads / outer);
 #pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
     for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
-        if (cancel_requested(params)) continue;
+        if (params.cancel_requested()) continue;
         features[i] =
             compute_sensor_features(clouds[i], params.features, params.min_keypoints, inner);
         report_progress(params, "features", ++done, n);
@@ -160,7 +156,7 @@ std::vector<PairResult> register_all_pairs(const std::vector<SensorFeatures>& fe
     const int inner = std::max(1, threads / outer);
 #pragma omp parallel for num_threads(outer) schedule(dynamic, 1)
     for (std::int64_t e = 0; e < n_pairs; ++e) {
-        if (cancel_requested(params)) continue;
+        if (params.cancel_requested()) continue;
         const int i = pairs[e].source;
         const int j = pairs[e].target;
         pairs[e] = register_pair(features[i], features[j], i, j, params.pair, inner);
@@ -418,13 +414,13 @@ InitialRegistrationResult register_initial(const std::vector<PointCloud>& clouds
     Stopwatch stage;
     const std::vector<SensorFeatures> features = compute_all_features(clouds, params, threads);
     result.timings.features_s = stage.seconds();
-    if (cancel_requested(params)) return cancelled(std::move(result), whole);
+    if (params.cancel_requested()) return cancelled(std::move(result), whole);
 
     // Steps 5-8 for every pair i > j, pairs in parallel.
     stage.restart();
     result.pairs = register_all_pairs(features, params, threads);
     result.timings.pairs_s = stage.seconds();
-    if (cancel_requested(params)) return cancelled(std::move(result), whole);
+    if (params.cancel_requested()) return cancelled(std::move(result), whole);
 
     // Step 9: pose graph over the good pairs, root fixed; drop edges that break cycle
     // consistency, one at a time (the worst first), and solve again.

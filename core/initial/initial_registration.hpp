@@ -57,8 +57,8 @@ struct StationRegistrationParams {
     // fine cells and a few fine yaw steps, which is how far the grid's best can be from the
     // optimum; farther, G-ICP left for another basin. And it must keep this many inliers
     // (G-ICP voxels, about 250 m^2 of shared surface at 0.5 m): the placements measured
-    // kept 2,183-10,264 where right, 581 where 3 m off (bench/BENCHMARK.md, "A road segment
-    // over DDS"). Otherwise the pair is refused.
+    // kept 2,183-10,264 where right, 581 where 3 m off (bench/BENCHMARK.md, "The stations
+    // placed on the road's grid"). Otherwise the pair is refused.
     double max_refinement_move_m = 1.0;
     double max_refinement_move_deg = 1.0;
     std::size_t min_inliers = 1000;
@@ -97,6 +97,9 @@ struct InitialRegistrationParams {
     // job is cancelled when the daemon stops): once set, the remaining work is skipped
     // and no sensor is registered (status kCancelled). Must outlive the call.
     const std::atomic<bool>* cancel = nullptr;
+    bool cancel_requested() const {
+        return cancel != nullptr && cancel->load(std::memory_order_acquire);
+    }
     // Optional progress report (a command line's progress): the stage ("features", "pairs",
     // "pose graph"), how many of its items are done and how many there are. Called from
     // the worker threads, one call at a time.

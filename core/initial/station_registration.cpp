@@ -4,7 +4,7 @@
 #include <cmath>
 #include <utility>
 
-#include "core/common/angles.hpp"
+#include "core/common/se3.hpp"
 #include "core/common/stopwatch.hpp"
 #include "core/preprocess/normals.hpp"
 #include "core/preprocess/voxel_grid.hpp"
@@ -22,10 +22,6 @@ struct StationEdge {
     double rival_share = 1.0;
     Eigen::Isometry3d T_target_source = Eigen::Isometry3d::Identity();
 };
-
-bool stop_requested(const InitialRegistrationParams& params) {
-    return params.cancel != nullptr && params.cancel->load(std::memory_order_acquire);
-}
 
 GicpCloud gicp_cloud(const PointCloud& cloud, const StationRegistrationParams& p, int threads) {
     VoxelGridParams voxels;
@@ -57,11 +53,9 @@ StationEdge place(const PointCloud& target, const PointCloud& source, const Gicp
         result = align_gicp(target_gicp, source_gicp, T, g, threads);
         T = result.T_target_source;
     }
-    const Eigen::Isometry3d move = grid.T_target_source.inverse() * T;
-    const double move_deg = Eigen::AngleAxisd(move.linear()).angle() * 180.0 / kPi;
     edge.placed = result.num_inliers >= p.min_inliers &&
-                  move.translation().norm() <= p.max_refinement_move_m &&
-                  move_deg <= p.max_refinement_move_deg;
+                  translation_error_m(T, grid.T_target_source) <= p.max_refinement_move_m &&
+                  rotation_error_deg(T, grid.T_target_source) <= p.max_refinement_move_deg;
     edge.T_target_source = T;
     return edge;
 }
@@ -82,7 +76,7 @@ std::vector<StationEdge> place_pairs(const std::vector<PointCloud>& clouds,
     std::vector<StationEdge> edges;
     for (std::size_t i = 1; i < clouds.size(); ++i) {
         for (std::size_t j = 0; j < i; ++j) {
-            if (stop_requested(params)) return edges;
+            if (params.cancel_requested()) return edges;
             StationEdge e;
             if (!clouds[i].points.empty() && !clouds[j].points.empty())
                 e = place(clouds[j], clouds[i], gicp[j], gicp[i], params, threads);
@@ -134,12 +128,12 @@ InitialRegistrationResult register_stations(const std::vector<PointCloud>& cloud
     const Stopwatch pairs;
     const std::vector<StationEdge> edges = place_pairs(clouds, params, threads);
     result.timings.pairs_s = pairs.seconds();
-    if (stop_requested(params)) {
+    if (params.cancel_requested()) {
         for (auto& s : result.sensors) s.status = SensorRegistrationStatus::kCancelled;
     } else if (!clouds[0].points.empty()) {
         join_from_root(edges, &result);
     }
-    for (std::size_t i = 0; i < clouds.size() && !stop_requested(params); ++i) {
+    for (std::size_t i = 0; i < clouds.size() && !params.cancel_requested(); ++i) {
         SensorRegistration& s = result.sensors[i];
         if (s.registered) continue;
         const bool ambiguous = std::any_of(edges.begin(), edges.end(), [&](const StationEdge& e) {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/common/angles.hpp"
+#include "core/common/se3.hpp"
 
 namespace lidarfuse::core {
 namespace {
@@ -94,10 +95,6 @@ InitialRegistrationParams station_params() {
     return params;
 }
 
-double rotation_deg(const Eigen::Isometry3d& T) {
-    return Eigen::AngleAxisd(T.linear()).angle() * 180.0 / kPi;
-}
-
 // Two stations 80 m apart, the second turned by 143 deg: placed within 3 cm / 0.05 deg of
 // the truth (the bound for the segment), the grid's placement within a fine cell.
 TEST(StationRegistration, TwoStationsOfAStreetArePlacedFromNothing) {
@@ -109,17 +106,15 @@ TEST(StationRegistration, TwoStationsOfAStreetArePlacedFromNothing) {
 
     const RoadGridPlacement grid = search_road_grid(clouds[0].points, clouds[1].points, {}, 2);
     ASSERT_TRUE(grid.found) << grid.why;
-    const Eigen::Isometry3d grid_error = truth.inverse() * grid.T_target_source;
-    EXPECT_LT(grid_error.translation().norm(), 0.75);
-    EXPECT_LT(rotation_deg(grid_error), 0.5);
+    EXPECT_LT(translation_error_m(grid.T_target_source, truth), 0.75);
+    EXPECT_LT(rotation_error_deg(grid.T_target_source, truth), 0.5);
     EXPECT_LT(grid.rival_score, 0.5 * grid.score);
 
     const InitialRegistrationResult result = register_initial(clouds, station_params(), 2);
     ASSERT_TRUE(result.sensors[0].registered);
     ASSERT_TRUE(result.sensors[1].registered) << to_string(result.sensors[1].status);
-    const Eigen::Isometry3d error = truth.inverse() * result.sensors[1].T_root_sensor;
-    EXPECT_LT(error.translation().norm(), 0.03);
-    EXPECT_LT(rotation_deg(error), 0.05);
+    EXPECT_LT(translation_error_m(result.sensors[1].T_root_sensor, truth), 0.03);
+    EXPECT_LT(rotation_error_deg(result.sensors[1].T_root_sensor, truth), 0.05);
     EXPECT_TRUE(result.sensors[1].ground.found);  // its road plane: z = 0 of its frame
 }
 

@@ -15,6 +15,7 @@
 #include <string>
 #include <thread>
 
+#include "core/common/se3.hpp"
 #include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/pose_csv.hpp"
 #include "tests/daemon/dds_test_support.hpp"
@@ -156,12 +157,11 @@ TEST(LidarfusedSegment, TwoStationsArePlacedFusedAndOneIsTakenBackAfterItStopped
     io::PoseRecord last;
     for (const auto& r : rows)
         if (r.sensor == "station1" && r.t_ns > last.t_ns) last = r;
-    const Eigen::Isometry3d error = truth.inverse() * last.pose;
-    std::printf("segment: station1 %.2f cm / %.3f deg from the truth\n",
-                error.translation().norm() * 100,
-                Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI);
-    EXPECT_LT(error.translation().norm(), 0.10) << log;
-    EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI, 0.2) << log;
+    const double error_m = core::translation_error_m(last.pose, truth);
+    const double error_deg = core::rotation_error_deg(last.pose, truth);
+    std::printf("segment: station1 %.2f cm / %.3f deg from the truth\n", error_m * 100, error_deg);
+    EXPECT_LT(error_m, 0.10) << log;
+    EXPECT_LT(error_deg, 0.2) << log;
     // Scan times from the capture's start: station0 fused through station1's stop, station1
     // reported and back after it.
     std::int64_t t0 = 0;
