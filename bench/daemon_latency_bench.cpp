@@ -44,11 +44,7 @@
 // Needs the built `lidarfuse` (sim) and `lidarfused` beside it (build/tools, build/daemon).
 // The replay runs in this process (one thread); the machine's other load shares the cores.
 #include <netinet/in.h>
-#include <signal.h>
-#include <sys/prctl.h>
 #include <sys/socket.h>
-#include <sys/wait.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -63,6 +59,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench/daemon_bench_launch.hpp"
 #include "bench/daemon_bench_replay.hpp"
 #include "bench/daemon_process_usage.hpp"
 #include "bench/dds_bench_reader.hpp"
@@ -78,12 +75,18 @@ namespace {
 constexpr double kSettleS = 2.0;
 
 using namespace lidarfuse;
+using bench::cyclone_uri;
 using bench::Delivery;
 using bench::monotonic_ns;
 using bench::peak_rss_mib;
+using bench::percentile;
+using bench::process_cpu_s;
 using bench::Received;
 using bench::SensorReplay;
+using bench::set_cyclone_uri;
 using bench::StageUsage;
+using bench::start_daemon;
+using bench::stop_daemon;
 using bench::usage_by_stage;
 namespace fs = std::filesystem;
 
@@ -115,35 +118,11 @@ std::uint64_t drops_since(const std::vector<std::pair<std::int64_t, std::uint64_
     return reports.back().second - first->second;
 }
 
-double percentile(std::vector<double> v, double p) {
-    if (v.empty()) return 0.0;
-    std::sort(v.begin(), v.end());
-    const std::size_t i = std::min(
-        v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
-    return v[i];
-}
-
 struct RunResult {
     bool ok = false;
     std::uint64_t lost = 0;
     double fused_share = 0.0;
 };
-
-// CPU time of this process (replay, DDS reader, live-view client), seconds.
-double process_cpu_s() {
-    timespec ts{};
-    ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
-// CYCLONEDDS_URI = uri in this process (empty: unset), read by the next participant of a
-// domain that does not exist yet.
-void set_cyclone_uri(const std::string& uri) {
-    if (uri.empty())
-        ::unsetenv("CYCLONEDDS_URI");
-    else
-        ::setenv("CYCLONEDDS_URI", uri.c_str(), 1);
-}
 
 // The poses the daemon wrote (poses.csv: every fused frame after the world frame, predicted
 // ones included) against the simulator's truth, as `lidarfuse eval` prints them.
@@ -191,21 +170,9 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
         config << "registration: {threads: " << settings.fusion_threads << "}\n";
     config.close();
 
-    const pid_t bench_pid = ::getpid();
-    const pid_t pid = ::fork();
-    if (pid == 0) {
-        // A bench killed (or its output pipe closed) must not leave a daemon replaying
-        // into the next measurement.
-        ::prctl(PR_SET_PDEATHSIG, SIGTERM);
-        if (::getppid() != bench_pid) ::_exit(1);  // died before prctl took effect
-        const std::string cfg = (sim / ("daemon" + std::to_string(n) + ".yaml")).string();
-        const std::string log = (sim / ("daemon" + std::to_string(n) + ".log")).string();
-        std::freopen(log.c_str(), "w", stderr);
-        std::freopen(log.c_str(), "a", stdout);
-        set_cyclone_uri(delivery.daemon_uri);
-        ::execl(settings.executable.c_str(), "lidarfused", "--config", cfg.c_str(), nullptr);
-        ::_exit(127);
-    }
+    const pid_t pid =
+        start_daemon(settings.executable, sim / ("daemon" + std::to_string(n) + ".yaml"),
+                     sim / ("daemon" + std::to_string(n) + ".log"), delivery.daemon_uri);
     Received received;
     std::atomic<bool> stop{false}, matched{false};
     set_cyclone_uri(delivery.reader_uri);
@@ -234,9 +201,7 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
     const double harness_cpu_s = process_cpu_s() - harness_cpu0_s;
     const double rss_mib = peak_rss_mib(pid);
     const bench::FoxgloveCounts viewed = viewer.stop();
-    ::kill(pid, SIGTERM);
-    int status = 0;
-    ::waitpid(pid, &status, 0);
+    const bool exited_cleanly = stop_daemon(pid);
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     stop = true;
     reader.join();
@@ -358,21 +323,11 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
     }
     std::fflush(stdout);
     print_accuracy(sim, out_dir, tag);
-    result.ok = WIFEXITED(status) && WEXITSTATUS(status) == 0 && received_packets > 0;
+    result.ok = exited_cleanly && received_packets > 0;
     result.lost = lost + std::stoull(value("kernel_drops"));
     result.fused_share =
         capture_frames ? static_cast<double>(fused) / static_cast<double>(capture_frames) : 0.0;
     return result;
-}
-
-// --cyclonedds: "bench" (loopback, 64 kB fragments), "default" (unset) or a file.
-std::string cyclone_uri(const std::string& choice) {
-    if (choice == "default") return "";
-    if (choice != "bench") return "file://" + fs::absolute(choice).string();
-    return "<General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
-           "<MaxMessageSize>65500B</MaxMessageSize><FragmentSize>64000B</FragmentSize></General>"
-           "<Internal><Watermarks><WhcHigh>16MiB</WhcHigh></Watermarks></Internal>"
-           "<Tracing><Verbosity>severe</Verbosity></Tracing>";
 }
 
 }  // namespace
