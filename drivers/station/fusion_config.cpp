@@ -15,6 +15,18 @@ void read_initial_method(YamlReader& r, const YAML::Node& n, core::InitialRegist
     }
 }
 
+// registration.correspondence_factor's default for the sensors the initial method places:
+// FusionParams' for one station's sensors, 0.5 for the stations of a segment. Between
+// viewpoints 60-100 m apart a wider bound pairs one station's centroids with the other's
+// samples of nearby surfaces (the road seen at a grazing angle), and the edges between the
+// two come out tilted, all the same way, so that no window of them averages it out
+// (bench/BENCHMARK.md, "The correspondence bound").
+double default_correspondence_factor(core::InitialRegistrationMethod method) {
+    return method == core::InitialRegistrationMethod::kStations
+               ? 0.5
+               : core::FusionParams{}.correspondence_factor;
+}
+
 // The parameters PAPER.md names are all here: voxel sizes, k_w, r_c, RANSAC iterations,
 // Huber delta (and the attenuation, under dynamics).
 void read_registration(YamlReader& r, const YAML::Node& n, core::FusionParams* f) {
@@ -39,6 +51,7 @@ void read_registration(YamlReader& r, const YAML::Node& n, core::FusionParams* f
             f->covariance_neighbors = static_cast<int>(*k);
         }
     }
+    f->correspondence_factor = default_correspondence_factor(f->initial.method);
     set_if(r.number(n["correspondence_factor"], p + "correspondence_factor", 0.5, 10, false),
            &f->correspondence_factor);
     set_if(r.number(n["huber_delta"], p + "huber_delta", 0, 100, false), &f->huber_delta);

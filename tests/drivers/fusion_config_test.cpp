@@ -51,5 +51,24 @@ TEST(FusionConfig, BadFilesAreRefusedNamingTheFileAndEveryKey) {
               core::FusionParams().covariance_neighbors);
 }
 
+// A segment's stations are registered with a tighter correspondence bound than one
+// station's sensors, unless the config names one (fusion_config.cpp says why).
+TEST(FusionConfig, TheStationsMethodTightensTheCorrespondenceBoundUnlessOneIsGiven) {
+    test::TempDir dir("fusioncfg");
+    const auto factor = [&](const std::string& text) {
+        std::ofstream(dir.path() / "s.yaml") << text;
+        return load_fusion_params(dir.path() / "s.yaml").correspondence_factor;
+    };
+    const double sensors = core::FusionParams().correspondence_factor;
+    EXPECT_EQ(factor("sensors: []\n"), sensors);
+    EXPECT_EQ(factor("registration:\n  initial_method: features\n"), sensors);
+    EXPECT_EQ(factor("registration:\n  initial_method: stations\n"), 0.5);
+    EXPECT_EQ(factor("registration:\n  correspondence_factor: 2\n  initial_method: stations\n"),
+              2.0);
+    EXPECT_EQ(factor("registration:\n  initial_method: features\n  correspondence_factor: 0.8\n"),
+              0.8);
+    EXPECT_GT(sensors, 0.5);
+}
+
 }  // namespace
 }  // namespace lidarfuse::station
