@@ -52,9 +52,13 @@ struct FusionParams {
     // width), too few a line rather than a plane (bench/BENCHMARK.md, "G-ICP covariance
     // neighbors").
     int covariance_neighbors = 0;
-    // G-ICP per edge; max correspondence distance = this factor * voxel_size_m.
+    // G-ICP per edge; max correspondence distance = this factor * voxel_size_m: one voxel,
+    // as PAPER.md's r_c. A wider bound also pairs centroids with the samples of nearby
+    // surfaces, and those pairs pull every edge the same way (bench/BENCHMARK.md, "The
+    // correspondence bound"). lidarfused's config tightens it for a segment's stations
+    // (drivers/station/fusion_config.cpp).
     GicpParams gicp{};
-    double correspondence_factor = 1.5;
+    double correspondence_factor = 1.0;
     // Huber delta of the pose graph in sigmas (edge information is calibrated, see engine).
     double huber_delta = 3.0;
     // Levenberg-Marquardt iterations of the pose graph per frame. Warm-started at the
