@@ -46,25 +46,54 @@ namespace fs = std::filesystem;
 
 namespace {
 
-Eigen::Isometry3d pose_at(const fs::path& csv, std::int64_t frame, const std::string& sensor) {
-    for (const auto& r : io::read_pose_csv(csv)) {
-        if (r.frame == frame && r.sensor == sensor) return r.pose;
+// Pose rows by (frame, sensor), from poses.csv or ground_truth.csv.
+using PoseTable = std::map<std::pair<std::int64_t, std::string>, io::PoseRecord>;
+
+PoseTable pose_table(const fs::path& csv) {
+    PoseTable table;
+    for (auto& r : io::read_pose_csv(csv)) table[{r.frame, r.sensor}] = r;
+    return table;
+}
+
+const io::PoseRecord& row(const PoseTable& table, std::int64_t frame, const std::string& sensor,
+                          const fs::path& csv) {
+    const auto it = table.find({frame, sensor});
+    if (it == table.end()) {
+        throw std::runtime_error(csv.string() + ": no row of " + sensor + " at frame " +
+                                 std::to_string(frame));
     }
-    throw std::runtime_error(csv.string() + ": no row of " + sensor + " at frame " +
-                             std::to_string(frame));
+    return it->second;
 }
 
-// A station's road frame in the simulator's world: its root's true pose at `frame` times
-// the inverse of the fused (road) frame's estimate of it.
-Eigen::Isometry3d world_from_road(const fs::path& truth_csv, const fs::path& poses_csv,
-                                  std::int64_t frame) {
-    return pose_at(truth_csv, frame, "lidar0") * pose_at(poses_csv, frame, "lidar0").inverse();
-}
+// One station of a case: its estimates (F<j>/poses.csv, in its road frame) and its truth.
+struct StationRun {
+    fs::path poses_csv, truth_csv, clouds;
+    PoseTable poses, truth;
+    std::vector<std::string> sensors;  // every sensor of the station, in name order
+};
 
-Eigen::Isometry3d world_from_road(const fs::path& dir, int j, std::int64_t frame) {
+StationRun station_run(const fs::path& dir, int j) {
     const std::string s = std::to_string(j);
-    return world_from_road(dir / "S" / ("station" + s) / "ground_truth.csv",
-                           dir / ("F" + s) / "poses.csv", frame);
+    StationRun run;
+    run.clouds = dir / ("F" + s);
+    run.poses_csv = run.clouds / "poses.csv";
+    run.truth_csv = dir / "S" / ("station" + s) / "ground_truth.csv";
+    run.poses = pose_table(run.poses_csv);
+    run.truth = pose_table(run.truth_csv);
+    for (const auto& [key, r] : run.poses) {
+        if (key.first == run.poses.begin()->first.first) run.sensors.push_back(key.second);
+    }
+    std::sort(run.sensors.begin(), run.sensors.end());
+    return run;
+}
+
+// The station's road frame in the simulator's world at frame k as one sensor's true pose
+// times the inverse of the fused (road) frame's estimate of it. The station's truth is
+// lidar0's.
+Eigen::Isometry3d world_from_road(const StationRun& run, std::int64_t k,
+                                  const std::string& sensor = "lidar0") {
+    return row(run.truth, k, sensor, run.truth_csv).pose *
+           row(run.poses, k, sensor, run.poses_csv).pose.inverse();
 }
 
 // The road frame from the station's last pose row of lidar0 (its estimate settled) and the
@@ -107,8 +136,8 @@ void run_case(const fs::path& dir, std::int64_t frame, int threads) {
     const std::string ply = "fused_" + std::to_string(frame) + ".ply";
     const auto target = io::read_cloud_file(dir / "F0" / ply).cloud.points;
     const auto source = io::read_cloud_file(dir / "F1" / ply).cloud.points;
-    const Eigen::Isometry3d truth =
-        world_from_road(dir, 0, frame).inverse() * world_from_road(dir, 1, frame);
+    const Eigen::Isometry3d truth = world_from_road(station_run(dir, 0), frame).inverse() *
+                                    world_from_road(station_run(dir, 1), frame);
     const auto start = std::chrono::steady_clock::now();
     const core::RoadGridPlacement placement = core::search_road_grid(target, source, {}, threads);
     const double ms =
@@ -144,55 +173,6 @@ void run_case(const fs::path& dir, std::int64_t frame, int threads) {
     std::printf("%s_error_tilt %.3f deg\n", name.c_str(), tilt_deg(error));
 }
 
-// Pose rows by (frame, sensor), from poses.csv or ground_truth.csv.
-using PoseTable = std::map<std::pair<std::int64_t, std::string>, io::PoseRecord>;
-
-PoseTable pose_table(const fs::path& csv) {
-    PoseTable table;
-    for (auto& r : io::read_pose_csv(csv)) table[{r.frame, r.sensor}] = r;
-    return table;
-}
-
-const io::PoseRecord& row(const PoseTable& table, std::int64_t frame, const std::string& sensor,
-                          const fs::path& csv) {
-    const auto it = table.find({frame, sensor});
-    if (it == table.end()) {
-        throw std::runtime_error(csv.string() + ": no row of " + sensor + " at frame " +
-                                 std::to_string(frame));
-    }
-    return it->second;
-}
-
-// One station of a case: its estimates (F<j>/poses.csv, in its road frame) and its truth.
-struct StationRun {
-    fs::path poses_csv, truth_csv, clouds;
-    PoseTable poses, truth;
-    std::vector<std::string> sensors;  // every sensor of the station, lidar0 first
-};
-
-StationRun station_run(const fs::path& dir, int j) {
-    const std::string s = std::to_string(j);
-    StationRun run;
-    run.clouds = dir / ("F" + s);
-    run.poses_csv = run.clouds / "poses.csv";
-    run.truth_csv = dir / "S" / ("station" + s) / "ground_truth.csv";
-    run.poses = pose_table(run.poses_csv);
-    run.truth = pose_table(run.truth_csv);
-    for (const auto& [key, r] : run.poses) {
-        if (key.first == run.poses.begin()->first.first) run.sensors.push_back(key.second);
-    }
-    std::sort(run.sensors.begin(), run.sensors.end());
-    return run;
-}
-
-// The station's road frame in the simulator's world at frame k as one sensor's true and
-// estimated pose place it (see world_from_road above: the station's truth is lidar0's).
-Eigen::Isometry3d world_from_road(const StationRun& run, std::int64_t k,
-                                  const std::string& sensor = "lidar0") {
-    return row(run.truth, k, sensor, run.truth_csv).pose *
-           row(run.poses, k, sensor, run.poses_csv).pose.inverse();
-}
-
 // Station j's fused cloud of frame k at its root's stamp, as the segment daemon's DDS input
 // hands it over (points only); thin_m > 0: as output.dds.points_voxel_size_m thins it.
 core::SensorScanInput station_scan(const StationRun& run, std::int64_t k, double thin_m) {
@@ -219,6 +199,9 @@ struct ErrorSum {
         rot += std::pow(core::rotation_error_deg(pose, truth), 2);
         tilt += std::pow(tilt_deg(truth.inverse() * pose), 2);
         ++n;
+    }
+    void add(const ErrorSum& other) {
+        trans += other.trans, rot += other.rot, tilt += other.tilt, n += other.n;
     }
     void print(const std::string& name) const {
         if (n == 0) return;
@@ -273,7 +256,7 @@ void track_case(const fs::path& config, std::int64_t first, std::int64_t last, c
     ErrorSum all;
     for (const auto& [sensor, e] : sensors) {
         e.print(name + "_station1_" + sensor);
-        all.trans += e.trans, all.rot += e.rot, all.tilt += e.tilt, all.n += e.n;
+        all.add(e);
     }
     all.print(name + "_station1_sensors");
     // How far each station's sensors disagree about their station's frame: the clouds the
