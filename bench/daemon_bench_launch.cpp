@@ -14,6 +14,11 @@ namespace lidarfuse::bench {
 
 namespace fs = std::filesystem;
 
+std::string built_daemon_path() {
+    return (fs::path(LIDARFUSE_TOOL_PATH).parent_path().parent_path() / "daemon" / "lidarfused")
+        .string();
+}
+
 pid_t start_daemon(const std::string& executable, const fs::path& config, const fs::path& log,
                    const std::string& cyclone_uri) {
     const pid_t bench_pid = ::getpid();

@@ -11,6 +11,9 @@
 
 namespace lidarfuse::bench {
 
+// The lidarfused built beside this bench (LIDARFUSE_TOOL_PATH names the lidarfuse beside it).
+std::string built_daemon_path();
+
 // Starts `executable --config config` with stdout and stderr in `log` and CYCLONEDDS_URI =
 // cyclone_uri (empty: unset). The child gets SIGTERM when this process dies, so a bench
 // killed never leaves a daemon running into the next measurement. Returns its pid.

@@ -91,9 +91,6 @@ using bench::usage_by_stage;
 namespace fs = std::filesystem;
 
 std::string tool_dir() { return fs::path(LIDARFUSE_TOOL_PATH).parent_path().string(); }
-std::string daemon_path() {
-    return (fs::path(tool_dir()).parent_path() / "daemon" / "lidarfused").string();
-}
 
 enum class FoxgloveMode { kOff, kServer, kClient };
 
@@ -105,7 +102,7 @@ struct DaemonSettings {
     bool record = false;      // --record 1: output.record on (into the bench's folder)
     FoxgloveMode foxglove = FoxgloveMode::kOff;
     double receive_coalesce_ms = -1;  // < 0: the daemon's default (network.receive_coalesce_ms)
-    std::string executable = daemon_path();  // the lidarfused that runs
+    std::string executable = bench::built_daemon_path();  // the lidarfused that runs
 };
 
 // Frames dropped from the first diagnostics report at or after from_ns to the last one

@@ -39,6 +39,8 @@
 #include "bench/dds_bench_reader.hpp"
 #include "core/pipeline/fused_cloud_voxels.hpp"
 #include "daemon/dds_messages.hpp"
+#include "daemon/sensor_ingest.hpp"
+#include "drivers/io/extrinsics_yaml.hpp"
 #include "drivers/io/fused_cloud_file.hpp"
 
 namespace {
@@ -48,17 +50,6 @@ namespace fs = std::filesystem;
 
 constexpr double kSettleS = 2.0;                // as daemon_latency_bench's steady run
 constexpr std::int64_t kPeriodNs = 50'000'000;  // 20 Hz
-
-std::string daemon_path() {
-    return (fs::path(LIDARFUSE_TOOL_PATH).parent_path().parent_path() / "daemon" / "lidarfused")
-        .string();
-}
-
-std::int64_t realtime_ns() {
-    timespec ts{};
-    ::clock_gettime(CLOCK_REALTIME, &ts);
-    return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 // The frames station 0's folder holds, in order.
 std::vector<std::int64_t> recorded_frames(const fs::path& dir) {
@@ -132,13 +123,13 @@ public:
         return participant_ > 0 &&
                std::all_of(writers_.begin(), writers_.end(), [](dds_entity_t w) { return w > 0; });
     }
-    // The message's bytes on the wire: its points and the fixed part of a PointCloud2.
+    // The bytes of the message's point data, which is all but its header and field list.
     std::size_t write(int j, const core::FusedCloud& cloud, std::int64_t stamp_ns) {
         daemon::FrameStamps stamps;
         stamps.frame_ns = stamp_ns;
         const auto& m = builders_[static_cast<std::size_t>(j)]->cloud(cloud, stamps);
         if (dds_write(writers_[static_cast<std::size_t>(j)], &m) != DDS_RETCODE_OK) return 0;
-        return m.data._length + 200;
+        return m.data._length;
     }
 
 private:
@@ -164,7 +155,7 @@ std::vector<Published> play(const std::vector<std::vector<core::FusedCloud>>& cl
         const std::int64_t due = start + t * kPeriodNs;
         while (bench::monotonic_ns() < due)
             std::this_thread::sleep_for(std::chrono::microseconds(200));
-        const std::int64_t stamp = realtime_ns();
+        const std::int64_t stamp = daemon::realtime_ns();
         for (std::size_t j = 0; j < clouds.size(); ++j) {
             const auto& c = clouds[j][static_cast<std::size_t>(t) % clouds[j].size()];
             const std::int64_t s = stamp + static_cast<std::int64_t>(j) * 1'000'000;
@@ -201,19 +192,10 @@ std::pair<std::vector<double>, std::vector<double>> latencies(
     return {all, steady};
 }
 
-void print_registered(const fs::path& extrinsics, int stations) {
-    std::ifstream in(extrinsics);
-    std::string line, name;
-    std::map<std::string, std::string> registered;
-    while (std::getline(in, line)) {
-        const auto n = line.find("name: ");
-        if (n != std::string::npos) name = line.substr(n + 6);
-        const auto r = line.find("registered: ");
-        if (r != std::string::npos) registered[name] = line.substr(r + 12);
-    }
-    for (int j = 1; j < stations; ++j) {
-        const std::string s = "station" + std::to_string(j);
-        std::printf("segment_%s_registered %d flag\n", s.c_str(), registered[s] == "true" ? 1 : 0);
+void print_registered(const fs::path& extrinsics) {
+    for (const auto& e : io::read_extrinsics_yaml(extrinsics, nullptr)) {
+        if (e.name != "station0")
+            std::printf("segment_%s_registered %d flag\n", e.name.c_str(), e.registered ? 1 : 0);
     }
 }
 
@@ -222,7 +204,7 @@ struct Options {
     int stations = 2;
     double seconds = 10;
     double thin_m = 0;
-    std::string daemon = daemon_path();
+    std::string daemon = bench::built_daemon_path();
     bool keep = false;
 };
 
@@ -288,11 +270,14 @@ int run(const Options& o) {
                 received.cloud_arrival_ns.size());
     std::printf("segment_frames_played_%s %zu frames\n", tag.c_str(), published[0].clouds);
     auto& pipeline = received.last_diagnostics["lidarfuse/bench/pipeline"];
-    for (const char* key : {"frames_fused", "frames_predicted", "frame_queue_drops",
-                            "last_initial_registration_ms", "mean_fusion_ms"}) {
+    const std::pair<const char*, const char*> figures[] = {{"frames_fused", "frames"},
+                                                           {"frames_predicted", "frames"},
+                                                           {"frame_queue_drops", "frames"},
+                                                           {"last_initial_registration_ms", "ms"},
+                                                           {"mean_fusion_ms", "ms"}};
+    for (const auto& [key, unit] : figures) {
         std::printf("segment_%s_%s %s %s\n", key, tag.c_str(),
-                    pipeline.count(key) ? pipeline[key].c_str() : "0",
-                    std::string(key).find("ms") != std::string::npos ? "ms" : "frames");
+                    pipeline.count(key) ? pipeline[key].c_str() : "0", unit);
     }
     for (const char* stage : {"fusion", "initial", "output", "dds", "sync", "main"}) {
         const bench::StageUsage before = cpu0.count(stage) ? cpu0.at(stage) : bench::StageUsage{};
@@ -303,7 +288,7 @@ int run(const Options& o) {
     std::printf("segment_bench_cpu_%s %.1f %%\n", tag.c_str(), 100.0 * bench_cpu_s / wall_s);
     std::printf("segment_peak_rss_%s %.1f MiB\n", tag.c_str(), rss);
     std::printf("segment_daemon_exit_clean_%s %d flag\n", tag.c_str(), clean ? 1 : 0);
-    print_registered(dir / "out" / "extrinsics.yaml", o.stations);
+    print_registered(dir / "out" / "extrinsics.yaml");
     if (o.keep)
         std::printf("segment_work_dir %s path\n", dir.c_str());
     else
