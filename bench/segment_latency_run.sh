@@ -11,16 +11,12 @@
 set -euo pipefail
 build="$(cd "$1" && pwd)"; work="$2"; seconds="${3:-20}"; thin="${4:-0.5}"; spacing="${5:-60}"
 tool="$build/tools/lidarfuse"
+source "$(dirname "$0")/segment_cases.sh"
 c="$work/straight-4x4-$spacing"
 if [ ! -f "$c/F3/fused_29.ply" ]; then
     "$tool" sim --scenario straight --seed 1 --stations 4 --sensors-per-station 4 \
         --station-spacing-m "$spacing" --seconds 2 --quiet --out "$c/S" >/dev/null
-    for j in 0 1 2 3; do
-        save=()
-        for k in $(seq 10 29); do save+=(--save-cloud "$k"); done
-        "$tool" fuse "$c/S/station$j/capture.pcap" --config "$c/S/station$j/station.yaml" \
-            --out "$c/F$j" --world road "${save[@]}" --quiet >/dev/null
-    done
+    fuse_stations "$tool" "$c" 4 10 29
 fi
 for stations in 2 3 4; do
     echo "segment_run ${stations}stations_full name"
