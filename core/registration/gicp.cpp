@@ -237,11 +237,16 @@ inline void add_normal_equations(const Eigen::Vector3d& a, const Eigen::Matrix3d
 
 }  // namespace
 
+int GicpRegistration::team_size(std::size_t points, std::size_t min_points_per_thread) const {
+    const std::size_t useful = std::max<std::size_t>(1, points / min_points_per_thread);
+    return static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(num_threads_), useful));
+}
+
 void GicpRegistration::linearize(const GicpCloud& target, const GicpCloud& source,
                                  const Eigen::Isometry3d& T, bool reuse_correspondences,
                                  Linearization* lin) {
     const std::size_t n = source.size();
-    const int threads = num_threads_;
+    const int threads = team_size(n, kLinearizePointsPerThread);
     target_index_.resize(n);
     mahalanobis_.resize(n);
     // Zeroed every call: the team can be smaller than asked (nested inside another
@@ -295,7 +300,7 @@ void GicpRegistration::linearize(const GicpCloud& target, const GicpCloud& sourc
 
 double GicpRegistration::evaluate(const GicpCloud& target, const GicpCloud& source,
                                   const Eigen::Isometry3d& T) {
-    const int threads = num_threads_;
+    const int threads = team_size(source.size(), kEvaluatePointsPerThread);
     partial_error_.assign(static_cast<std::size_t>(threads), 0.0);
     const Kernel kernel = make_kernel(params_);
     const auto& target_points = target.points();

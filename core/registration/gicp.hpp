@@ -34,8 +34,9 @@
 // (gicp_cloud.hpp), C = I - beta a a^T, and the inverse of the pair's sum is a rank-2
 // Woodbury update of I / 2 (gicp.cpp), instead of two congruences and a 3x3 inverse.
 //
-// Threading: the per-iteration reduction runs with the registration's `num_threads` OpenMP
-// threads (a constructor argument, not a parameter of the method), each with
+// Threading: the per-iteration reduction runs with up to the registration's `num_threads`
+// OpenMP threads (a constructor argument, not a parameter of the method; a small source
+// wakes fewer, see team_size()), each with
 // its own H, b and error sums, added at the end in a fixed order (results do not depend on
 // scheduling beyond floating-point summation order per thread block, which is static).
 // num_threads = 1 runs serially without touching the OpenMP pool. On a loaded machine,
@@ -163,6 +164,14 @@ private:
     bool levenberg_marquardt_step(const GicpCloud& target, const GicpCloud& source,
                                   const Linearization& lin, double* lambda, Eigen::Isometry3d* T,
                                   Vector6d* delta);
+    // How many of num_threads_ to wake for a pass over `points` source points: no more than
+    // give each thread min_points_per_thread. Waking a sleeping team (OMP_WAIT_POLICY=passive)
+    // costs about what one thread spends on a few thousand points of linearize(), and on
+    // several times as many of evaluate(), which does less per point (bench/BENCHMARK.md,
+    // "G-ICP beside small_gicp").
+    int team_size(std::size_t points, std::size_t min_points_per_thread) const;
+    static constexpr std::size_t kLinearizePointsPerThread = 2048;
+    static constexpr std::size_t kEvaluatePointsPerThread = 8192;
     GicpParams params_;
     int num_threads_ = 1;                     // at least 1
     std::vector<std::int32_t> target_index_;  // per source point, -1 = no correspondence
