@@ -9,22 +9,17 @@
 // for both clouds of a pair (each is a source of some edges and a target of others).
 //
 //   gicp_pairs_bench write OUT [CAPTURE_DIR [FRAMES]] [REAL_DIR]
-//     Makes the pairs and writes OUT/pairs.txt and the clouds (OUT/<cloud>.f64: the scan's
-//     points, sensor frame, metres, x y z as little-endian float64, nothing else). One line
-//     per pair and setting:
-//       name voxel_m k bound_m max_iterations eps target.f64 source.f64 T_init(16) T_ref(16)
-//     T_* are T_target_source, 4 x 4 row-major; T_ref is the truth (simulated pairs) or the
-//     rig's published reference (real pairs); eps bounds both the rotation (rad) and the
-//     translation (m) of the last update. Without CAPTURE_DIR it simulates the curve,
-//     seed 1, into OUT/capture; REAL_DIR defaults to $LIDARFUSE_DATA_DIR/real.
+//     Makes the pairs and writes OUT/pairs.txt and the clouds (the format:
+//     gicp_pair_files.hpp). Without CAPTURE_DIR it simulates the curve, seed 1, into
+//     OUT/capture; FRAMES scans per sensor (3); REAL_DIR defaults to $LIDARFUSE_DATA_DIR/real.
 //   gicp_pairs_bench run OUT [THREADS [REPETITIONS]]
 //     Registers every pair of OUT/pairs.txt, each stage's wall time the fastest of
-//     REPETITIONS; prints `name value unit` lines (per setting: medians over its pairs) and
-//     writes OUT/ours_t<THREADS>.txt, one line per pair: name, the four stage times (ms),
-//     the total, the pose T_target_source (16, row-major).
+//     REPETITIONS (5); prints `name value unit` lines (per setting: medians over its pairs)
+//     and writes the result file OUT/ours_t<THREADS>.txt.
 //   gicp_pairs_bench compare OUT A B
-//     The largest difference between the poses of two such files (the same pair names), and
-//     each file's median total per setting: prints `name value unit` lines.
+//     Two result files in OUT: the largest difference between their poses (the same pair
+//     names), and per pair kind and setting the medians of A's and B's stages and totals,
+//     their ratio, and each file's median error to the pairs' reference.
 //
 // Pairs: sim_temporal (each sensor, scan k+1 onto scan k, started 2 cm / 0.1 deg off the
 // true motion), sim_spatial (each sensor onto the root at the same frame, started 10 cm /
@@ -45,6 +40,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/gicp_pair_files.hpp"
 #include "core/common/kdtree.hpp"
 #include "core/common/se3.hpp"
 #include "core/pipeline/fusion_types.hpp"
@@ -60,6 +56,7 @@
 namespace {
 
 namespace fs = std::filesystem;
+using lidarfuse::bench::GicpPair;
 using lidarfuse::core::PointCloud;
 using Points = std::vector<Eigen::Vector3d>;
 
@@ -83,14 +80,6 @@ struct PairSpec {
     std::string name, target, source;  // cloud names (files without .f64)
     Eigen::Isometry3d T_init, T_ref;
 };
-
-void write_points(const fs::path& file, const Points& points) {
-    std::ofstream out(file, std::ios::binary);
-    for (const Eigen::Vector3d& p : points) {
-        out.write(reinterpret_cast<const char*>(p.data()), 3 * sizeof(double));
-    }
-    if (!out) throw std::runtime_error(file.string() + ": cannot write");
-}
 
 Eigen::Isometry3d nudged(const Eigen::Isometry3d& T, double deg, double m) {
     lidarfuse::core::Vector6d xi;  // rotation (rad) then translation (m)
@@ -122,7 +111,7 @@ void add_sim_pairs(const fs::path& capture_dir, std::size_t frames, const fs::pa
     }
     const auto cloud = [&](std::size_t s, std::size_t k) {
         const std::string name = "sim_" + names[s] + "_" + std::to_string(k);
-        write_points(out / (name + ".f64"), scans[s][k]);
+        lidarfuse::bench::write_pair_points(out / (name + ".f64"), scans[s][k]);
         return name;
     };
     for (std::size_t s = 0; s < scans.size(); ++s) {
@@ -143,8 +132,9 @@ void add_real_pair(const fs::path& rig, const std::string& target, const std::st
                    const fs::path& out, std::vector<PairSpec>* pairs) {
     const std::string prefix = "real_" + rig.filename().string() + "_";
     for (const std::string& name : {target, source}) {
-        write_points(out / (prefix + name + ".f64"),
-                     lidarfuse::io::read_pcd(rig / (name + ".pcd")).cloud.points);
+        lidarfuse::bench::write_pair_points(
+            out / (prefix + name + ".f64"),
+            lidarfuse::io::read_pcd(rig / (name + ".pcd")).cloud.points);
     }
     const Eigen::Isometry3d T_ref =
         lidarfuse::io::read_rig_reference(rig / ("T_" + target + "_" + source + ".txt"));
@@ -152,24 +142,24 @@ void add_real_pair(const fs::path& rig, const std::string& target, const std::st
                       nudged(T_ref, 0.5, 0.1), T_ref});
 }
 
-void write_matrix(std::ostream& out, const Eigen::Isometry3d& T) {
-    for (int r = 0; r < 4; ++r)
-        for (int c = 0; c < 4; ++c) out << ' ' << T.matrix()(r, c);
-}
-
 void write_pairs_file(const fs::path& out, const std::vector<PairSpec>& pairs) {
     std::ofstream file(out / "pairs.txt");
     file.precision(17);
     for (const double voxel_m : {1.0, 0.25}) {
-        lidarfuse::core::FusionParams params;
-        const int k = lidarfuse::core::covariance_neighbors_for(params, voxel_m);
-        const double bound_m = params.correspondence_factor * voxel_m;
-        for (const PairSpec& p : pairs) {
-            file << p.name << ' ' << voxel_m << ' ' << k << ' ' << bound_m << ' ' << kMaxIterations
-                 << ' ' << kEps << ' ' << p.target << ".f64 " << p.source << ".f64";
-            write_matrix(file, p.T_init);
-            write_matrix(file, p.T_ref);
-            file << '\n';
+        const lidarfuse::core::FusionParams params;
+        for (const PairSpec& spec : pairs) {
+            lidarfuse::bench::GicpPair p;
+            p.name = spec.name;
+            p.voxel_m = voxel_m;
+            p.k = lidarfuse::core::covariance_neighbors_for(params, voxel_m);
+            p.bound_m = params.correspondence_factor * voxel_m;
+            p.max_iterations = kMaxIterations;
+            p.eps = kEps;
+            p.target_file = spec.target + ".f64";
+            p.source_file = spec.source + ".f64";
+            p.T_init = spec.T_init;
+            p.T_ref = spec.T_ref;
+            lidarfuse::bench::write_gicp_pair(file, p);
         }
     }
     if (!file) throw std::runtime_error((out / "pairs.txt").string() + ": cannot write");
@@ -207,49 +197,6 @@ int write_command(int argc, char** argv) {
 }
 
 // ---- run --------------------------------------------------------------------------------
-
-struct Pair {
-    std::string name;
-    double voxel_m = 1.0, bound_m = 1.0, eps = kEps;
-    int k = 6, max_iterations = kMaxIterations;
-    std::string target_file, source_file;
-    Eigen::Isometry3d T_init = Eigen::Isometry3d::Identity(), T_ref = T_init;
-};
-
-Eigen::Isometry3d read_matrix(std::istream& in) {
-    Eigen::Matrix4d m;
-    for (int r = 0; r < 4; ++r)
-        for (int c = 0; c < 4; ++c) in >> m(r, c);
-    return Eigen::Isometry3d(m);
-}
-
-std::vector<Pair> read_pairs(const fs::path& out) {
-    std::ifstream file(out / "pairs.txt");
-    if (!file) throw std::runtime_error((out / "pairs.txt").string() + ": cannot read");
-    std::vector<Pair> pairs;
-    std::string line;
-    while (std::getline(file, line)) {
-        std::istringstream in(line);
-        Pair p;
-        in >> p.name >> p.voxel_m >> p.k >> p.bound_m >> p.max_iterations >> p.eps >>
-            p.target_file >> p.source_file;
-        p.T_init = read_matrix(in);
-        p.T_ref = read_matrix(in);
-        if (!in) throw std::runtime_error((out / "pairs.txt").string() + ": bad line: " + line);
-        pairs.push_back(p);
-    }
-    return pairs;
-}
-
-Points read_points(const fs::path& file) {
-    std::ifstream in(file, std::ios::binary | std::ios::ate);
-    if (!in) throw std::runtime_error(file.string() + ": cannot read");
-    Points points(static_cast<std::size_t>(in.tellg()) / (3 * sizeof(double)));
-    in.seekg(0);
-    in.read(reinterpret_cast<char*>(points.data()),
-            static_cast<std::streamsize>(points.size() * 3 * sizeof(double)));
-    return points;
-}
 
 double ms_since(std::chrono::steady_clock::time_point start) {
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
@@ -289,7 +236,7 @@ PointCloud downsample(lidarfuse::core::VoxelGrid* grid, const Points& points, do
 }
 
 // One pass of the four stages over both clouds of the pair.
-Registered register_once(const Pair& p, const Points& target, const Points& source, int threads,
+Registered register_once(const GicpPair& p, const Points& target, const Points& source, int threads,
                          PairGrids* grids) {
     using clock = std::chrono::steady_clock;
     Registered r;
@@ -322,23 +269,17 @@ Registered register_once(const Pair& p, const Points& target, const Points& sour
     return r;
 }
 
-void write_result_line(std::ostream& out, const Pair& p, const Registered& r) {
+void write_result_line(std::ostream& out, const GicpPair& p, const Registered& r) {
     out << p.name << '@' << p.voxel_m << ' ' << r.times.voxel << ' ' << r.times.tree << ' '
         << r.times.covariances << ' ' << r.times.alignment << ' ' << r.times.total();
-    write_matrix(out, r.result.T_target_source);
+    lidarfuse::bench::write_matrix(out, r.result.T_target_source);
     out << '\n';
 }
 
-std::string setting_tag(const Pair& p) {
+std::string setting_tag(const GicpPair& p) {
     char tag[32];
     std::snprintf(tag, sizeof(tag), "voxel%gm", p.voxel_m);
     return tag;
-}
-
-std::string kind_of(const std::string& name) {
-    return name.rfind("sim_temporal", 0) == 0  ? "sim_temporal"
-           : name.rfind("sim_spatial", 0) == 0 ? "sim_spatial"
-                                               : name;
 }
 
 int run_command(int argc, char** argv) {
@@ -348,16 +289,16 @@ int run_command(int argc, char** argv) {
     std::ofstream results(out / ("ours_t" + std::to_string(threads) + ".txt"));
     results.precision(17);
     std::map<std::string, std::vector<double>> totals, stage_ms, trans_cm, rot_deg;
-    for (const Pair& p : read_pairs(out)) {
-        const Points target = read_points(out / p.target_file);
-        const Points source = read_points(out / p.source_file);
+    for (const GicpPair& p : lidarfuse::bench::read_gicp_pairs(out)) {
+        const Points target = lidarfuse::bench::read_pair_points(out / p.target_file);
+        const Points source = lidarfuse::bench::read_pair_points(out / p.source_file);
         PairGrids grids;
         Registered best = register_once(p, target, source, threads, &grids);
         for (int r = 1; r < repetitions; ++r) {
             best.times.keep_fastest(register_once(p, target, source, threads, &grids).times);
         }
         write_result_line(results, p, best);
-        const std::string key = setting_tag(p) + "_" + kind_of(p.name);
+        const std::string key = setting_tag(p) + "_" + lidarfuse::bench::pair_kind(p.name);
         totals[key].push_back(best.times.total());
         stage_ms[key + "_voxel_grid"].push_back(best.times.voxel);
         stage_ms[key + "_tree"].push_back(best.times.tree);
@@ -396,7 +337,7 @@ std::map<std::string, ResultLine> read_results(const fs::path& file) {
         std::string name;
         ResultLine r;
         s >> name >> r.stage_ms[0] >> r.stage_ms[1] >> r.stage_ms[2] >> r.stage_ms[3] >> r.total_ms;
-        r.T = read_matrix(s);
+        r.T = lidarfuse::bench::read_matrix(s);
         if (!s) throw std::runtime_error(file.string() + ": bad line: " + line);
         lines[name] = r;
     }
@@ -405,36 +346,70 @@ std::map<std::string, ResultLine> read_results(const fs::path& file) {
 
 constexpr const char* kStageNames[5] = {"voxel_grid", "tree", "covariances", "alignment", "total"};
 
+// name@voxel_m (as the result files name a pair) -> the pair's reference pose.
+std::map<std::string, Eigen::Isometry3d> references(const fs::path& out) {
+    std::map<std::string, Eigen::Isometry3d> refs;
+    for (const GicpPair& p : lidarfuse::bench::read_gicp_pairs(out)) {
+        std::ostringstream name;
+        name << p.name << '@' << p.voxel_m;
+        refs[name.str()] = p.T_ref;
+    }
+    return refs;
+}
+
+// Per pair kind and setting ("sim_temporal@1"), one file's stage times and errors.
+struct Figures {
+    std::map<std::string, std::vector<double>> ms, error_cm, error_deg;
+    void add(const std::string& key, const ResultLine& r, const Eigen::Isometry3d& T_ref) {
+        for (int stage = 0; stage < 5; ++stage) {
+            ms[key + "_" + kStageNames[stage]].push_back(stage < 4 ? r.stage_ms[stage]
+                                                                   : r.total_ms);
+        }
+        error_cm[key].push_back(100.0 * lidarfuse::core::translation_error_m(r.T, T_ref));
+        error_deg[key].push_back(lidarfuse::core::rotation_error_deg(r.T, T_ref));
+    }
+};
+
+void print_comparison(const Figures& a, const Figures& b) {
+    for (const auto& [key, v] : a.ms) {
+        print("gicp_pairs_a_" + key, median(v), "ms");
+        print("gicp_pairs_b_" + key, median(b.ms.at(key)), "ms");
+        print("gicp_pairs_ratio_" + key, median(v) / median(b.ms.at(key)), "x");
+    }
+    for (const auto& [key, v] : a.error_cm) {
+        print("gicp_pairs_a_" + key + "_median_error_to_ref", median(v), "cm");
+        print("gicp_pairs_b_" + key + "_median_error_to_ref", median(b.error_cm.at(key)), "cm");
+        print("gicp_pairs_a_" + key + "_median_error_to_ref", median(a.error_deg.at(key)), "deg");
+        print("gicp_pairs_b_" + key + "_median_error_to_ref", median(b.error_deg.at(key)), "deg");
+    }
+}
+
 int compare_command(char** argv) {
     const fs::path out = argv[2];
     const auto a = read_results(out / argv[3]);
     const auto b = read_results(out / argv[4]);
+    const auto refs = references(out);
     double max_trans_m = 0.0, max_rot_deg = 0.0;
-    // Per pair kind and setting: the medians of the total and of each stage, A then B.
-    std::map<std::string, std::vector<double>> a_ms, b_ms;
+    Figures fa, fb;
     for (const auto& [name, ra] : a) {
         const auto it = b.find(name);
         if (it == b.end()) throw std::runtime_error(std::string(argv[4]) + ": no " + name);
+        const auto ref = refs.find(name);
+        if (ref == refs.end()) throw std::runtime_error("pairs.txt: no " + name);
         max_trans_m =
             std::max(max_trans_m, lidarfuse::core::translation_error_m(ra.T, it->second.T));
         max_rot_deg =
             std::max(max_rot_deg, lidarfuse::core::rotation_error_deg(ra.T, it->second.T));
+        const std::size_t at = name.find('@');
         const std::string key =
-            kind_of(name.substr(0, name.find('@'))) + "@" + name.substr(name.find('@') + 1);
-        for (int stage = 0; stage < 5; ++stage) {
-            const std::string stage_key = key + "_" + kStageNames[stage];
-            a_ms[stage_key].push_back(stage < 4 ? ra.stage_ms[stage] : ra.total_ms);
-            b_ms[stage_key].push_back(stage < 4 ? it->second.stage_ms[stage] : it->second.total_ms);
-        }
+            lidarfuse::bench::pair_kind(name.substr(0, at)) + "@" + name.substr(at + 1);
+        fa.add(key, ra, ref->second);
+        fb.add(key, it->second, ref->second);
     }
     print("gicp_pairs_compared", static_cast<double>(a.size()), "pairs");
     print("gicp_pairs_max_pose_difference", max_trans_m * 1e3, "mm");
     print("gicp_pairs_max_pose_difference", max_rot_deg, "deg");
-    for (const auto& [key, v] : a_ms) {
-        print("gicp_pairs_a_" + key, median(v), "ms");
-        print("gicp_pairs_b_" + key, median(b_ms[key]), "ms");
-        print("gicp_pairs_ratio_" + key, median(v) / median(b_ms[key]), "x");
-    }
+    print_comparison(fa, fb);
     return 0;
 }
 

@@ -22,7 +22,16 @@
 //
 // Usage: gicp_pcl_bench [CAPTURE_DIR [FRAMES]]   (no CAPTURE_DIR: simulates the curve scene,
 // seed 1, 4 sensors, into a temporary folder). Output: `name value unit` lines.
+//
+//        gicp_pcl_bench pairs OUT [REPETITIONS]
+// PCL's own pipeline on the pairs that `gicp_pairs_bench write OUT` made (simulated and real,
+// at 1 m and 0.25 m, each with its k, bound, iterations and epsilons): pcl::VoxelGrid, the
+// FLANN k-d tree, GICP's covariances, its alignment with those trees and covariances, each
+// stage's wall time the fastest of REPETITIONS (3), one thread. Writes the result file
+// OUT/pcl_t1.txt, which `gicp_pairs_bench compare OUT ours_t1.txt pcl_t1.txt` sets beside
+// ours stage by stage (bench/gicp_pair_files.hpp).
 
+#include <pcl/filters/voxel_grid.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/registration/gicp.h>
@@ -31,14 +40,17 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "bench/gicp_pair_files.hpp"
 #include "core/common/kdtree.hpp"
 #include "core/common/se3.hpp"
 #include "core/preprocess/normals.hpp"
@@ -253,6 +265,110 @@ Outcome run_pcl(const PointCloud& target_in, const PointCloud& source_in, const 
     return o;
 }
 
+// ---- pairs: PCL's own pipeline on gicp_pairs_bench's pairs --------------------------------
+
+using PclCloud = pcl::PointCloud<pcl::PointXYZ>;
+using PclTree = pcl::search::KdTree<pcl::PointXYZ>;
+
+PclCloud::Ptr to_pcl(const std::vector<Eigen::Vector3d>& points) {
+    auto out = pcl::make_shared<PclCloud>();
+    out->reserve(points.size());
+    for (const Eigen::Vector3d& p : points) {
+        out->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                                     static_cast<float>(p.z())));
+    }
+    return out;
+}
+
+double ms_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+        .count();
+}
+
+// The stage times (ms) and the pose of one pass over a pair.
+struct PclPass {
+    double stage_ms[4] = {0.0, 0.0, 0.0, 0.0};  // voxel grid, tree, covariances, alignment
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+};
+
+PclCloud::Ptr pcl_voxel_grid(const PclCloud::Ptr& cloud, double voxel_m) {
+    pcl::VoxelGrid<pcl::PointXYZ> grid;
+    grid.setLeafSize(static_cast<float>(voxel_m), static_cast<float>(voxel_m),
+                     static_cast<float>(voxel_m));
+    grid.setInputCloud(cloud);
+    auto out = pcl::make_shared<PclCloud>();
+    grid.filter(*out);
+    return out;
+}
+
+PclPass pcl_pass(const lidarfuse::bench::GicpPair& p, const PclCloud::Ptr& target_in,
+                 const PclCloud::Ptr& source_in) {
+    using clock = std::chrono::steady_clock;
+    PclPass pass;
+    auto t = clock::now();
+    const PclCloud::Ptr target = pcl_voxel_grid(target_in, p.voxel_m);
+    const PclCloud::Ptr source = pcl_voxel_grid(source_in, p.voxel_m);
+    pass.stage_ms[0] = ms_since(t);
+    t = clock::now();
+    auto target_tree = pcl::make_shared<PclTree>();
+    auto source_tree = pcl::make_shared<PclTree>();
+    target_tree->setInputCloud(target);
+    source_tree->setInputCloud(source);
+    pass.stage_ms[1] = ms_since(t);
+    CountingGicp gicp;
+    gicp.setCorrespondenceRandomness(p.k);
+    auto target_cov = pcl::make_shared<CountingGicp::MatricesVector>();
+    auto source_cov = pcl::make_shared<CountingGicp::MatricesVector>();
+    t = clock::now();
+    gicp.covariances(target, target_tree, target_cov.get());
+    gicp.covariances(source, source_tree, source_cov.get());
+    pass.stage_ms[2] = ms_since(t);
+    gicp.setMaxCorrespondenceDistance(p.bound_m);
+    gicp.setMaximumIterations(p.max_iterations);
+    gicp.setTransformationEpsilon(p.eps);
+    gicp.setRotationEpsilon(p.eps);
+    PclCloud aligned;
+    t = clock::now();
+    gicp.setInputTarget(target);
+    gicp.setInputSource(source);
+    gicp.setSearchMethodTarget(target_tree, /*force_no_recompute=*/true);
+    gicp.setSearchMethodSource(source_tree, /*force_no_recompute=*/true);
+    gicp.setTargetCovariances(target_cov);
+    gicp.setSourceCovariances(source_cov);
+    gicp.align(aligned, p.T_init.matrix().cast<float>());
+    pass.stage_ms[3] = ms_since(t);
+    pass.T = Eigen::Isometry3d(gicp.getFinalTransformation().cast<double>());
+    pass.T.linear() = Eigen::Quaterniond(pass.T.linear()).normalized().toRotationMatrix();
+    return pass;
+}
+
+int pairs_command(const fs::path& out, int repetitions) {
+    std::ofstream results(out / "pcl_t1.txt");
+    results.precision(17);
+    for (const lidarfuse::bench::GicpPair& p : lidarfuse::bench::read_gicp_pairs(out)) {
+        const auto target = to_pcl(lidarfuse::bench::read_pair_points(out / p.target_file));
+        const auto source = to_pcl(lidarfuse::bench::read_pair_points(out / p.source_file));
+        PclPass best = pcl_pass(p, target, source);
+        for (int r = 1; r < repetitions; ++r) {
+            const PclPass pass = pcl_pass(p, target, source);
+            for (int s = 0; s < 4; ++s)
+                best.stage_ms[s] = std::min(best.stage_ms[s], pass.stage_ms[s]);
+        }
+        double total = 0.0;
+        results << p.name << '@' << p.voxel_m;
+        for (const double ms : best.stage_ms) {
+            results << ' ' << ms;
+            total += ms;
+        }
+        results << ' ' << total;
+        lidarfuse::bench::write_matrix(results, best.T);
+        results << '\n';
+        print("gicp_pcl_pair_" + p.name + "_voxel" + std::to_string(p.voxel_m) + "_total", total,
+              "ms");
+    }
+    return 0;
+}
+
 double median(std::vector<double> v) {
     if (v.empty()) return 0.0;
     std::sort(v.begin(), v.end());
@@ -262,6 +378,14 @@ double median(std::vector<double> v) {
 }  // namespace
 
 int main(int argc, char** argv) {
+    if (argc > 2 && std::string(argv[1]) == "pairs") {
+        try {
+            return pairs_command(argv[2], argc > 3 ? std::max(1, std::atoi(argv[3])) : 3);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "gicp_pcl_bench: %s\n", e.what());
+            return 1;
+        }
+    }
     fs::path dir;
     fs::path temporary;
     if (argc > 1) {
