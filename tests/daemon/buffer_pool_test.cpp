@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <thread>
 #include <vector>
 
@@ -44,19 +46,24 @@ TEST(BufferPool, KeepsAtMostMaxKeptAndFreesTheRest) {
 
 // The daemon's pattern: a producer takes a spare or allocates, fills it and queues it; a
 // consumer uses it and gives it back. Every buffer is accounted for and, once the pool has
-// spares, the producer stops allocating (TSan checks the hand-over).
+// spares, the producer stops allocating (TSan checks the hand-over). The producer keeps at
+// most kLead items ahead of the consumer, as a sensor's frames are paced: unpaced, on a
+// busy machine it could queue all of them before the consumer first ran, and no buffer
+// would come back to be reused.
 TEST(BufferPool, BuffersCirculateBetweenAProducerAndAConsumer) {
     constexpr int kItems = 2000;
+    constexpr int kLead = 8;
     BufferPool<std::vector<int>> pool(2);
     DropOldestQueue<std::vector<int>> queue(64);
     int allocated = 0;
+    std::atomic<int> given_back{0};
     std::thread producer([&] {
         for (int i = 0; i < kItems; ++i) {
+            while (i - given_back.load() > kLead) std::this_thread::yield();
             std::vector<int> buffer = pool.take().value_or(std::vector<int>{});
             if (buffer.capacity() == 0) ++allocated;
             buffer.assign(256, i);
             queue.push(std::move(buffer));
-            if (i % 16 == 0) std::this_thread::yield();
         }
         queue.close();
     });
@@ -71,6 +78,7 @@ TEST(BufferPool, BuffersCirculateBetweenAProducerAndAConsumer) {
         EXPECT_EQ(item->front(), item->back());
         ++received;
         pool.give(std::move(*item));
+        ++given_back;
     }
     producer.join();
     const auto c = pool.counters();
