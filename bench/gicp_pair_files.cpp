@@ -70,6 +70,37 @@ void write_pair_points(const fs::path& file, const std::vector<Eigen::Vector3d>&
     if (!out) throw std::runtime_error(file.string() + ": cannot write");
 }
 
+std::string result_name(const GicpPair& pair) {
+    std::ostringstream name;
+    name << pair.name << '@' << pair.voxel_m;
+    return name.str();
+}
+
+void write_pair_result(std::ostream& out, const GicpPair& pair, const PairResult& result) {
+    out << result_name(pair);
+    for (const double ms : result.stage_ms) out << ' ' << ms;
+    out << ' ' << result.total_ms;
+    write_matrix(out, result.T);
+    out << '\n';
+}
+
+std::map<std::string, PairResult> read_pair_results(const fs::path& file) {
+    std::ifstream in(file);
+    if (!in) throw std::runtime_error(file.string() + ": cannot read");
+    std::map<std::string, PairResult> results;
+    std::string line;
+    while (std::getline(in, line)) {
+        std::istringstream s(line);
+        std::string name;
+        PairResult r;
+        s >> name >> r.stage_ms[0] >> r.stage_ms[1] >> r.stage_ms[2] >> r.stage_ms[3] >> r.total_ms;
+        r.T = read_matrix(s);
+        if (!s) throw std::runtime_error(file.string() + ": expected a result, got: " + line);
+        results[name] = r;
+    }
+    return results;
+}
+
 std::string pair_kind(const std::string& name) {
     for (const char* kind : {"sim_temporal", "sim_spatial"}) {
         if (name.rfind(kind, 0) == 0) return kind;

@@ -15,6 +15,7 @@
 #include <Eigen/Geometry>
 #include <filesystem>
 #include <iosfwd>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,17 @@ void write_pair_points(const std::filesystem::path& file,
 // 16 numbers, row-major, each after a space.
 void write_matrix(std::ostream& out, const Eigen::Isometry3d& T);
 Eigen::Isometry3d read_matrix(std::istream& in);
+
+// One line of a result file. `name` is the pair's name@voxel_m (result_name).
+struct PairResult {
+    double stage_ms[4] = {0.0, 0.0, 0.0, 0.0};  // voxel grid, tree, covariances, alignment
+    double total_ms = 0.0;
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();  // T_target_source
+};
+std::string result_name(const GicpPair& pair);
+void write_pair_result(std::ostream& out, const GicpPair& pair, const PairResult& result);
+// By result name; throws std::runtime_error naming the file and the line it cannot read.
+std::map<std::string, PairResult> read_pair_results(const std::filesystem::path& file);
 
 // What a pair's figures are grouped by: sim_temporal, sim_spatial, or the real pair's name.
 std::string pair_kind(const std::string& name);

@@ -29,13 +29,11 @@
 // (k = 12, bound 0.25 m), 30 iterations, eps 1e-4, LM from lambda 1e-4.
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -43,6 +41,7 @@
 #include "bench/gicp_pair_files.hpp"
 #include "core/common/kdtree.hpp"
 #include "core/common/se3.hpp"
+#include "core/common/stopwatch.hpp"
 #include "core/pipeline/fusion_types.hpp"
 #include "core/preprocess/voxel_grid.hpp"
 #include "core/registration/gicp.hpp"
@@ -198,11 +197,6 @@ int write_command(int argc, char** argv) {
 
 // ---- run --------------------------------------------------------------------------------
 
-double ms_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-        .count();
-}
-
 struct StageTimes {
     double voxel = 1e300, tree = 1e300, covariances = 1e300, alignment = 1e300;
     double total() const { return voxel + tree + covariances + alignment; }
@@ -238,42 +232,45 @@ PointCloud downsample(lidarfuse::core::VoxelGrid* grid, const Points& points, do
 // One pass of the four stages over both clouds of the pair.
 Registered register_once(const GicpPair& p, const Points& target, const Points& source, int threads,
                          PairGrids* grids) {
-    using clock = std::chrono::steady_clock;
     Registered r;
-    auto t = clock::now();
+    lidarfuse::core::Stopwatch t;
     PointCloud target_cloud = downsample(&grids->target, target, p.voxel_m);
     PointCloud source_cloud = downsample(&grids->source, source, p.voxel_m);
-    r.times.voxel = ms_since(t);
-    t = clock::now();
+    r.times.voxel = t.milliseconds();
+    t.restart();
     {
         const lidarfuse::core::KdTree a(target_cloud.points, 10, threads),
             b(source_cloud.points, 10, threads);
     }
-    r.times.tree = ms_since(t);
+    r.times.tree = t.milliseconds();
     lidarfuse::core::NormalParams normals;
     normals.k_neighbors = p.k;
     normals.compute_normals = false;
-    t = clock::now();
+    t.restart();
     const lidarfuse::core::GicpCloud gicp_target(std::move(target_cloud), normals, 10, threads);
     const lidarfuse::core::GicpCloud gicp_source(std::move(source_cloud), normals, 10, threads);
-    r.times.covariances = std::max(0.0, ms_since(t) - r.times.tree);
+    r.times.covariances = std::max(0.0, t.milliseconds() - r.times.tree);
     lidarfuse::core::GicpParams params;
     params.max_correspondence_distance_m = p.bound_m;
     params.max_iterations = p.max_iterations;
     params.translation_eps_m = p.eps;
     params.rotation_eps_rad = p.eps;
-    t = clock::now();
+    t.restart();
     lidarfuse::core::GicpRegistration registration(params, threads);
     r.result = registration.align(gicp_target, gicp_source, p.T_init);
-    r.times.alignment = ms_since(t);
+    r.times.alignment = t.milliseconds();
     return r;
 }
 
-void write_result_line(std::ostream& out, const GicpPair& p, const Registered& r) {
-    out << p.name << '@' << p.voxel_m << ' ' << r.times.voxel << ' ' << r.times.tree << ' '
-        << r.times.covariances << ' ' << r.times.alignment << ' ' << r.times.total();
-    lidarfuse::bench::write_matrix(out, r.result.T_target_source);
-    out << '\n';
+lidarfuse::bench::PairResult result_of(const Registered& r) {
+    lidarfuse::bench::PairResult out;
+    out.stage_ms[0] = r.times.voxel;
+    out.stage_ms[1] = r.times.tree;
+    out.stage_ms[2] = r.times.covariances;
+    out.stage_ms[3] = r.times.alignment;
+    out.total_ms = r.times.total();
+    out.T = r.result.T_target_source;
+    return out;
 }
 
 std::string setting_tag(const GicpPair& p) {
@@ -297,7 +294,7 @@ int run_command(int argc, char** argv) {
         for (int r = 1; r < repetitions; ++r) {
             best.times.keep_fastest(register_once(p, target, source, threads, &grids).times);
         }
-        write_result_line(results, p, best);
+        lidarfuse::bench::write_pair_result(results, p, result_of(best));
         const std::string key = setting_tag(p) + "_" + lidarfuse::bench::pair_kind(p.name);
         totals[key].push_back(best.times.total());
         stage_ms[key + "_voxel_grid"].push_back(best.times.voxel);
@@ -321,38 +318,13 @@ int run_command(int argc, char** argv) {
 
 // ---- compare ----------------------------------------------------------------------------
 
-struct ResultLine {
-    double stage_ms[4] = {0.0, 0.0, 0.0, 0.0};  // voxel grid, tree, covariances, alignment
-    double total_ms = 0.0;
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-};
-
-std::map<std::string, ResultLine> read_results(const fs::path& file) {
-    std::ifstream in(file);
-    if (!in) throw std::runtime_error(file.string() + ": cannot read");
-    std::map<std::string, ResultLine> lines;
-    std::string line;
-    while (std::getline(in, line)) {
-        std::istringstream s(line);
-        std::string name;
-        ResultLine r;
-        s >> name >> r.stage_ms[0] >> r.stage_ms[1] >> r.stage_ms[2] >> r.stage_ms[3] >> r.total_ms;
-        r.T = lidarfuse::bench::read_matrix(s);
-        if (!s) throw std::runtime_error(file.string() + ": bad line: " + line);
-        lines[name] = r;
-    }
-    return lines;
-}
-
 constexpr const char* kStageNames[5] = {"voxel_grid", "tree", "covariances", "alignment", "total"};
 
 // name@voxel_m (as the result files name a pair) -> the pair's reference pose.
 std::map<std::string, Eigen::Isometry3d> references(const fs::path& out) {
     std::map<std::string, Eigen::Isometry3d> refs;
     for (const GicpPair& p : lidarfuse::bench::read_gicp_pairs(out)) {
-        std::ostringstream name;
-        name << p.name << '@' << p.voxel_m;
-        refs[name.str()] = p.T_ref;
+        refs[lidarfuse::bench::result_name(p)] = p.T_ref;
     }
     return refs;
 }
@@ -360,7 +332,8 @@ std::map<std::string, Eigen::Isometry3d> references(const fs::path& out) {
 // Per pair kind and setting ("sim_temporal@1"), one file's stage times and errors.
 struct Figures {
     std::map<std::string, std::vector<double>> ms, error_cm, error_deg;
-    void add(const std::string& key, const ResultLine& r, const Eigen::Isometry3d& T_ref) {
+    void add(const std::string& key, const lidarfuse::bench::PairResult& r,
+             const Eigen::Isometry3d& T_ref) {
         for (int stage = 0; stage < 5; ++stage) {
             ms[key + "_" + kStageNames[stage]].push_back(stage < 4 ? r.stage_ms[stage]
                                                                    : r.total_ms);
@@ -386,8 +359,8 @@ void print_comparison(const Figures& a, const Figures& b) {
 
 int compare_command(char** argv) {
     const fs::path out = argv[2];
-    const auto a = read_results(out / argv[3]);
-    const auto b = read_results(out / argv[4]);
+    const auto a = lidarfuse::bench::read_pair_results(out / argv[3]);
+    const auto b = lidarfuse::bench::read_pair_results(out / argv[4]);
     const auto refs = references(out);
     double max_trans_m = 0.0, max_rot_deg = 0.0;
     Figures fa, fb;

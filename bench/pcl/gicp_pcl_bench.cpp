@@ -31,7 +31,6 @@
 // OUT/pcl_t1.txt, which `gicp_pairs_bench compare OUT ours_t1.txt pcl_t1.txt` sets beside
 // ours stage by stage (bench/gicp_pair_files.hpp).
 
-#include <pcl/filters/voxel_grid.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/registration/gicp.h>
@@ -40,17 +39,16 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "bench/gicp_pair_files.hpp"
+#include "bench/pcl/gicp_pcl_pairs.hpp"
+#include "bench/pcl/pcl_gicp_support.hpp"
 #include "core/common/kdtree.hpp"
 #include "core/common/se3.hpp"
 #include "core/preprocess/normals.hpp"
@@ -63,6 +61,8 @@
 namespace {
 
 namespace fs = std::filesystem;
+using lidarfuse::bench::CountingGicp;
+using lidarfuse::bench::to_pcl;
 using lidarfuse::core::PointCloud;
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
@@ -149,27 +149,6 @@ Outcome run_ours(const PointCloud& target_in, const PointCloud& source_in,
     return o;
 }
 
-pcl::PointCloud<pcl::PointXYZ>::Ptr to_pcl(const PointCloud& cloud) {
-    auto out = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-    out->reserve(cloud.size());
-    for (const Eigen::Vector3d& p : cloud.points) {
-        out->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                                     static_cast<float>(p.z())));
-    }
-    return out;
-}
-
-// PCL 1.13 keeps the iteration count in a protected member with no getter, and its
-// covariance step in a protected method.
-class CountingGicp : public pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> {
-public:
-    int iterations() const { return nr_iterations_; }
-    void covariances(const pcl::PointCloud<pcl::PointXYZ>::ConstPtr& cloud,
-                     const pcl::search::KdTree<pcl::PointXYZ>::Ptr& tree, MatricesVector* out) {
-        computeCovariances<pcl::PointXYZ>(cloud, tree, *out);
-    }
-};
-
 // Per-point CPU time (us) of the covariance step alone on one cloud, ours and PCL's, each
 // the fastest of kRepetitions: the k-d tree and the k nearest of every point (`knn`), and
 // the whole step, tree to covariances. It is what a pair "with covariances" adds to the
@@ -189,7 +168,7 @@ CovarianceCost covariance_cost(const PointCloud& cloud) {
         }
         return fastest;
     };
-    const auto pcl_cloud = to_pcl(cloud);
+    const auto pcl_cloud = to_pcl(cloud.points);
     CovarianceCost c;
     c.ours_knn_us = fastest_us_per_point([&] {
         std::uint32_t idx[kCovarianceNeighbors];
@@ -229,8 +208,8 @@ CountingGicp::MatricesVectorPtr to_pcl_covariances(const PointCloud& cloud) {
 
 Outcome run_pcl(const PointCloud& target_in, const PointCloud& source_in, const Pair& pair,
                 double max_corr_m, bool shared_covariances) {
-    const auto target = to_pcl(target_in);
-    const auto source = to_pcl(source_in);
+    const auto target = to_pcl(target_in.points);
+    const auto source = to_pcl(source_in.points);
     CountingGicp::MatricesVectorPtr target_cov, source_cov;
     if (shared_covariances) {
         target_cov = to_pcl_covariances(target_in);
@@ -265,110 +244,6 @@ Outcome run_pcl(const PointCloud& target_in, const PointCloud& source_in, const 
     return o;
 }
 
-// ---- pairs: PCL's own pipeline on gicp_pairs_bench's pairs --------------------------------
-
-using PclCloud = pcl::PointCloud<pcl::PointXYZ>;
-using PclTree = pcl::search::KdTree<pcl::PointXYZ>;
-
-PclCloud::Ptr to_pcl(const std::vector<Eigen::Vector3d>& points) {
-    auto out = pcl::make_shared<PclCloud>();
-    out->reserve(points.size());
-    for (const Eigen::Vector3d& p : points) {
-        out->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                                     static_cast<float>(p.z())));
-    }
-    return out;
-}
-
-double ms_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-        .count();
-}
-
-// The stage times (ms) and the pose of one pass over a pair.
-struct PclPass {
-    double stage_ms[4] = {0.0, 0.0, 0.0, 0.0};  // voxel grid, tree, covariances, alignment
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-};
-
-PclCloud::Ptr pcl_voxel_grid(const PclCloud::Ptr& cloud, double voxel_m) {
-    pcl::VoxelGrid<pcl::PointXYZ> grid;
-    grid.setLeafSize(static_cast<float>(voxel_m), static_cast<float>(voxel_m),
-                     static_cast<float>(voxel_m));
-    grid.setInputCloud(cloud);
-    auto out = pcl::make_shared<PclCloud>();
-    grid.filter(*out);
-    return out;
-}
-
-PclPass pcl_pass(const lidarfuse::bench::GicpPair& p, const PclCloud::Ptr& target_in,
-                 const PclCloud::Ptr& source_in) {
-    using clock = std::chrono::steady_clock;
-    PclPass pass;
-    auto t = clock::now();
-    const PclCloud::Ptr target = pcl_voxel_grid(target_in, p.voxel_m);
-    const PclCloud::Ptr source = pcl_voxel_grid(source_in, p.voxel_m);
-    pass.stage_ms[0] = ms_since(t);
-    t = clock::now();
-    auto target_tree = pcl::make_shared<PclTree>();
-    auto source_tree = pcl::make_shared<PclTree>();
-    target_tree->setInputCloud(target);
-    source_tree->setInputCloud(source);
-    pass.stage_ms[1] = ms_since(t);
-    CountingGicp gicp;
-    gicp.setCorrespondenceRandomness(p.k);
-    auto target_cov = pcl::make_shared<CountingGicp::MatricesVector>();
-    auto source_cov = pcl::make_shared<CountingGicp::MatricesVector>();
-    t = clock::now();
-    gicp.covariances(target, target_tree, target_cov.get());
-    gicp.covariances(source, source_tree, source_cov.get());
-    pass.stage_ms[2] = ms_since(t);
-    gicp.setMaxCorrespondenceDistance(p.bound_m);
-    gicp.setMaximumIterations(p.max_iterations);
-    gicp.setTransformationEpsilon(p.eps);
-    gicp.setRotationEpsilon(p.eps);
-    PclCloud aligned;
-    t = clock::now();
-    gicp.setInputTarget(target);
-    gicp.setInputSource(source);
-    gicp.setSearchMethodTarget(target_tree, /*force_no_recompute=*/true);
-    gicp.setSearchMethodSource(source_tree, /*force_no_recompute=*/true);
-    gicp.setTargetCovariances(target_cov);
-    gicp.setSourceCovariances(source_cov);
-    gicp.align(aligned, p.T_init.matrix().cast<float>());
-    pass.stage_ms[3] = ms_since(t);
-    pass.T = Eigen::Isometry3d(gicp.getFinalTransformation().cast<double>());
-    pass.T.linear() = Eigen::Quaterniond(pass.T.linear()).normalized().toRotationMatrix();
-    return pass;
-}
-
-int pairs_command(const fs::path& out, int repetitions) {
-    std::ofstream results(out / "pcl_t1.txt");
-    results.precision(17);
-    for (const lidarfuse::bench::GicpPair& p : lidarfuse::bench::read_gicp_pairs(out)) {
-        const auto target = to_pcl(lidarfuse::bench::read_pair_points(out / p.target_file));
-        const auto source = to_pcl(lidarfuse::bench::read_pair_points(out / p.source_file));
-        PclPass best = pcl_pass(p, target, source);
-        for (int r = 1; r < repetitions; ++r) {
-            const PclPass pass = pcl_pass(p, target, source);
-            for (int s = 0; s < 4; ++s)
-                best.stage_ms[s] = std::min(best.stage_ms[s], pass.stage_ms[s]);
-        }
-        double total = 0.0;
-        results << p.name << '@' << p.voxel_m;
-        for (const double ms : best.stage_ms) {
-            results << ' ' << ms;
-            total += ms;
-        }
-        results << ' ' << total;
-        lidarfuse::bench::write_matrix(results, best.T);
-        results << '\n';
-        print("gicp_pcl_pair_" + p.name + "_voxel" + std::to_string(p.voxel_m) + "_total", total,
-              "ms");
-    }
-    return 0;
-}
-
 double median(std::vector<double> v) {
     if (v.empty()) return 0.0;
     std::sort(v.begin(), v.end());
@@ -380,7 +255,8 @@ double median(std::vector<double> v) {
 int main(int argc, char** argv) {
     if (argc > 2 && std::string(argv[1]) == "pairs") {
         try {
-            return pairs_command(argv[2], argc > 3 ? std::max(1, std::atoi(argv[3])) : 3);
+            return lidarfuse::bench::run_pcl_pairs(argv[2],
+                                                   argc > 3 ? std::max(1, std::atoi(argv[3])) : 3);
         } catch (const std::exception& e) {
             std::fprintf(stderr, "gicp_pcl_bench: %s\n", e.what());
             return 1;
