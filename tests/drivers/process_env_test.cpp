@@ -102,11 +102,15 @@ int arenas_in_child(const std::function<void()>& setup) {
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-// The most arenas seen in five children: on a loaded machine the six threads sometimes end
-// up in fewer arenas than glibc would give them, never in more.
-int most_arenas(const std::function<void()>& setup) {
+// The most arenas seen in `runs` children, or the first count above `enough`: glibc does
+// not give six live threads an arena each, and on a loaded machine they often end up in
+// two (without a cap: 2-4 in 20 children beside two busy loops, 3-7 idle); never in more
+// than its limit.
+int most_arenas(const std::function<void()>& setup, int runs, int enough) {
     int most = 0;
-    for (int run = 0; run < 5; ++run) most = std::max(most, arenas_in_child(setup));
+    for (int run = 0; run < runs && most <= enough; ++run) {
+        most = std::max(most, arenas_in_child(setup));
+    }
     return most;
 }
 
@@ -114,11 +118,12 @@ TEST(ProcessEnv, ThreadsShareAtMostTheCappedNumberOfArenas) {
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
     GTEST_SKIP() << "the sanitizers' allocators have no glibc arenas; the release build checks it";
 #endif
-    const int capped = most_arenas([] { keep_frame_buffers_in_heap(); });
+    const int capped = most_arenas([] { keep_frame_buffers_in_heap(); }, 10, kMallocArenas);
     EXPECT_GE(capped, 1);
     EXPECT_LE(capped, kMallocArenas);
-    // The control: with room for more, the six threads take more arenas than the cap.
-    EXPECT_GT(most_arenas([] { ::mallopt(M_ARENA_MAX, 8); }), kMallocArenas);
+    // The control: with room for more, the six threads take more arenas than the cap (in
+    // one of 50 children at most; beside two busy loops about one in five does).
+    EXPECT_GT(most_arenas([] { ::mallopt(M_ARENA_MAX, 8); }, 50, kMallocArenas), kMallocArenas);
 }
 
 }  // namespace
