@@ -103,8 +103,8 @@ int arenas_in_child(const std::function<void()>& setup) {
 }
 
 // The most arenas seen in `runs` children, or the first count above `enough`: glibc does
-// not give six live threads an arena each, and on a loaded machine they often end up in
-// two (without a cap: 2-4 in 20 children beside two busy loops, 3-7 idle); never in more
+// not give six live threads an arena each, and on a loaded machine they often share a few
+// (bench/BENCHMARK.md, "The allocator test's control on a loaded machine"); never more
 // than its limit.
 int most_arenas(const std::function<void()>& setup, int runs, int enough) {
     int most = 0;
@@ -121,8 +121,8 @@ TEST(ProcessEnv, ThreadsShareAtMostTheCappedNumberOfArenas) {
     const int capped = most_arenas([] { keep_frame_buffers_in_heap(); }, 10, kMallocArenas);
     EXPECT_GE(capped, 1);
     EXPECT_LE(capped, kMallocArenas);
-    // The control: with room for more, the six threads take more arenas than the cap (in
-    // one of 50 children at most; beside two busy loops about one in five does).
+    // The control: with room for more, the six threads take more arenas than the cap, in
+    // one of 50 children at most.
     EXPECT_GT(most_arenas([] { ::mallopt(M_ARENA_MAX, 8); }, 50, kMallocArenas), kMallocArenas);
 }
 
