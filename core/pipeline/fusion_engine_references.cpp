@@ -9,6 +9,58 @@
 
 namespace lidarfuse::core {
 
+namespace {
+
+// A fine edge to register: target sensors[a], source sensors[b].
+struct FinePair {
+    std::size_t a, b;
+    Eigen::Isometry3d T_init;
+    GicpResult result;
+};
+
+// The pairs of `sensors` whose references share a frame, one of them fresh.
+template <class InFresh>
+std::vector<FinePair> plan_fine_pairs(const std::vector<std::unique_ptr<SensorTrack>>& tracks,
+                                      const std::vector<std::size_t>& sensors,
+                                      const InFresh& in_fresh) {
+    std::vector<FinePair> pairs;
+    for (std::size_t a = 0; a < sensors.size(); ++a) {
+        for (std::size_t b = a + 1; b < sensors.size(); ++b) {
+            const SensorTrack& ta = *tracks[sensors[a]];
+            const SensorTrack& tb = *tracks[sensors[b]];
+            if (ta.reference_frame() != tb.reference_frame()) continue;
+            if (!in_fresh(sensors[a]) && !in_fresh(sensors[b])) continue;
+            pairs.push_back({a, b, ta.reference_pose().inverse() * tb.reference_pose(), {}});
+        }
+    }
+    return pairs;
+}
+
+// The targets at `voxel_size_m` of the sensors in a pair (null for the others), in parallel:
+// a track's own reference target where it is that very cloud (a track just started or
+// deskewed), otherwise built into `made`.
+std::vector<const GicpCloud*> fine_targets(const std::vector<std::unique_ptr<SensorTrack>>& tracks,
+                                           const std::vector<std::size_t>& sensors,
+                                           const std::vector<FinePair>& pairs, double voxel_size_m,
+                                           int num_threads, std::vector<GicpCloud>* made) {
+    std::vector<char> in_pair(sensors.size(), 0);
+    for (const FinePair& p : pairs) in_pair[p.a] = in_pair[p.b] = 1;
+    std::vector<const GicpCloud*> targets(sensors.size(), nullptr);
+#pragma omp parallel for num_threads(std::max(1, num_threads)) schedule(dynamic, 1)
+    for (std::size_t k = 0; k < sensors.size(); ++k) {
+        if (!in_pair[k]) continue;
+        const SensorTrack& track = *tracks[sensors[k]];
+        targets[k] = track.reference_target_if_built_at(voxel_size_m);
+        if (!targets[k]) {
+            (*made)[k] = track.reference_target_at(voxel_size_m);
+            targets[k] = &(*made)[k];
+        }
+    }
+    return targets;
+}
+
+}  // namespace
+
 void FusionEngine::Impl::remove_track_nodes(std::size_t s) {
     window.remove_sensor(s);
     if (tracks[s]->initialised()) graph.remove_node(node_id(s, tracks[s]->reference_frame()));
@@ -90,36 +142,24 @@ void FusionEngine::Impl::add_fine_reference_edges(const std::vector<std::size_t>
             shares = shares || tracks[f]->reference_frame() == t.reference_frame();
         if (in_fresh(s) || shares) sensors.push_back(s);
     }
-    std::vector<GicpCloud> targets(sensors.size());
-    const int threads = std::max(1, params.num_threads);
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
-    for (std::size_t k = 0; k < sensors.size(); ++k) {
-        targets[k] = tracks[sensors[k]]->reference_target_at(params.reference_voxel_size_m);
-    }
-    struct Pair {
-        std::size_t a, b;  // indices into sensors: target a, source b
-        Eigen::Isometry3d T_init;
-        GicpResult result;
-    };
-    std::vector<Pair> pairs;
-    for (std::size_t a = 0; a < sensors.size(); ++a) {
-        for (std::size_t b = a + 1; b < sensors.size(); ++b) {
-            const SensorTrack& ta = *tracks[sensors[a]];
-            const SensorTrack& tb = *tracks[sensors[b]];
-            if (ta.reference_frame() != tb.reference_frame()) continue;
-            if (!in_fresh(sensors[a]) && !in_fresh(sensors[b])) continue;
-            if (targets[a].size() < 3 || targets[b].size() < 3) continue;
-            pairs.push_back({a, b, ta.reference_pose().inverse() * tb.reference_pose(), {}});
-        }
-    }
+    std::vector<FinePair> pairs = plan_fine_pairs(tracks, sensors, in_fresh);
+    std::vector<GicpCloud> made(sensors.size());
+    const std::vector<const GicpCloud*> targets = fine_targets(
+        tracks, sensors, pairs, params.reference_voxel_size_m, params.num_threads, &made);
+    pairs.erase(std::remove_if(pairs.begin(), pairs.end(),
+                               [&targets](const FinePair& p) {
+                                   return targets[p.a]->size() < 3 || targets[p.b]->size() < 3;
+                               }),
+                pairs.end());
     GicpParams g = params.gicp;
     g.max_correspondence_distance_m = params.correspondence_factor * params.reference_voxel_size_m;
+    const int threads = std::max(1, params.num_threads);
     std::vector<GicpRegistration> fine(static_cast<std::size_t>(threads), GicpRegistration(g));
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (std::size_t k = 0; k < pairs.size(); ++k) {
         auto& pair = pairs[k];
         pair.result = fine[static_cast<std::size_t>(omp_get_thread_num())].align(
-            targets[pair.a], targets[pair.b], pair.T_init);
+            *targets[pair.a], *targets[pair.b], pair.T_init);
     }
     for (const auto& pair : pairs) {
         const auto& r = pair.result;

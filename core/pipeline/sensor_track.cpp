@@ -186,6 +186,7 @@ void SensorTrack::reanchor(const Eigen::Isometry3d& left,
                            const Eigen::Isometry3d& right_reference) {
     const Eigen::Isometry3d right = se3_exp(-deskew_twist() * mean_of(reference_point_dt_s_));
     T_root_reference_ = orthonormalized(left * T_root_reference_ * right_reference);
+    reference_target_current_ = false;
     for (auto& sample : history_) {
         sample.T_root_sensor =
             orthonormalized(left * sample.T_root_sensor *
@@ -260,8 +261,10 @@ void SensorTrack::start(std::int64_t frame, const SensorScanInput& scan,
     // The reference target is a copy of the first frame's cloud (the current one moves on).
     if (reference_voxel_size_m() == params_.voxel_size_m) {
         reference_target_ = current_target_.clone();
+        reference_target_current_ = false;  // built by another path
     } else {
         reference_target_ = reference_target_at(reference_voxel_size_m());
+        reference_target_current_ = true;
     }
 }
 
@@ -270,6 +273,7 @@ void SensorTrack::reset() {
     history_.clear();
     prediction_misses_.clear();
     reference_target_ = GicpCloud();
+    reference_target_current_ = false;
     previous_target_ = GicpCloud();
     current_target_ = GicpCloud();
     T_root_reference_ = Eigen::Isometry3d::Identity();
@@ -277,8 +281,12 @@ void SensorTrack::reset() {
 
 void SensorTrack::rebuild_reference_target() {
     GicpCloud target = reference_target_at(reference_voxel_size_m());
-    if (target.size() < 3) return;  // keep the old target rather than none
+    if (target.size() < 3) {
+        reference_target_current_ = false;  // the old target is kept rather than none
+        return;
+    }
     reference_target_ = std::move(target);
+    reference_target_current_ = true;
     previous_in_reference_.clear();  // indices into the old target
     reference_dynamic_at_build_ = background_update_.num_reference_dynamic;
 }
@@ -321,6 +329,7 @@ void SensorTrack::prepare_points(const SensorScanInput& scan,
         for (std::size_t i = 0; i < points_.size(); ++i)
             in_reference_frame[i] = T_reference_current * points_[i];
         background_.update(in_reference_frame, &background_update_, &scratch->background);
+        reference_target_current_ = false;  // the reference points' flags may have changed
         dynamic_ = background_update_.dynamic;
         dynamic_count_ = background_update_.num_dynamic;
         // Vehicles of the first frame that have left: drop them from the reference target

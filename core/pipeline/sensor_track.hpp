@@ -75,6 +75,14 @@ public:
     // The reference scan's static points downsampled at `voxel_size_m`, with covariances
     // (for the fine inter-sensor edges between reference frames). Empty if fewer than 3.
     GicpCloud reference_target_at(double voxel_size_m) const;
+    // The reference target itself where it is what reference_target_at(voxel_size_m) would
+    // build now (built at that voxel size from the present reference points, flags and
+    // pose, none of them changed since); otherwise null. Saves building the same cloud twice.
+    const GicpCloud* reference_target_if_built_at(double voxel_size_m) const {
+        return reference_target_current_ && voxel_size_m == reference_voxel_size_m()
+                   ? &reference_target_
+                   : nullptr;
+    }
     // Voxel size of the reference target (FusionParams::reference_target_voxel_size_m).
     double reference_voxel_size_m() const;
     // After deskew_reference(): maps the reference pose and the pose history to the deskewed
@@ -97,6 +105,9 @@ public:
                       const Eigen::Isometry3d& T_root_sensor);
     // The reference pose is refined while its frame is in the window.
     void set_reference_pose(const Eigen::Isometry3d& T_root_reference) {
+        // The voxel grid lies in the root frame (FusionParams::voxel_grid_in_root_frame).
+        if (T_root_reference.matrix() != T_root_reference_.matrix())
+            reference_target_current_ = false;
         T_root_reference_ = T_root_reference;
     }
     const Eigen::Isometry3d& reference_pose() const { return T_root_reference_; }
@@ -150,6 +161,7 @@ private:
     std::int64_t reference_frame_ = 0;
     Eigen::Isometry3d T_root_reference_ = Eigen::Isometry3d::Identity();
     GicpCloud reference_target_;
+    bool reference_target_current_ = false;  // see reference_target_if_built_at()
     GicpCloud previous_target_;
     GicpCloud current_target_;
     BackgroundModel background_;

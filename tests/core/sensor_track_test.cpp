@@ -101,5 +101,58 @@ TEST(SensorTrack, TracksSharingOneScratchPrepareAsWithTheirOwn) {
     }
 }
 
+// The fine edges take a track's reference target instead of building it again where it is
+// that very cloud: then it must be exactly what reference_target_at() builds at that moment,
+// and it is offered after a start and after a rebuild, and not after anything that changes
+// the reference's points, flags or pose (the grid lies in the root frame).
+TEST(SensorTrack, ReferenceTargetIsOfferedOnlyWhileItIsWhatWouldBeBuilt) {
+    const FusionParams params = track_params();
+    const double voxel = params.reference_target_voxel_size_m;
+    ASSERT_LT(voxel, params.voxel_size_m) << "a reference target of its own voxel size";
+    SensorTrack track(params);
+    TrackScratch scratch;
+    const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    const auto offered_is_built = [&](const char* when) {
+        const GicpCloud* offered = track.reference_target_if_built_at(voxel);
+        if (offered) {
+            EXPECT_EQ(offered->points(), track.reference_target_at(voxel).points()) << when;
+        }
+        return offered != nullptr;
+    };
+    track.start(0, scan_of(street_with_van(), 1, 0), T, &scratch);
+    EXPECT_TRUE(offered_is_built("after the start"));
+    EXPECT_EQ(track.reference_target_if_built_at(params.voxel_size_m), nullptr);
+    track.set_reference_pose(T);  // the same pose: nothing changed
+    EXPECT_TRUE(offered_is_built("after the same pose"));
+
+    // The van leaves: the background model flags its reference points, and once they are
+    // enough the reference target is rebuilt without them (and offered again).
+    const testing::Scene empty_street = testing::street_scene();
+    int offered_after_prepare = 0;
+    for (int f = 1; f <= 6; ++f) {
+        track.prepare(scan_of(empty_street, 1 + f, f * 50'000'000LL), T, &scratch);
+        offered_after_prepare += offered_is_built("after a prepare");
+        track.finish_frame(f, f * 50'000'000LL, T);
+    }
+    EXPECT_GE(offered_after_prepare, 1) << "the rebuild after the van left";
+    EXPECT_LT(offered_after_prepare, 6) << "flags changed without a rebuild";
+
+    track.start(7, scan_of(street_with_van(), 9, 350'000'000LL), T, &scratch);
+    ASSERT_TRUE(offered_is_built("after a restart"));
+    Eigen::Isometry3d moved = T;
+    moved.translation() = Eigen::Vector3d(0.13, -0.07, 0.02);
+    track.set_reference_pose(moved);
+    EXPECT_FALSE(offered_is_built("after the pose moved"));
+    EXPECT_NE(track.reference_target().points(), track.reference_target_at(voxel).points())
+        << "the pose decides the grid, so the target it would build now differs";
+
+    track.start(8, scan_of(street_with_van(), 10, 400'000'000LL), T, &scratch);
+    ASSERT_TRUE(offered_is_built("after another restart"));
+    track.reanchor(moved, Eigen::Isometry3d::Identity());
+    EXPECT_FALSE(offered_is_built("after a re-anchoring"));
+    track.reset();
+    EXPECT_FALSE(offered_is_built("after a reset"));
+}
+
 }  // namespace
 }  // namespace lidarfuse::core
