@@ -179,8 +179,9 @@ void Pipeline::Impl::initial_registration_loop(InitialJobs* jobs) {
             }
             const std::string& error = (*job)->error();
             fusion_log->log(error.empty() ? spdlog::level::info : spdlog::level::warn,
-                            "initial registration done in {:.0f} ms{}", (*job)->run_ms(),
-                            error.empty() ? "" : ": " + error);
+                            "initial registration done in {:.0f} ms{}, tracks started in {:.0f} ms",
+                            (*job)->run_ms(), error.empty() ? "" : ": " + error,
+                            (*job)->follow_up_ms());
         } else if (jobs->closed()) {
             break;
         }

@@ -78,9 +78,10 @@ void FusionEngine::Impl::report_poses(FrameWork* w) {
         h.dynamic_points = track.current_dynamic_count();
         h.registration_points = track.current_target().size();
     }
-    // A job handed out this frame: its poses are relative to the root's estimate here.
+    // A job handed out this frame: its poses are relative to the root's estimate here (set
+    // before process() hands the job out, which its follow-up then reads on its own thread).
     if (pending && pending->frame == w->frame && out.health[params.root_sensor].pose_valid) {
-        pending->T_root0_root = out.T_root_sensor[params.root_sensor];
+        pending->starts->T_root0_root = out.T_root_sensor[params.root_sensor];
     }
 }
 

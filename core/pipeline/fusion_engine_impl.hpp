@@ -26,14 +26,25 @@
 
 namespace lidarfuse::core {
 
+// What the tracks of the sensors a job registers start from, and those tracks once its
+// follow-up (InitialRegistrationJob::set_follow_up) has started them on the job's thread:
+// the frame that applies the registration takes them over instead of starting them itself
+// (hundreds of ms on the fusion thread). Shared by the engine and the job, which may
+// outlive it. The engine writes T_root0_root only before it hands the job out.
+struct TrackStarts {
+    std::shared_ptr<const FusionParams> params;  // the tracks' (Impl::track_params)
+    std::vector<SensorScanInput> scans;          // the frame's scans, in the pending order
+    Eigen::Isometry3d T_root0_root = Eigen::Isometry3d::Identity();  // root pose at the frame
+    std::vector<std::unique_ptr<SensorTrack>> tracks;  // by position in the order; null: none
+};
+
 // An initial registration handed out (or run inline) and what applying it needs.
 struct PendingInitialisation {
     std::shared_ptr<InitialRegistrationJob> job;
-    std::int64_t frame = 0;              // the frame of its scans
-    bool first = false;                  // the station's first registration
-    std::vector<std::size_t> order;      // the root, then the sensors to register
-    std::vector<SensorScanInput> scans;  // their scans of `frame`, in `order`
-    Eigen::Isometry3d T_root0_root = Eigen::Isometry3d::Identity();  // root pose at `frame`
+    std::int64_t frame = 0;          // the frame of its scans
+    bool first = false;              // the station's first registration
+    std::vector<std::size_t> order;  // the root, then the sensors to register
+    std::shared_ptr<TrackStarts> starts;
 };
 
 enum class EdgeKind { kPrevious, kReference, kInterSensor };
@@ -71,6 +82,9 @@ struct FrameWork {
 
 struct FusionEngine::Impl {
     FusionParams params;
+    // The same, for the tracks: shared with a job's follow-up, which starts tracks on its
+    // own thread and may outlive the engine.
+    std::shared_ptr<const FusionParams> track_params;
     std::size_t n;
     std::vector<std::unique_ptr<SensorTrack>> tracks;
     PoseGraph graph;

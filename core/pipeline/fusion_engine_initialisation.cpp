@@ -6,6 +6,33 @@
 
 namespace lidarfuse::core {
 
+namespace {
+
+// The follow-up that starts the tracks of the sensors `p`'s job registers (all of them but
+// the root when `root_tracked`) into p->starts, on the job's thread. Shared pointers and
+// copies only: it touches nothing of the engine.
+void start_tracks_after(PendingInitialisation* p, bool root_tracked, int threads) {
+    p->job->set_follow_up([starts = p->starts, frame = p->frame, root_tracked,
+                           threads](const InitialRegistrationResult& result) {
+        std::vector<std::size_t> registered;  // positions in the order
+        for (std::size_t k = root_tracked ? 1 : 0; k < result.sensors.size(); ++k) {
+            if (k < starts->scans.size() && result.sensors[k].registered) registered.push_back(k);
+        }
+        starts->tracks.resize(starts->scans.size());
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+        for (std::size_t r = 0; r < registered.size(); ++r) {
+            const std::size_t k = registered[r];
+            auto track = std::make_unique<SensorTrack>(*starts->params);
+            TrackScratch scratch;
+            track->start(frame, starts->scans[k],
+                         starts->T_root0_root * result.sensors[k].T_root_sensor, &scratch);
+            starts->tracks[k] = std::move(track);
+        }
+    });
+}
+
+}  // namespace
+
 void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameInput& in,
                                                 const std::vector<std::size_t>& sensors, bool first,
                                                 const Eigen::Isometry3d& T_root0_root_now,
@@ -15,7 +42,9 @@ void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameI
     PendingInitialisation p;
     p.frame = frame;
     p.first = first;
-    p.T_root0_root = T_root0_root_now;
+    p.starts = std::make_shared<TrackStarts>();
+    p.starts->params = track_params;
+    p.starts->T_root0_root = T_root0_root_now;
     p.order.push_back(root);
     for (std::size_t s : sensors) {
         if (s != root) p.order.push_back(s);
@@ -32,7 +61,7 @@ void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameI
     }
     std::vector<PointCloud> clouds;
     for (std::size_t s : p.order) {
-        p.scans.push_back(in.sensors[s]);
+        p.starts->scans.push_back(in.sensors[s]);
         PointCloud c;
         cast_points(in.sensors[s].points, &c.points);
         clouds.push_back(std::move(c));
@@ -40,6 +69,7 @@ void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameI
     const int threads =
         run_inline || !tracking_beyond_root() ? params.num_threads : params.initial_threads;
     p.job = std::make_shared<InitialRegistrationJob>(std::move(clouds), params.initial, threads);
+    start_tracks_after(&p, tracks[root]->initialised(), threads);
     pending = std::move(p);
     if (run_inline) {
         pending->job->run();
@@ -65,7 +95,7 @@ void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<st
     pending.reset();
     const auto& result = p.job->result();
     out->applied_registration =
-        FrameOutput::AppliedRegistration{p.job, p.order, p.T_root0_root, p.first};
+        FrameOutput::AppliedRegistration{p.job, p.order, p.starts->T_root0_root, p.first};
     bool any_failed = false;
     std::vector<std::size_t> registered;  // positions in p.order
     for (std::size_t k = 0; k < p.order.size(); ++k) {
@@ -82,16 +112,21 @@ void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<st
         }
         registered.push_back(k);
     }
-    // Each track builds its reference (crop, background, targets) on its own: in parallel,
-    // as in prepare_tracks, so that a station's registration does not stall one frame for
-    // the sum of its sensors.
+    // The tracks the job's follow-up started are taken over. Any it did not start (it threw)
+    // start here as new tracks too, in parallel as in prepare_tracks.
+    TrackStarts& starts = *p.starts;
     const int threads = std::max(1, params.num_threads);
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
     for (std::size_t r = 0; r < registered.size(); ++r) {
         const std::size_t k = registered[r];
-        tracks[p.order[k]]->start(p.frame, p.scans[k],
-                                  p.T_root0_root * result.sensors[k].T_root_sensor,
-                                  thread_scratch());
+        std::unique_ptr<SensorTrack>& track = tracks[p.order[k]];
+        if (k < starts.tracks.size() && starts.tracks[k]) {
+            track = std::move(starts.tracks[k]);
+            continue;
+        }
+        track = std::make_unique<SensorTrack>(*track_params);
+        track->start(p.frame, starts.scans[k],
+                     starts.T_root0_root * result.sensors[k].T_root_sensor, thread_scratch());
     }
     for (const std::size_t k : registered) {
         const std::size_t s = p.order[k];

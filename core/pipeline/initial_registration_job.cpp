@@ -35,7 +35,21 @@ void InitialRegistrationJob::run() {
     }
     clouds_.clear();
     clouds_.shrink_to_fit();
+    run_follow_up();
     done_.store(true, std::memory_order_release);
+}
+
+void InitialRegistrationJob::run_follow_up() {
+    if (!follow_up_ || cancelled() || !error_.empty()) return;
+    const Stopwatch follow_up;
+    try {
+        follow_up_(result_);
+    } catch (const std::exception&) {
+        // Allocation failure: what the follow-up did not finish, the engine does itself, as
+        // without one (it starts the tracks it finds unstarted).
+    }
+    follow_up_ms_ = follow_up.milliseconds();
+    follow_up_ = nullptr;  // what it holds is the engine's to keep, not the job's
 }
 
 }  // namespace lidarfuse::core

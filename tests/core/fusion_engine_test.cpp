@@ -343,6 +343,87 @@ TEST(FusionEngine, HandedOutInitialRegistrationDoesNotHoldFramesUp) {
     EXPECT_EQ(applied_at, 5) << "applied on the first frame after the job finished";
 }
 
+// A handed-out job starts the registered sensors' tracks on its own thread (its follow-up),
+// so that the frame applying it only takes them over. Those tracks must be the ones the
+// engine starts itself when there is no follow-up: every pose of every frame the same, over
+// the first registration and the second one of a knocked sensor.
+TEST(FusionEngine, TracksStartedOnTheJobsThreadAreThoseTheEngineStarts) {
+    FusionParams params = test_params();
+    params.initial_registration_inline = false;
+    FusionEngine with_follow_up(kSensors, params), without(kSensors, params);
+    Eigen::Isometry3d knock = Eigen::Isometry3d::Identity();
+    knock.linear() =
+        Eigen::AngleAxisd(10.0 * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    knock.translation() = Eigen::Vector3d(1.0, 0.0, 0.0);
+    int jobs = 0;
+    for (int f = 0; f < 16; ++f) {
+        std::vector<Eigen::Isometry3d> poses;
+        for (int s = 0; s < kSensors; ++s) poses.push_back(true_pose(s, f));
+        if (f >= 6) poses[1] = knock * poses[1];
+        const FrameInput frame = make_frame(f, poses, {true, true, true});
+        const FrameOutput a = with_follow_up.process(frame);
+        const FrameOutput b = without.process(frame);
+        ASSERT_EQ(static_cast<bool>(a.initial_job), static_cast<bool>(b.initial_job));
+        if (a.initial_job) {
+            ++jobs;
+            b.initial_job->set_follow_up(nullptr);
+            std::thread([job = a.initial_job] { job->run(); }).join();
+            std::thread([job = b.initial_job] { job->run(); }).join();
+            EXPECT_GT(a.initial_job->follow_up_ms(), 0.0) << "frame " << f;
+            EXPECT_EQ(b.initial_job->follow_up_ms(), 0.0) << "frame " << f;
+        }
+        for (std::size_t s = 0; s < static_cast<std::size_t>(kSensors); ++s) {
+            ASSERT_EQ(a.health[s].pose_valid, b.health[s].pose_valid) << s << " frame " << f;
+            EXPECT_EQ(a.health[s].event, b.health[s].event) << s << " frame " << f;
+            EXPECT_EQ(a.T_root_sensor[s].matrix(), b.T_root_sensor[s].matrix())
+                << "sensor " << s << " frame " << f;
+        }
+    }
+    EXPECT_EQ(jobs, 2) << "the first registration and the knocked sensor's";
+}
+
+// The follow-up runs on run()'s thread, after the registration and before done(), with
+// the result; never for a job cancelled before it ran.
+TEST(InitialRegistrationJob, FollowUpRunsOnItsThreadBeforeItIsDone) {
+    FusionParams params = test_params();
+    params.initial_registration_inline = false;
+    FusionEngine engine(kSensors, params);
+    std::vector<Eigen::Isometry3d> poses;
+    for (int s = 0; s < kSensors; ++s) poses.push_back(true_pose(s, 0));
+    const auto job = engine.process(make_frame(0, poses, {true, true, true})).initial_job;
+    ASSERT_TRUE(job);
+    int calls = 0;
+    bool done_inside = true;
+    std::size_t sensors_inside = 0;
+    std::thread::id inside;
+    job->set_follow_up([&, raw = job.get()](const InitialRegistrationResult& result) {
+        ++calls;
+        done_inside = raw->done();
+        sensors_inside = result.sensors.size();
+        inside = std::this_thread::get_id();
+    });
+    std::thread::id runner;
+    std::thread([&] {
+        runner = std::this_thread::get_id();
+        job->run();
+    }).join();
+    EXPECT_EQ(calls, 1);
+    EXPECT_FALSE(done_inside);
+    EXPECT_TRUE(job->done());
+    EXPECT_EQ(inside, runner);
+    EXPECT_EQ(sensors_inside, job->result().sensors.size());
+    EXPECT_EQ(sensors_inside, static_cast<std::size_t>(kSensors));
+
+    const auto cancelled = [&] {
+        FusionEngine other(kSensors, params);
+        return other.process(make_frame(0, poses, {true, true, true})).initial_job;
+    }();  // its engine is gone: cancelled
+    ASSERT_TRUE(cancelled && cancelled->cancelled());
+    cancelled->set_follow_up([&](const InitialRegistrationResult&) { ++calls; });
+    cancelled->run();
+    EXPECT_EQ(calls, 1);
+}
+
 TEST(FusionEngine, JobCancelledBeforeItRunsIsSkipped) {
     std::shared_ptr<InitialRegistrationJob> job;
     {
