@@ -1,6 +1,7 @@
 // FusionEngine: initial registrations handed out as jobs (or run inline) and applied when
 // they finish (see fusion_engine_impl.hpp).
 #include <algorithm>
+#include <exception>
 
 #include "core/pipeline/fusion_engine_impl.hpp"
 
@@ -22,11 +23,15 @@ void start_tracks_after(PendingInitialisation* p, bool root_tracked, int threads
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
         for (std::size_t r = 0; r < registered.size(); ++r) {
             const std::size_t k = registered[r];
-            auto track = std::make_unique<SensorTrack>(*starts->params);
-            TrackScratch scratch;
-            track->start(frame, starts->scans[k],
-                         starts->T_root0_root * result.sensors[k].T_root_sensor, &scratch);
-            starts->tracks[k] = std::move(track);
+            try {
+                auto track = std::make_unique<SensorTrack>(*starts->params);
+                TrackScratch scratch;
+                track->start(frame, starts->scans[k],
+                             starts->T_root0_root * result.sensors[k].T_root_sensor, &scratch);
+                starts->tracks[k] = std::move(track);
+            } catch (const std::exception&) {
+                // Out of memory: left to the engine (no exception may leave an OpenMP team).
+            }
         }
     });
 }

@@ -45,8 +45,8 @@ void InitialRegistrationJob::run_follow_up() {
     try {
         follow_up_(result_);
     } catch (const std::exception&) {
-        // Allocation failure: what the follow-up did not finish, the engine does itself, as
-        // without one (it starts the tracks it finds unstarted).
+        // Allocation failure: what the follow-up did not finish, its caller does itself, as
+        // without one (the engine starts the tracks it finds unstarted).
     }
     follow_up_ms_ = follow_up.milliseconds();
     follow_up_ = nullptr;  // what it holds is the engine's to keep, not the job's
