@@ -37,8 +37,8 @@ PoseGraphParams graph_params(const FusionParams& p) {
 }  // namespace
 
 FusionEngine::Impl::Impl(std::size_t num_sensors, const FusionParams& p)
-    : params(p),
-      track_params(std::make_shared<const FusionParams>(p)),
+    : shared_params(std::make_shared<const FusionParams>(p)),
+      params(*shared_params),
       n(num_sensors),
       graph(graph_params(p)),
       suspicious(num_sensors, 0),
@@ -46,8 +46,7 @@ FusionEngine::Impl::Impl(std::size_t num_sensors, const FusionParams& p)
       window(&graph, p.window_frames),
       started_first(num_sensors, false),
       reanchored_frame(num_sensors, -1) {
-    for (std::size_t i = 0; i < n; ++i)
-        tracks.push_back(std::make_unique<SensorTrack>(*track_params));
+    for (std::size_t i = 0; i < n; ++i) tracks.push_back(std::make_unique<SensorTrack>(params));
     GicpParams g = params.gicp;
     g.max_correspondence_distance_m = params.correspondence_factor * params.voxel_size_m;
     // One registration per thread, each on one thread: the edges run in parallel.

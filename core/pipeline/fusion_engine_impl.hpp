@@ -32,10 +32,20 @@ namespace lidarfuse::core {
 // (hundreds of ms on the fusion thread). Shared by the engine and the job, which may
 // outlive it. The engine writes T_root0_root only before it hands the job out.
 struct TrackStarts {
-    std::shared_ptr<const FusionParams> params;  // the tracks' (Impl::track_params)
+    std::shared_ptr<const FusionParams> params;  // the tracks' (Impl::shared_params)
     std::vector<SensorScanInput> scans;          // the frame's scans, in the pending order
     Eigen::Isometry3d T_root0_root = Eigen::Isometry3d::Identity();  // root pose at the frame
     std::vector<std::unique_ptr<SensorTrack>> tracks;  // by position in the order; null: none
+
+    // A new track of the sensor at position k of the order, started on its scan at the pose
+    // `result` gives it.
+    std::unique_ptr<SensorTrack> start(std::int64_t frame, std::size_t k,
+                                       const InitialRegistrationResult& result,
+                                       TrackScratch* scratch) const {
+        auto track = std::make_unique<SensorTrack>(*params);
+        track->start(frame, scans[k], T_root0_root * result.sensors[k].T_root_sensor, scratch);
+        return track;
+    }
 };
 
 // An initial registration handed out (or run inline) and what applying it needs.
@@ -81,10 +91,10 @@ struct FrameWork {
 };
 
 struct FusionEngine::Impl {
-    FusionParams params;
-    // The same, for the tracks: shared with a job's follow-up, which starts tracks on its
-    // own thread and may outlive the engine.
-    std::shared_ptr<const FusionParams> track_params;
+    // Shared with a job's follow-up, which starts tracks on its own thread and may outlive
+    // the engine.
+    std::shared_ptr<const FusionParams> shared_params;
+    const FusionParams& params;  // *shared_params
     std::size_t n;
     std::vector<std::unique_ptr<SensorTrack>> tracks;
     PoseGraph graph;

@@ -24,11 +24,8 @@ void start_tracks_after(PendingInitialisation* p, bool root_tracked, int threads
         for (std::size_t r = 0; r < registered.size(); ++r) {
             const std::size_t k = registered[r];
             try {
-                auto track = std::make_unique<SensorTrack>(*starts->params);
                 TrackScratch scratch;
-                track->start(frame, starts->scans[k],
-                             starts->T_root0_root * result.sensors[k].T_root_sensor, &scratch);
-                starts->tracks[k] = std::move(track);
+                starts->tracks[k] = starts->start(frame, k, result, &scratch);
             } catch (const std::exception&) {
                 // Out of memory: left to the engine (no exception may leave an OpenMP team).
             }
@@ -48,7 +45,7 @@ void FusionEngine::Impl::request_initialisation(std::int64_t frame, const FrameI
     p.frame = frame;
     p.first = first;
     p.starts = std::make_shared<TrackStarts>();
-    p.starts->params = track_params;
+    p.starts->params = shared_params;
     p.starts->T_root0_root = T_root0_root_now;
     p.order.push_back(root);
     for (std::size_t s : sensors) {
@@ -129,9 +126,7 @@ void FusionEngine::Impl::apply_initialisation(std::int64_t frame, std::vector<st
             track = std::move(starts.tracks[k]);
             continue;
         }
-        track = std::make_unique<SensorTrack>(*track_params);
-        track->start(p.frame, starts.scans[k],
-                     starts.T_root0_root * result.sensors[k].T_root_sensor, thread_scratch());
+        track = starts.start(p.frame, k, result, thread_scratch());
     }
     for (const std::size_t k : registered) {
         const std::size_t s = p.order[k];
