@@ -7,7 +7,8 @@
 // queue). Dropping the oldest means the producer dequeues one item itself, which is why
 // the head index is claimed with a compare-and-swap even with a single consumer.
 // The consumer may sleep in pop_wait(); the producer wakes it only when it is asleep, and
-// close() wakes it for shutdown.
+// close() wakes it for shutdown. A consumer of several queues sleeps on a Doorbell instead,
+// which every push rings (set_doorbell).
 
 #include <atomic>
 #include <chrono>
@@ -19,6 +20,8 @@
 #include <optional>
 #include <thread>
 #include <utility>
+
+#include "daemon/doorbell.hpp"
 
 namespace lidarfuse::daemon {
 
@@ -33,6 +36,9 @@ public:
     }
 
     std::size_t capacity() const { return mask_ + 1; }
+
+    // Every later push() also rings `bell` (null: none). Set before the producer starts.
+    void set_doorbell(Doorbell* bell) { doorbell_ = bell; }
 
     // Producer. Returns false when an older item had to be dropped to make room.
     bool push(T item) {
@@ -55,6 +61,7 @@ public:
             std::lock_guard<std::mutex> lock(mutex_);
             cv_.notify_one();
         }
+        if (doorbell_) doorbell_->ring();
         return !dropped_one;
     }
 
@@ -146,6 +153,7 @@ private:
     std::atomic<bool> closed_{false};
     std::mutex mutex_;
     std::condition_variable cv_;
+    Doorbell* doorbell_ = nullptr;
 };
 
 }  // namespace lidarfuse::daemon

@@ -142,6 +142,7 @@ void Pipeline::Impl::make_receivers(const PortMembers& by_port) {
                                           config.health.min_completeness));
         receivers.back()->log = ingest_log;
         receivers.back()->recorder = recorder.get();
+        receivers.back()->queue.set_doorbell(&scans_ready);
     }
 }
 
@@ -195,6 +196,7 @@ void Pipeline::Impl::make_dds_inputs() {
             }
         }
         dds_inputs.push_back(std::make_unique<DdsInput>(sensors[i].get(), *sc.dds, ingest_log));
+        dds_inputs.back()->queue().set_doorbell(&scans_ready);
     }
 }
 
@@ -254,6 +256,7 @@ void Pipeline::stop() {
         for (auto* s : r->sensors) publish_counters(s);
     }
     if (m.recorder) m.recorder->stop();  // after the receivers: every datagram they offered
+    m.scans_ready.ring();                // the sync thread sees `stopping` now
     if (m.sync_thread.joinable()) m.sync_thread.join();
     m.frames.close();
     if (m.fusion_thread.joinable()) m.fusion_thread.join();

@@ -3,6 +3,8 @@
 #include <pthread.h>
 
 #include <algorithm>
+#include <chrono>
+#include <optional>
 
 #include "core/pipeline/frame_input.hpp"
 #include "daemon/log_throttle.hpp"
@@ -10,6 +12,20 @@
 #include "daemon/status_line.hpp"
 
 namespace lidarfuse::daemon {
+
+namespace {
+
+// When the sync thread, with nothing in its queues, looks again unless a scan arrives first
+// (every queue rings scans_ready): an open frame's deadline (monotonic ns), and at the
+// latest 100 ms from now, to follow a change of the root's frame rate.
+std::chrono::steady_clock::time_point next_sync_wake(std::optional<std::int64_t> deadline_ns) {
+    constexpr std::int64_t kIdleWakeNs = 100'000'000;
+    std::int64_t wake = steady_ns() + kIdleWakeNs;
+    if (deadline_ns) wake = std::min(wake, *deadline_ns);
+    return std::chrono::steady_clock::time_point(std::chrono::nanoseconds(wake));
+}
+
+}  // namespace
 
 // sync.max_offset_ms, or one frame period of the root: its metadata's rate, 10 Hz (the
 // widest of Ouster's common modes) while a root named by hostname has none yet.
@@ -54,7 +70,7 @@ void Pipeline::Impl::sync_loop() {
             std::lock_guard<std::mutex> lock(stats_mutex);
             sync_counters = sync.counters();
         }
-        if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        if (!any) scans_ready.wait_until(next_sync_wake(sync.next_deadline_ns()));
     }
     frames.close();
 }

@@ -21,6 +21,7 @@
 #include "daemon/clock_check.hpp"
 #include "daemon/dds_input.hpp"
 #include "daemon/dds_publisher.hpp"
+#include "daemon/doorbell.hpp"
 #include "daemon/frame_stamps.hpp"
 #include "daemon/metadata_fetcher.hpp"
 #include "daemon/pipeline.hpp"
@@ -32,6 +33,9 @@ namespace lidarfuse::daemon {
 struct Pipeline::Impl {
     DaemonConfig config;
     std::vector<std::unique_ptr<SensorIngest>> sensors;
+    // Rung by every push into the receivers' and DDS sources' scan queues: the sync thread
+    // sleeps on it (declared before the queues' owners, which point to it).
+    Doorbell scans_ready;
     std::vector<std::unique_ptr<Receiver>> receivers;
     std::vector<std::unique_ptr<DdsInput>> dds_inputs;  // sensors with source.dds
     DropOldestQueue<core::SyncedFrame<ScanMessage>> frames;

@@ -77,8 +77,8 @@ UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 stage "thread sanitizer build (pipeline tests)"
 # lidarfused_foxglove_test subscribes over Foxglove's WebSocket from Node, not DDS: the
 # daemon's own threads (lf-output handing samples to lf-foxglove) are what TSan watches.
-tsan_tests=(drop_oldest_queue_test frame_synchroniser_test net_udp_receiver_test lidarfused_test
-            sensor_outage_test malformed_config_test recorder_test sensor_hostname_test
+tsan_tests=(drop_oldest_queue_test doorbell_test frame_synchroniser_test net_udp_receiver_test
+            lidarfused_test sensor_outage_test malformed_config_test recorder_test sensor_hostname_test
             lidarfused_foxglove_test)
 CCACHE_BASEDIR="$top" CCACHE_NOHASHDIR=true cmake -S "$top" -B "$top/build-tsan" -G Ninja \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \

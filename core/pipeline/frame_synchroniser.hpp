@@ -127,6 +127,17 @@ public:
         return out;
     }
 
+    // The earliest monotonic time at which poll() could let an open frame leave without
+    // another push (its deadline); nothing while no frame is open.
+    std::optional<std::int64_t> next_deadline_ns() const {
+        std::optional<std::int64_t> next;
+        for (const auto& open : open_) {
+            const std::int64_t due = open.opened_ns + params_.deadline_ns;
+            if (!next || due < *next) next = due;
+        }
+        return next;
+    }
+
     // Drops open frames and forgets the last output time (after a clock jump or restart).
     void reset() {
         open_.clear();

@@ -45,6 +45,23 @@ TEST(FrameSynchroniser, MissingSensorLeavesAfterTheDeadlineWithoutIt) {
     EXPECT_EQ(sync.counters().frames_partial, 1u);
 }
 
+// What the daemon's sync thread sleeps until when no scan arrives: the earliest deadline
+// of the open frames, each counted from its first member.
+TEST(FrameSynchroniser, NextDeadlineIsTheEarliestOpenFramesDeadline) {
+    FrameSynchroniser<int> sync(2, params());
+    EXPECT_FALSE(sync.next_deadline_ns().has_value());
+    sync.push(0, 1000 * kMs, 100 * kMs, 10);
+    sync.push(1, 1002 * kMs, 130 * kMs, 11);  // the same frame: its deadline stays
+    EXPECT_EQ(sync.next_deadline_ns(), 160 * kMs);
+    sync.push(0, 1100 * kMs, 140 * kMs, 12);  // a second frame, due later
+    EXPECT_EQ(sync.next_deadline_ns(), 160 * kMs);
+    ASSERT_TRUE(sync.poll(141 * kMs).has_value());  // the first was complete
+    EXPECT_EQ(sync.next_deadline_ns(), 200 * kMs);
+    EXPECT_FALSE(sync.poll(199 * kMs).has_value());
+    ASSERT_TRUE(sync.poll(200 * kMs).has_value());  // left at its deadline, partial
+    EXPECT_FALSE(sync.next_deadline_ns().has_value());
+}
+
 TEST(FrameSynchroniser, LateScanOfAFinishedFrameIsDroppedAndCounted) {
     FrameSynchroniser<int> sync(2, params());
     sync.push(0, 1000 * kMs, 0, 1);

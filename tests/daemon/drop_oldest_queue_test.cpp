@@ -81,5 +81,25 @@ TEST(DropOldestQueue, PushWakesAWaitingConsumer) {
     consumer.join();
 }
 
+// A consumer of several queues sleeps on one doorbell: a push into any of them wakes it,
+// and the item is there when it looks.
+TEST(DropOldestQueue, PushIntoAnyOfSeveralQueuesRingsTheirDoorbell) {
+    Doorbell bell;
+    DropOldestQueue<int> a(4), b(4);
+    a.set_doorbell(&bell);
+    b.set_doorbell(&bell);
+    const auto later = [] { return std::chrono::steady_clock::now() + std::chrono::hours(1); };
+    std::thread producer([&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        b.push(7);
+    });
+    EXPECT_TRUE(bell.wait_until(later()));  // would sleep for an hour without the ring
+    producer.join();
+    EXPECT_FALSE(a.try_pop().has_value());
+    EXPECT_EQ(b.try_pop().value_or(-1), 7);
+    a.push(1);  // a ring while nobody waits is kept for the next wait
+    EXPECT_TRUE(bell.wait_until(later()));
+}
+
 }  // namespace
 }  // namespace lidarfuse::daemon

@@ -13,6 +13,7 @@
 
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "tests/reliability/station_fixture.hpp"
@@ -67,6 +68,28 @@ std::multimap<std::string, int> thread_nice_by_name() {
         std::string field;
         for (int k = 3; k <= 19 && fields >> field; ++k) {
             if (k == 19) out.emplace(name, std::stoi(field));
+        }
+    }
+    ::closedir(dir);
+    return out;
+}
+
+// The voluntary context switches of the thread named `name` (/proc/self/task/*/status),
+// or nothing when no such thread runs.
+std::optional<long> voluntary_switches_of(const std::string& name) {
+    DIR* dir = ::opendir("/proc/self/task");
+    if (!dir) return std::nullopt;
+    std::optional<long> out;
+    while (const dirent* e = ::readdir(dir)) {
+        if (e->d_name[0] == '.') continue;
+        const std::string task = std::string("/proc/self/task/") + e->d_name;
+        std::string comm;
+        std::getline(std::ifstream(task + "/comm"), comm);
+        if (comm != name) continue;
+        std::ifstream status(task + "/status");
+        for (std::string line; std::getline(status, line);) {
+            if (line.rfind("voluntary_ctxt_switches:", 0) == 0)
+                out = std::stol(line.substr(line.find(':') + 1));
         }
     }
     ::closedir(dir);
@@ -181,7 +204,13 @@ TEST_F(SensorOutage, AllSensorsSilentKeepsThePipelineUpReportingLostAndItResumes
     // running (the fusion heartbeat stays fresh), no frame is made out of nothing.
     ASSERT_TRUE(wait_for([&] { return all_in(SensorState::kLost); }, 5s));
     const auto quiet = pipeline.stats();
+    const auto sync_switches = voluntary_switches_of("lf-sync");
     std::this_thread::sleep_for(300ms);
+    // With nothing to synchronise the sync thread sleeps until a scan rings its doorbell,
+    // waking only for its idle look every 100 ms: about 3 times here, not every millisecond.
+    const auto sync_switches_after = voluntary_switches_of("lf-sync");
+    ASSERT_TRUE(sync_switches && sync_switches_after);
+    EXPECT_LE(*sync_switches_after - *sync_switches, 12);
     EXPECT_LT(std::chrono::steady_clock::now() - pipeline.heartbeat(), 1s);
     EXPECT_TRUE(all_in(SensorState::kLost));
     EXPECT_EQ(pipeline.stats().frames_synchronised, quiet.frames_synchronised);
