@@ -50,49 +50,51 @@ protected:
 test::TempDir* SensorOutage::sim_dir_ = nullptr;
 test::TempDir* SensorOutage::silent_dir_ = nullptr;
 
-// The nice value of every thread of this process, by thread name (/proc/self/task).
-std::multimap<std::string, int> thread_nice_by_name() {
-    std::multimap<std::string, int> out;
+// Calls visit(name, folder) for every thread of this process (/proc/self/task/<tid>).
+template <typename Visit>
+void for_each_thread(Visit visit) {
     DIR* dir = ::opendir("/proc/self/task");
-    if (!dir) return out;
+    if (!dir) return;
     while (const dirent* e = ::readdir(dir)) {
         if (e->d_name[0] == '.') continue;
         const std::string task = std::string("/proc/self/task/") + e->d_name;
-        std::string name, stat;
+        std::string name;
         std::getline(std::ifstream(task + "/comm"), name);
+        visit(name, task);
+    }
+    ::closedir(dir);
+}
+
+// The nice value of every thread of this process, by thread name.
+std::multimap<std::string, int> thread_nice_by_name() {
+    std::multimap<std::string, int> out;
+    for_each_thread([&](const std::string& name, const std::string& task) {
+        std::string stat;
         std::getline(std::ifstream(task + "/stat"), stat);
         // Fields after the parenthesised name: state is field 3, nice field 19.
         const auto close = stat.rfind(')');
-        if (name.empty() || close == std::string::npos) continue;
+        if (name.empty() || close == std::string::npos) return;
         std::istringstream fields(stat.substr(close + 2));
         std::string field;
         for (int k = 3; k <= 19 && fields >> field; ++k) {
             if (k == 19) out.emplace(name, std::stoi(field));
         }
-    }
-    ::closedir(dir);
+    });
     return out;
 }
 
-// The voluntary context switches of the thread named `name` (/proc/self/task/*/status),
-// or nothing when no such thread runs.
+// The voluntary context switches of the thread named `name`, or nothing when no such
+// thread runs.
 std::optional<long> voluntary_switches_of(const std::string& name) {
-    DIR* dir = ::opendir("/proc/self/task");
-    if (!dir) return std::nullopt;
     std::optional<long> out;
-    while (const dirent* e = ::readdir(dir)) {
-        if (e->d_name[0] == '.') continue;
-        const std::string task = std::string("/proc/self/task/") + e->d_name;
-        std::string comm;
-        std::getline(std::ifstream(task + "/comm"), comm);
-        if (comm != name) continue;
+    for_each_thread([&](const std::string& thread, const std::string& task) {
+        if (thread != name) return;
         std::ifstream status(task + "/status");
         for (std::string line; std::getline(status, line);) {
             if (line.rfind("voluntary_ctxt_switches:", 0) == 0)
                 out = std::stol(line.substr(line.find(':') + 1));
         }
-    }
-    ::closedir(dir);
+    });
     return out;
 }
 
