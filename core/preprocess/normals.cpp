@@ -1,17 +1,23 @@
 #include "core/preprocess/normals.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <limits>
 
+#include "core/common/smallest_eigenvector.hpp"
+
 namespace lidarfuse::core {
 
+namespace {
+// U diag(epsilon, 1, 1) U^T = I - (1 - epsilon) u0 u0^T (U orthonormal): u0 is all it needs.
+Eigen::Matrix3d plane_covariance(const Eigen::Vector3d& u0, double epsilon) {
+    Eigen::Matrix3d c = -(1.0 - epsilon) * u0 * u0.transpose();
+    c.diagonal().array() += 1.0;
+    return c;
+}
+}  // namespace
+
 Eigen::Matrix3d regularize_plane_covariance(const Eigen::Matrix3d& covariance, double epsilon) {
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
-    solver.computeDirect(covariance);
-    const Eigen::Matrix3d& U = solver.eigenvectors();  // columns, eigenvalues ascending
-    const Eigen::Vector3d d(epsilon, 1.0, 1.0);
-    return U * d.asDiagonal() * U.transpose();
+    return plane_covariance(smallest_eigenvector(covariance).axis, epsilon);
 }
 
 namespace {
@@ -100,14 +106,13 @@ inline Eigen::Matrix3d neighborhood_covariance(const std::vector<Eigen::Vector3d
     return C;
 }
 
-// Point i's normal, covariance, plane axis and curvature from its neighborhood covariance C
-// and C's eigen decomposition (eigenvalues ascending).
+// Point i's normal, covariance, plane axis and curvature from its neighborhood covariance C,
+// C's eigenvalues and its smallest one's axis.
 inline void store_point(const NormalOutputs& out, std::size_t i, const Eigen::Matrix3d& C,
-                        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& solver) {
+                        const SmallestEigenvector& eigen) {
     const NormalParams& params = out.params;
-    const Eigen::Matrix3d& U = solver.eigenvectors();
     if (params.compute_normals) {
-        Eigen::Vector3d normal = U.col(0);
+        Eigen::Vector3d normal = eigen.axis;
         const Eigen::Vector3d& p = out.cloud->points[i];
         if (params.orient_towards_viewpoint && normal.dot(params.viewpoint - p) < 0.0) {
             normal = -normal;
@@ -116,15 +121,14 @@ inline void store_point(const NormalOutputs& out, std::size_t i, const Eigen::Ma
     }
     if (params.compute_covariances) {
         if (params.regularize_covariances) {
-            const Eigen::Vector3d d(params.gicp_epsilon, 1.0, 1.0);
-            out.cloud->covariances[i] = U * d.asDiagonal() * U.transpose();
-            if (out.axes) out.byproducts->plane_axes[i] = U.col(0);
+            out.cloud->covariances[i] = plane_covariance(eigen.axis, params.gicp_epsilon);
+            if (out.axes) out.byproducts->plane_axes[i] = eigen.axis;
         } else {
             out.cloud->covariances[i] = C;
         }
     }
     if (out.curvature) {
-        const Eigen::Vector3d lambda = solver.eigenvalues().cwiseMax(0.0);
+        const Eigen::Vector3d lambda = eigen.eigenvalues.cwiseMax(0.0);
         const double sum = lambda.sum();
         (*out.curvature)[i] = sum > 0.0 ? lambda(0) / sum : 1.0 / 3.0;
     }
@@ -148,7 +152,6 @@ NormalStats estimate(const KdTree& tree, int num_threads, const NormalOutputs& o
     {
         std::vector<std::uint32_t> idx(k);
         std::vector<double> d2(k);
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
 #pragma omp for schedule(static)
         for (long long t = 0; t < count; ++t) {
             // In the tree's leaf order when the tree is over this cloud (kdtree.hpp).
@@ -163,8 +166,7 @@ NormalStats estimate(const KdTree& tree, int num_threads, const NormalOutputs& o
                 continue;
             }
             const Eigen::Matrix3d C = neighborhood_covariance(cloud->points, idx.data(), found);
-            solver.computeDirect(C);
-            store_point(out, static_cast<std::size_t>(i), C, solver);
+            store_point(out, static_cast<std::size_t>(i), C, smallest_eigenvector(C));
         }
     }
     stats.num_degenerate = degenerate;
