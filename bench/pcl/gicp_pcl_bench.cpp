@@ -348,8 +348,8 @@ int main(int argc, char** argv) {
                     using lidarfuse::core::GicpCloud;
                     clouds = SharedClouds{GicpCloud(std::move(target), covariance_params()),
                                           GicpCloud(std::move(source), covariance_params())};
-                    target = clouds->target.cloud();
-                    source = clouds->source.cloud();
+                    target = clouds->target.cloud_with_covariance_matrices();
+                    source = clouds->source.cloud_with_covariance_matrices();
                 }
                 const SharedClouds* ours_shared = clouds ? &*clouds : nullptr;
                 // Fastest of kRepetitions: the least disturbed by whatever else runs.

@@ -7,15 +7,7 @@
 
 namespace lidarfuse::core {
 
-namespace {
 // U diag(epsilon, 1, 1) U^T = I - (1 - epsilon) u0 u0^T (U orthonormal): u0 is all it needs.
-Eigen::Matrix3d plane_covariance(const Eigen::Vector3d& u0, double epsilon) {
-    Eigen::Matrix3d c = -(1.0 - epsilon) * u0 * u0.transpose();
-    c.diagonal().array() += 1.0;
-    return c;
-}
-}  // namespace
-
 Eigen::Matrix3d regularize_plane_covariance(const Eigen::Matrix3d& covariance, double epsilon) {
     return plane_covariance(smallest_eigenvector(covariance).axis, epsilon);
 }
@@ -64,12 +56,17 @@ NormalOutputs prepare_outputs(const NormalParams& params, std::size_t tree_size,
                               std::vector<double>* curvature, CovarianceByproducts* byproducts) {
     const std::size_t n = cloud->points.size();
     if (params.compute_normals) cloud->normals.resize(n);
-    if (params.compute_covariances) cloud->covariances.resize(n);
     if (curvature) curvature->resize(n);
+    const bool axes = byproducts && params.compute_covariances && params.regularize_covariances &&
+                      params.gicp_epsilon > 0.0 && params.gicp_epsilon < 1.0;
+    if (axes) {
+        cloud->covariances.clear();  // held as the axes (normals.hpp)
+        cloud->covariances.shrink_to_fit();
+    } else if (params.compute_covariances) {
+        cloud->covariances.resize(n);
+    }
     if (!byproducts) return NormalOutputs{params, cloud, curvature, nullptr, false, false};
     *byproducts = CovarianceByproducts();
-    const bool axes = params.compute_covariances && params.regularize_covariances &&
-                      params.gicp_epsilon > 0.0 && params.gicp_epsilon < 1.0;
     if (axes) {
         byproducts->plane_axes.resize(n);
         byproducts->plane_epsilon = params.gicp_epsilon;
@@ -85,8 +82,11 @@ NormalOutputs prepare_outputs(const NormalParams& params, std::size_t tree_size,
 // Fewer than 3 neighbors: no normal, the identity covariance, isotropic curvature.
 inline void store_degenerate(const NormalOutputs& out, std::size_t i) {
     if (out.params.compute_normals) out.cloud->normals[i].setZero();
-    if (out.params.compute_covariances) out.cloud->covariances[i].setIdentity();
-    if (out.axes) out.byproducts->plane_axes[i].setZero();
+    if (out.axes) {
+        out.byproducts->plane_axes[i].setZero();  // the identity (CovarianceByproducts)
+    } else if (out.params.compute_covariances) {
+        out.cloud->covariances[i].setIdentity();
+    }
     if (out.curvature) (*out.curvature)[i] = 1.0 / 3.0;
 }
 
@@ -119,10 +119,11 @@ inline void store_point(const NormalOutputs& out, std::size_t i, const Eigen::Ma
         }
         out.cloud->normals[i] = normal;
     }
-    if (params.compute_covariances) {
+    if (out.axes) {
+        out.byproducts->plane_axes[i] = eigen.axis;
+    } else if (params.compute_covariances) {
         if (params.regularize_covariances) {
             out.cloud->covariances[i] = plane_covariance(eigen.axis, params.gicp_epsilon);
-            if (out.axes) out.byproducts->plane_axes[i] = eigen.axis;
         } else {
             out.cloud->covariances[i] = C;
         }

@@ -11,10 +11,10 @@
 //   C_i' = U diag(epsilon, 1, 1) U^T  (U = eigenvectors, smallest first),
 // i.e. unit variance in the local surface and `epsilon` along the normal. The covariances
 // are unitless shapes; the Mahalanobis distances built from them are relative, not metric.
-// As C_i' = I - (1 - epsilon) u0 u0^T, the pass can keep u0, from which G-ICP inverts a
-// pair in closed form, and each point's nearest other points, with which G-ICP skips
-// searches (CovarianceByproducts below, gicp_cloud.hpp). They cost nothing: the
-// decomposition and the k-NN have them.
+// As C_i' = I - (1 - epsilon) u0 u0^T, the pass can keep u0 instead of the matrix (G-ICP
+// inverts a pair from the two axes in closed form), and each point's nearest other points,
+// with which G-ICP skips searches (CovarianceByproducts below, gicp_cloud.hpp). They cost
+// nothing: the eigen solve and the k-NN have them.
 //
 // Points with fewer than 3 neighbors (tiny clouds) get normal (0,0,0), curvature 1/3 and
 // the identity covariance (point-to-point behaviour in G-ICP).
@@ -44,6 +44,14 @@ struct NormalParams {
     Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();
 };
 
+// The G-ICP plane covariance I - (1 - epsilon) a a^T of a unit axis a (the identity for a
+// zero one).
+inline Eigen::Matrix3d plane_covariance(const Eigen::Vector3d& axis, double epsilon) {
+    Eigen::Matrix3d c = -(1.0 - epsilon) * axis * axis.transpose();
+    c.diagonal().array() += 1.0;
+    return c;
+}
+
 struct NormalStats {
     std::size_t num_points = 0;
     std::size_t num_degenerate = 0;  // fewer than 3 neighbors
@@ -61,9 +69,10 @@ struct CovarianceByproducts {
     static constexpr std::size_t kListSize = 8;
     std::vector<std::uint32_t> neighbor_list;
     std::vector<double> reach_d2;
-    // For G-ICP plane covariances, their axes: unit vectors with
-    // covariances[i] = I - (1 - plane_epsilon) a a^T (a zero axis for the identity of a
-    // degenerate point). Empty for raw covariances.
+    // For G-ICP plane covariances, the covariances themselves, as their axes: unit vectors
+    // with C_i = I - (1 - plane_epsilon) a a^T (a zero axis for the identity of a degenerate
+    // point). G-ICP reads only these, so the pass that fills them writes no matrices
+    // (72 bytes a point less to write and to keep). Empty for raw covariances.
     std::vector<Eigen::Vector3d> plane_axes;
     double plane_epsilon = 0.0;
 
@@ -75,6 +84,10 @@ struct CovarianceByproducts {
         return num_points > 0 && plane_axes.size() == num_points && plane_epsilon > 0.0 &&
                plane_epsilon < 1.0;
     }
+    // C_i from its axis (has_plane_axes()).
+    Eigen::Matrix3d plane_covariance(std::size_t i) const {
+        return core::plane_covariance(plane_axes[i], plane_epsilon);
+    }
 };
 
 // Fills cloud->normals and/or cloud->covariances (as `params` asks) and, when `curvature`
@@ -84,7 +97,9 @@ NormalStats estimate_normals_covariances(PointCloud* cloud, const KdTree& tree,
                                          std::vector<double>* curvature = nullptr,
                                          int num_threads = 1);
 
-// Same (no curvature; `tree` over cloud->points), and fills *byproducts.
+// Same (no curvature; `tree` over cloud->points), and fills *byproducts. Plane covariances
+// (regularised, 0 < gicp_epsilon < 1) are left as byproducts->plane_axes alone and
+// cloud->covariances is emptied; raw ones are written to cloud->covariances as above.
 NormalStats estimate_normals_covariances(PointCloud* cloud, CovarianceByproducts* byproducts,
                                          const KdTree& tree, const NormalParams& params,
                                          int num_threads = 1);

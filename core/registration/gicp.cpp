@@ -174,8 +174,8 @@ inline bool find_correspondence(const CorrespondenceSearch& search, const Eigen:
 struct PairCovariances {
     const Eigen::Matrix3d& R;
     const Eigen::Matrix3d& Rt;
-    const std::vector<Eigen::Matrix3d>& target_covs;
-    const std::vector<Eigen::Matrix3d>& source_covs;
+    const GicpCloud& target;
+    const GicpCloud& source;
     // Plane covariances on both sides: their pairs are inverted in closed form.
     bool planes;
     const std::vector<Eigen::Vector3d>& target_axes;
@@ -191,8 +191,8 @@ PairCovariances make_pair_covariances(const GicpCloud& target, const GicpCloud& 
     const CovarianceByproducts& sb = source.byproducts();
     return PairCovariances{R,
                            Rt,
-                           target.cloud().covariances,
-                           source.cloud().covariances,
+                           target,
+                           source,
                            planes,
                            tb.plane_axes,
                            sb.plane_axes,
@@ -210,7 +210,7 @@ inline bool pair_information(const PairCovariances& c, std::size_t i, std::uint3
                                     c.inv_beta_source);
         return true;
     }
-    const Eigen::Matrix3d RCR = c.Rt * c.target_covs[j] * c.R + c.source_covs[i];
+    const Eigen::Matrix3d RCR = c.Rt * c.target.covariance(j) * c.R + c.source.covariance(i);
     bool invertible = false;
     RCR.computeInverseWithCheck(*N, invertible, 1e-12);
     return invertible;

@@ -26,6 +26,14 @@ GicpCloud::GicpCloud(GicpCloud&&) noexcept = default;
 GicpCloud& GicpCloud::operator=(GicpCloud&&) noexcept = default;
 GicpCloud::~GicpCloud() = default;
 
+PointCloud GicpCloud::cloud_with_covariance_matrices() const {
+    PointCloud out = *cloud_;
+    if (!has_covariances()) return out;
+    out.covariances.resize(size());
+    for (std::size_t i = 0; i < size(); ++i) out.covariances[i] = covariance(i);
+    return out;
+}
+
 GicpCloud GicpCloud::clone() const { return GicpCloud(*cloud_, byproducts_, leaf_max_size_); }
 
 }  // namespace lidarfuse::core

@@ -42,12 +42,21 @@ public:
     const CovarianceByproducts& byproducts() const { return byproducts_; }
     std::size_t size() const { return cloud_->size(); }
     bool empty() const { return cloud_->empty(); }
-    bool has_covariances() const { return cloud_->has_covariances(); }
-    bool has_neighbor_lists() const { return byproducts_.has_neighbor_lists(size()); }
-    // Covariances of the form I - (1 - epsilon) a a^T with their axes a.
-    bool has_plane_covariances() const {
-        return has_covariances() && byproducts_.has_plane_axes(size());
+    // Covariances as matrices (cloud().covariances) or as plane axes alone (byproducts()).
+    bool has_covariances() const {
+        return cloud_->has_covariances() || byproducts_.has_plane_axes(size());
     }
+    bool has_neighbor_lists() const { return byproducts_.has_neighbor_lists(size()); }
+    // Covariances of the form I - (1 - epsilon) a a^T, held as their axes a (the covariance
+    // pass leaves cloud().covariances empty then: normals.hpp).
+    bool has_plane_covariances() const { return byproducts_.has_plane_axes(size()); }
+    // Point i's covariance as a matrix, whichever way it is held (has_covariances()).
+    Eigen::Matrix3d covariance(std::size_t i) const {
+        return has_plane_covariances() ? byproducts_.plane_covariance(i) : cloud_->covariances[i];
+    }
+    // A copy of the cloud with every covariance as a matrix (for code that wants matrices,
+    // such as another library's G-ICP given ours).
+    PointCloud cloud_with_covariance_matrices() const;
 
 private:
     std::unique_ptr<PointCloud> cloud_;

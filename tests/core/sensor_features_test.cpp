@@ -30,7 +30,7 @@ TEST(SensorFeatures, StreetScanGivesKeypointsAndDescriptors) {
     for (std::size_t k = 0; k < f.keypoints.size(); ++k) {
         EXPECT_EQ(f.keypoint_points[k], f.octree.cloud.points[f.keypoints[k]]);
     }
-    EXPECT_TRUE(f.gicp.cloud().has_covariances());
+    EXPECT_TRUE(f.gicp.has_plane_covariances());
     EXPECT_GT(f.normal_spread, params.min_normal_spread);
     // Deterministic, whatever the thread count.
     const SensorFeatures again = compute_sensor_features(cloud, params, 8, 1);
