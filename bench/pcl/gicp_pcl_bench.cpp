@@ -250,6 +250,18 @@ double median(std::vector<double> v) {
     return v[v.size() / 2];
 }
 
+// FRAMES (4 without it); 0 after saying why it is refused: a temporal pair takes two scans
+// of a sensor.
+std::size_t frames_argument(int argc, char** argv) {
+    const int frames = argc > 2 ? std::atoi(argv[2]) : 4;
+    if (frames >= 2) return static_cast<std::size_t>(frames);
+    std::fprintf(stderr,
+                 "gicp_pcl_bench: FRAMES must be 2 or more (a temporal pair takes two "
+                 "scans of a sensor), got \"%s\"\n",
+                 argv[2]);
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -278,7 +290,8 @@ int main(int argc, char** argv) {
             return 1;
         }
     }
-    const std::size_t frames = argc > 2 ? static_cast<std::size_t>(std::atoi(argv[2])) : 4;
+    const std::size_t frames = frames_argument(argc, argv);
+    if (frames == 0) return 1;
 
     const auto station = lidarfuse::station::load_station_config(dir / "station.yaml");
     lidarfuse::capture::StationCapture capture(station, dir / "capture.pcap");
