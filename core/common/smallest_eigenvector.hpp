@@ -7,7 +7,7 @@
 // With t = tr C, m = the sum of C's principal 2x2 minors and d = det C, the eigenvalues
 // are the roots of f(l) = l^3 - t l^2 + m l - d. Below t / 3 f is concave and increasing,
 // so Newton's method from l = 0 (at or below l0 for a positive semi-definite C) climbs to
-// l0 without overshooting, in 2-3 steps when l0 is well apart from l1, as on a surface.
+// l0 without overshooting, in 2-4 steps when l0 is well apart from l1, as on a surface.
 // l1 and l2 then follow from the quadratic that is left (sum t - l0, product
 // m - l0 (t - l0)). Every row of C - l0 I lies in the span of u1 and u2, so the cross
 // product of two rows is parallel to u0; the longest of the three is taken.
@@ -16,7 +16,8 @@
 // blob, a single point) or Newton does not settle in a few steps, Eigen's
 // SelfAdjointEigenSolver::computeDirect answers instead, which orthogonalises u0 against
 // the most distinct axis. Elsewhere the two agree to rounding (|u0 . u0'| within 1e-12
-// of 1, eigenvalues to 1e-12 of l2); u0's sign is either.
+// of 1, eigenvalues within 1e-11 l2, as smallest_eigenvector_test.cpp holds them); u0's
+// sign is either.
 
 #include <Eigen/Core>
 
