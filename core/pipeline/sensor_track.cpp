@@ -344,6 +344,15 @@ void SensorTrack::prepare_points(const SensorScanInput& scan,
 
 void SensorTrack::finish_frame(std::int64_t frame, std::int64_t t_ns,
                                const Eigen::Isometry3d& T_root_sensor) {
+    // A clock stepped back (the station's time source corrected, a capture replayed in a
+    // loop): the poses kept are on another time line, and a fit or a twist through both
+    // means nothing. Kept, they would stay "within the window" (their distance to the new
+    // stamps is negative) until the new clock passed them, and no prediction could be
+    // trusted all that time.
+    if (!history_.empty() && t_ns <= history_.back().t_ns) {
+        history_.clear();
+        prediction_misses_.clear();
+    }
     check_prediction(t_ns, T_root_sensor);
     history_.push_back({frame, t_ns, T_root_sensor});
     std::size_t drop = 0;

@@ -116,5 +116,39 @@ TEST(SensorTrack, PredictionIsTrustedOnlyWhereRegisteredFramesConfirmIt) {
     EXPECT_FALSE(track.predict_unregistered(next_ns(1)));
 }
 
+// The station's clock stepped back (its time source corrected, a capture replayed in a
+// loop): the poses before the step are on another time line. The track fits the new one
+// alone, and trusts it again once registered frames on it confirm it, as after a start.
+TEST(SensorTrack, AClockSteppedBackStartsTheFitAgain) {
+    const FusionParams params;
+    SensorTrack track(params);
+    constexpr std::int64_t kStepNs = 10'000'000'000;  // 10 s back
+    std::int64_t frame = 0;
+    std::int64_t offset_ns = -kStepNs;  // stamp = true time - offset
+    const auto register_frame = [&] {
+        track.finish_frame(frame, frame * kPeriodNs - offset_ns,
+                           accelerating(static_cast<double>(frame * kPeriodNs) * 1e-9));
+        ++frame;
+    };
+    const auto next_ns = [&] { return frame * kPeriodNs - offset_ns; };
+    for (int i = 0; i < 8; ++i) register_frame();
+    ASSERT_TRUE(track.predict_unregistered(next_ns()));
+
+    offset_ns = 0;
+    register_frame();
+    EXPECT_FALSE(track.predict_unregistered(next_ns())) << "one pose on the new time line";
+    int frames_to_trust = 1;
+    while (!track.predict_unregistered(next_ns()) && frames_to_trust < 20) {
+        register_frame();
+        ++frames_to_trust;
+    }
+    EXPECT_LE(frames_to_trust, 8) << "the fit of a fresh start takes 4 poses and 4 checks";
+    const std::optional<Eigen::Isometry3d> next = track.predict_unregistered(next_ns());
+    ASSERT_TRUE(next);
+    const Eigen::Isometry3d truth = accelerating(static_cast<double>(frame * kPeriodNs) * 1e-9);
+    EXPECT_LT((next->translation() - truth.translation()).norm(), 1e-6);
+    EXPECT_LT(rotation_between_deg(*next, truth), 1e-5);
+}
+
 }  // namespace
 }  // namespace lidarfuse::core
