@@ -25,6 +25,10 @@
 //                                 daemon's, predict)
 //                             [--receive-coalesce-ms MS]  (network.receive_coalesce_ms;
 //                                 default: the daemon's, 5)
+//                             [--soak-minutes M [--sample-s 30]]  (the --seconds capture looped
+//                                 for M minutes by `lidarfuse replay --loop`: the daemon's RSS
+//                                 every sample-s seconds, as `daemon_soak_t` lines, and its drift
+//                                 from the first to the last quarter; no latency figures)
 //                             [--keep 1]          (leave the folder: daemon logs, outputs)
 //                             [--daemon PATH]     (another lidarfused, e.g. a build of the
 //                                 parent commit, for side-by-side runs; default: the one
@@ -44,6 +48,7 @@
 // Needs the built `lidarfuse` (sim) and `lidarfused` beside it (build/tools, build/daemon).
 // The replay runs in this process (one thread); the machine's other load shares the cores.
 #include <netinet/in.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -90,6 +95,17 @@ using bench::stop_daemon;
 using bench::usage_by_stage;
 namespace fs = std::filesystem;
 
+// CPU time (s) of this process's children that have been waited for (the sim, a soak's
+// replay; the daemon only once it is stopped).
+double children_cpu_s() {
+    rusage usage{};
+    ::getrusage(RUSAGE_CHILDREN, &usage);
+    const auto seconds = [](const timeval& t) {
+        return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
+    };
+    return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
 std::string tool_dir() { return fs::path(LIDARFUSE_TOOL_PATH).parent_path().string(); }
 
 enum class FoxgloveMode { kOff, kServer, kClient };
@@ -132,8 +148,116 @@ void print_accuracy(const fs::path& sim, const fs::path& out_dir, const std::str
     std::fflush(stdout);
 }
 
+// Latency from the last packet of a frame to its cloud at the reader, over the whole run and
+// over its steady part.
+void print_latency(const std::vector<double>& latency_ms,
+                   const std::vector<double>& steady_latency_ms, const std::string& tag) {
+    std::printf("daemon_latency_median_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.5));
+    std::printf("daemon_latency_p99_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.99));
+    std::printf("daemon_latency_samples_%s %zu frames\n", tag.c_str(), latency_ms.size());
+    std::printf("daemon_latency_median_steady_%s %.1f ms\n", tag.c_str(),
+                percentile(steady_latency_ms, 0.5));
+    std::printf("daemon_latency_p99_steady_%s %.1f ms\n", tag.c_str(),
+                percentile(steady_latency_ms, 0.99));
+    std::printf("daemon_latency_samples_steady_%s %zu frames\n", tag.c_str(),
+                steady_latency_ms.size());
+}
+
+// The clouds the reader received against those published (fused after the world frame).
+void print_delivery(const Received& received, const std::string& fused_frames,
+                    const std::string& frames_before_world, const std::string& tag) {
+    const std::size_t fused = std::stoull(fused_frames);
+    const std::size_t before_world = std::stoull(frames_before_world);
+    const std::size_t published = fused > before_world ? fused - before_world : 0;
+    std::printf("daemon_clouds_received_%s %zu frames\n", tag.c_str(),
+                received.cloud_arrival_ns.size());
+    std::printf("daemon_clouds_published_%s %zu frames\n", tag.c_str(), published);
+    std::printf("daemon_clouds_delivered_%s %.1f %%\n", tag.c_str(),
+                published > 0 ? 100.0 * static_cast<double>(received.cloud_arrival_ns.size()) /
+                                    static_cast<double>(published)
+                              : 0.0);
+}
+
+// --soak-minutes M: the capture looped by `lidarfuse replay --loop` for M minutes instead of
+// one pass from this process (each pass restarts the sensors' frame ids and clocks, which
+// the daemon takes as restarts), the daemon's resident set sampled every `sample_s`.
+struct Soak {
+    double minutes = 0.0;  // 0: no soak, one pass with the latency figures
+    double sample_s = 30.0;
+};
+
+// The pipeline's counter `key` from the last diagnostics received ("0" before any).
+std::string pipeline_counter(Received* received, const char* key) {
+    std::lock_guard<std::mutex> lock(received->mutex);
+    const auto& pipeline = received->last_diagnostics["lidarfuse/bench/pipeline"];
+    const auto it = pipeline.find(key);
+    return it == pipeline.end() ? std::string("0") : it->second;
+}
+
+// Prints the mean RSS of the first and last quarter of the samples and their difference:
+// flat means a drift near 0.
+void print_rss_drift(const std::vector<double>& rss, const std::string& tag) {
+    const std::size_t q = rss.size() / 4;
+    if (q == 0) {
+        std::printf("daemon_soak_samples_%s %zu samples (too few for a drift)\n", tag.c_str(),
+                    rss.size());
+        return;
+    }
+    double first = 0.0, last = 0.0;
+    for (std::size_t i = 0; i < q; ++i) {
+        first += rss[i] / static_cast<double>(q);
+        last += rss[rss.size() - 1 - i] / static_cast<double>(q);
+    }
+    std::printf("daemon_soak_samples_%s %zu samples\n", tag.c_str(), rss.size());
+    std::printf("daemon_soak_rss_first_quarter_%s %.1f MiB\n", tag.c_str(), first);
+    std::printf("daemon_soak_rss_last_quarter_%s %.1f MiB\n", tag.c_str(), last);
+    std::printf("daemon_soak_rss_drift_%s %.1f MiB\n", tag.c_str(), last - first);
+    std::printf("daemon_soak_rss_max_%s %.1f MiB\n", tag.c_str(),
+                *std::max_element(rss.begin(), rss.end()));
+}
+
+// Runs the looped replay, printing a `daemon_soak_t` line per sample (RSS now, the
+// pipeline's frame counters); returns the datagrams it sent.
+std::uint64_t soak_replay(const fs::path& sim, const std::vector<SensorReplay>& sensors,
+                          const Soak& soak, pid_t pid, Received* received, const std::string& tag) {
+    std::string cmd = tool_dir() + "/lidarfuse replay " + (sim / "capture.pcap").string() +
+                      " --to 127.0.0.1 --loop --duration " + std::to_string(soak.minutes * 60.0);
+    for (const auto& s : sensors)
+        cmd += " --port-map " + std::to_string(s.capture_port) + ":" + std::to_string(s.send_port);
+    std::atomic<bool> done{false};
+    std::uint64_t sent = 0;
+    std::thread replayer([&] {
+        FILE* pipe = ::popen((cmd + " 2>/dev/null").c_str(), "r");
+        char line[256];
+        unsigned long long datagrams = 0;
+        while (pipe && std::fgets(line, sizeof line, pipe))
+            if (std::sscanf(line, "replay_datagrams_sent %llu", &datagrams) == 1) sent = datagrams;
+        if (pipe) ::pclose(pipe);
+        done = true;
+    });
+    std::vector<double> rss;
+    const auto start = std::chrono::steady_clock::now();
+    for (int k = 1;; ++k) {
+        const auto due = start + std::chrono::duration<double>(k * soak.sample_s);
+        while (!done.load() && std::chrono::steady_clock::now() < due)
+            std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        if (done.load()) break;
+        rss.push_back(bench::rss_mib(pid));
+        std::printf(
+            "daemon_soak_t %.0f s rss_mib %.1f frames_fused %s frames_predicted %s "
+            "frames_dropped %s\n",
+            k * soak.sample_s, rss.back(), pipeline_counter(received, "frames_fused").c_str(),
+            pipeline_counter(received, "frames_predicted").c_str(),
+            pipeline_counter(received, "frame_queue_drops").c_str());
+        std::fflush(stdout);
+    }
+    replayer.join();
+    print_rss_drift(rss, tag);
+    return sent;
+}
+
 RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& settings,
-              const Delivery& delivery) {
+              const Delivery& delivery, const Soak& soak) {
     RunResult result;
     const fs::path out_dir = sim / ("out" + std::to_string(n));
     std::ofstream config(sim / ("daemon" + std::to_string(n) + ".yaml"));
@@ -189,13 +313,16 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
             std::fprintf(stderr, "daemon_latency_bench: measuring without the Foxglove client\n");
     }
     const auto cpu0 = usage_by_stage(pid);
-    const double harness_cpu0_s = process_cpu_s();
+    const double harness_cpu0_s = process_cpu_s() + children_cpu_s();
     const std::int64_t t0 = monotonic_ns();
-    replay(sim / "capture.pcap", &sensors);
+    const std::string tag = std::to_string(n) + "sensors";
+    const std::uint64_t soak_sent =
+        soak.minutes > 0 ? soak_replay(sim, sensors, soak, pid, &received, tag) : 0;
+    if (soak.minutes <= 0) replay(sim / "capture.pcap", &sensors);
     const double wall_s = static_cast<double>(monotonic_ns() - t0) * 1e-9;
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // fusion catches up
     const auto cpu1 = usage_by_stage(pid);
-    const double harness_cpu_s = process_cpu_s() - harness_cpu0_s;
+    const double harness_cpu_s = process_cpu_s() + children_cpu_s() - harness_cpu0_s;
     const double rss_mib = peak_rss_mib(pid);
     const bench::FoxgloveCounts viewed = viewer.stop();
     const bool exited_cleanly = stop_daemon(pid);
@@ -234,7 +361,7 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
         latency_ms.push_back(static_cast<double>(arrival - last_packet) * 1e-6);
         if (arrival >= steady_from_ns) steady_latency_ms.push_back(latency_ms.back());
     }
-    std::uint64_t sent = 0, received_packets = 0;
+    std::uint64_t sent = soak_sent, received_packets = 0;
     std::size_t capture_frames = 0;
     for (std::size_t s = 0; s < sensors.size(); ++s) {
         sent += sensors[s].datagrams;
@@ -248,16 +375,8 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
         const auto it = pipeline.find(key);
         return it == pipeline.end() ? std::string("0") : it->second;
     };
-    const std::string tag = std::to_string(n) + "sensors";
-    std::printf("daemon_latency_median_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.5));
-    std::printf("daemon_latency_p99_%s %.1f ms\n", tag.c_str(), percentile(latency_ms, 0.99));
-    std::printf("daemon_latency_samples_%s %zu frames\n", tag.c_str(), latency_ms.size());
-    std::printf("daemon_latency_median_steady_%s %.1f ms\n", tag.c_str(),
-                percentile(steady_latency_ms, 0.5));
-    std::printf("daemon_latency_p99_steady_%s %.1f ms\n", tag.c_str(),
-                percentile(steady_latency_ms, 0.99));
-    std::printf("daemon_latency_samples_steady_%s %zu frames\n", tag.c_str(),
-                steady_latency_ms.size());
+    // A looped capture repeats its scans' stamps: the latency of a cloud is not defined.
+    if (soak.minutes <= 0) print_latency(latency_ms, steady_latency_ms, tag);
     for (const char* stage :
          {"receive", "sync", "fusion", "initial", "output", "record", "foxglove", "dds", "main"}) {
         const StageUsage before = cpu0.count(stage) ? cpu0.at(stage) : StageUsage{};
@@ -267,7 +386,8 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
         std::printf("daemon_page_faults_%s_%s %.0f faults/s\n", stage, tag.c_str(),
                     (after.minor_faults - before.minor_faults) / (wall_s + 1.5));
     }
-    // The replay and the reader share the 2 cores with the daemon: what they took of them.
+    // The replay and the reader share the 2 cores with the daemon: what they took of them
+    // (a soak's replay is a child process, counted once it has been waited for).
     std::printf("daemon_bench_harness_cpu_%s %.1f %%\n", tag.c_str(),
                 100.0 * harness_cpu_s / (wall_s + 1.5));
     std::printf("daemon_peak_rss_%s %.1f MiB\n", tag.c_str(), rss_mib);
@@ -278,7 +398,8 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
                 static_cast<unsigned long long>(lost));
     std::printf("daemon_kernel_drops_%s %s packets\n", tag.c_str(), value("kernel_drops").c_str());
     const std::size_t fused = std::stoull(value("frames_fused"));
-    std::printf("daemon_frames_in_capture_%s %zu frames\n", tag.c_str(), capture_frames);
+    if (soak.minutes <= 0)
+        std::printf("daemon_frames_in_capture_%s %zu frames\n", tag.c_str(), capture_frames);
     std::printf("daemon_frames_fused_%s %zu frames\n", tag.c_str(), fused);
     std::printf("daemon_frames_predicted_%s %s frames\n", tag.c_str(),
                 value("frames_predicted").c_str());
@@ -289,15 +410,9 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
                     drops_since(received.queue_drops_over_time, steady_from_ns)));
     std::printf("daemon_initial_registration_%s %s ms\n", tag.c_str(),
                 value("last_initial_registration_ms").c_str());
-    std::printf("daemon_clouds_received_%s %zu frames\n", tag.c_str(),
-                received.cloud_arrival_ns.size());
-    const std::size_t before_world = std::stoull(value("frames_before_world_frame"));
-    const std::size_t published = fused > before_world ? fused - before_world : 0;
-    std::printf("daemon_clouds_published_%s %zu frames\n", tag.c_str(), published);
-    std::printf("daemon_clouds_delivered_%s %.1f %%\n", tag.c_str(),
-                published > 0 ? 100.0 * static_cast<double>(received.cloud_arrival_ns.size()) /
-                                    static_cast<double>(published)
-                              : 0.0);
+    // The reader keys clouds by stamp, which a looped capture repeats.
+    if (soak.minutes <= 0)
+        print_delivery(received, value("frames_fused"), value("frames_before_world_frame"), tag);
     std::printf("daemon_mean_fusion_%s %s ms\n", tag.c_str(), value("mean_fusion_ms").c_str());
     std::printf("daemon_dds_write_failures_%s %s writes\n", tag.c_str(),
                 value("dds_write_failures").c_str());
@@ -319,7 +434,7 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
                     value("record_queue_drops").c_str());
     }
     std::fflush(stdout);
-    print_accuracy(sim, out_dir, tag);
+    if (soak.minutes <= 0) print_accuracy(sim, out_dir, tag);
     result.ok = exited_cleanly && received_packets > 0;
     result.lost = lost + std::stoull(value("kernel_drops"));
     result.fused_share =
@@ -334,6 +449,7 @@ int main(int argc, char** argv) {
     double seconds = 5.0;
     std::string scenario = "curve";
     DaemonSettings settings;
+    Soak soak;
     bool keep = false;  // --keep 1: leave the capture, configs, daemon logs and outputs
     Delivery delivery;
     delivery.daemon_uri = delivery.reader_uri = cyclone_uri("bench");
@@ -365,6 +481,10 @@ int main(int argc, char** argv) {
             settings.receive_coalesce_ms = std::stod(argv[i + 1]);
         } else if (arg == "--daemon") {
             settings.executable = argv[i + 1];
+        } else if (arg == "--soak-minutes") {
+            soak.minutes = std::stod(argv[i + 1]);
+        } else if (arg == "--sample-s") {
+            soak.sample_s = std::stod(argv[i + 1]);
         } else if (arg == "--keep") {
             keep = argv[i + 1] == std::string("1");
         } else if (arg == "--cyclonedds") {
@@ -392,7 +512,7 @@ int main(int argc, char** argv) {
     const int domain = 1 + static_cast<int>(::getpid() % 230);
     int max_zero_loss = 0, max_realtime = 0;
     for (int n : counts) {
-        const auto r = run(sim, n, domain, settings, delivery);
+        const auto r = run(sim, n, domain, settings, delivery, soak);
         if (r.ok && r.lost == 0) max_zero_loss = std::max(max_zero_loss, n);
         if (r.ok && r.lost == 0 && r.fused_share >= 0.95) max_realtime = std::max(max_realtime, n);
     }

@@ -27,6 +27,21 @@ std::string stage_of_thread(const std::string& comm) {
     return it == kStageOfThread.end() ? "dds" : it->second;
 }
 
+// A size line of /proc/<pid>/status ("VmHWM:", "VmRSS:", in kB) in MiB; 0 when unreadable.
+double status_mib(pid_t pid, const std::string& field) {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+    std::string key;
+    while (in >> key) {
+        if (key == field) {
+            double kib = 0;
+            in >> kib;
+            return kib / 1024.0;
+        }
+        std::getline(in, key);
+    }
+    return 0.0;
+}
+
 }  // namespace
 
 std::map<std::string, StageUsage> usage_by_stage(pid_t pid) {
@@ -54,18 +69,8 @@ std::map<std::string, StageUsage> usage_by_stage(pid_t pid) {
     return out;
 }
 
-double peak_rss_mib(pid_t pid) {
-    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-    std::string key;
-    while (in >> key) {
-        if (key == "VmHWM:") {
-            double kib = 0;
-            in >> kib;
-            return kib / 1024.0;
-        }
-        std::getline(in, key);
-    }
-    return 0.0;
-}
+double peak_rss_mib(pid_t pid) { return status_mib(pid, "VmHWM:"); }
+
+double rss_mib(pid_t pid) { return status_mib(pid, "VmRSS:"); }
 
 }  // namespace lidarfuse::bench

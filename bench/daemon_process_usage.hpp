@@ -23,4 +23,7 @@ std::map<std::string, StageUsage> usage_by_stage(pid_t pid);
 // The peak resident set of a process (VmHWM, MiB), 0 when unreadable.
 double peak_rss_mib(pid_t pid);
 
+// Its resident set now (VmRSS, MiB), 0 when unreadable.
+double rss_mib(pid_t pid);
+
 }  // namespace lidarfuse::bench
