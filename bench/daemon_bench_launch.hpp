@@ -33,6 +33,10 @@ std::string cyclone_uri(const std::string& choice);
 // CPU time of this process (s): what the bench's own threads took of the cores.
 double process_cpu_s();
 
+// CPU time (s) of this process's children that have been waited for (the sim, a soak's
+// replay; a daemon only once it is stopped).
+double children_cpu_s();
+
 // The p-quantile (0..1) of v, nearest rank; 0 when empty.
 double percentile(std::vector<double> v, double p);
 

@@ -48,7 +48,6 @@
 // Needs the built `lidarfuse` (sim) and `lidarfused` beside it (build/tools, build/daemon).
 // The replay runs in this process (one thread); the machine's other load shares the cores.
 #include <netinet/in.h>
-#include <sys/resource.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -66,6 +65,7 @@
 
 #include "bench/daemon_bench_launch.hpp"
 #include "bench/daemon_bench_replay.hpp"
+#include "bench/daemon_bench_soak.hpp"
 #include "bench/daemon_process_usage.hpp"
 #include "bench/dds_bench_reader.hpp"
 #include "bench/foxglove_bench_client.hpp"
@@ -79,7 +79,11 @@ namespace {
 // of the next second or so cost several times a steady frame.
 constexpr double kSettleS = 2.0;
 
+// The pipeline's diagnostic status of the bench's station ("station: bench" below).
+const char* const kPipelineStatus = "lidarfuse/bench/pipeline";
+
 using namespace lidarfuse;
+using bench::children_cpu_s;
 using bench::cyclone_uri;
 using bench::Delivery;
 using bench::monotonic_ns;
@@ -89,22 +93,12 @@ using bench::process_cpu_s;
 using bench::Received;
 using bench::SensorReplay;
 using bench::set_cyclone_uri;
+using bench::Soak;
 using bench::StageUsage;
 using bench::start_daemon;
 using bench::stop_daemon;
 using bench::usage_by_stage;
 namespace fs = std::filesystem;
-
-// CPU time (s) of this process's children that have been waited for (the sim, a soak's
-// replay; the daemon only once it is stopped).
-double children_cpu_s() {
-    rusage usage{};
-    ::getrusage(RUSAGE_CHILDREN, &usage);
-    const auto seconds = [](const timeval& t) {
-        return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec);
-    };
-    return seconds(usage.ru_utime) + seconds(usage.ru_stime);
-}
 
 std::string tool_dir() { return fs::path(LIDARFUSE_TOOL_PATH).parent_path().string(); }
 
@@ -164,9 +158,8 @@ void print_latency(const std::vector<double>& latency_ms,
 }
 
 // The clouds the reader received against those published (fused after the world frame).
-void print_delivery(const Received& received, const std::string& fused_frames,
+void print_delivery(const Received& received, std::size_t fused,
                     const std::string& frames_before_world, const std::string& tag) {
-    const std::size_t fused = std::stoull(fused_frames);
     const std::size_t before_world = std::stoull(frames_before_world);
     const std::size_t published = fused > before_world ? fused - before_world : 0;
     std::printf("daemon_clouds_received_%s %zu frames\n", tag.c_str(),
@@ -176,84 +169,6 @@ void print_delivery(const Received& received, const std::string& fused_frames,
                 published > 0 ? 100.0 * static_cast<double>(received.cloud_arrival_ns.size()) /
                                     static_cast<double>(published)
                               : 0.0);
-}
-
-// --soak-minutes M: the capture looped by `lidarfuse replay --loop` for M minutes instead of
-// one pass from this process (each pass restarts the sensors' frame ids and clocks, which
-// the daemon takes as restarts), the daemon's resident set sampled every `sample_s`.
-struct Soak {
-    double minutes = 0.0;  // 0: no soak, one pass with the latency figures
-    double sample_s = 30.0;
-};
-
-// The pipeline's counter `key` from the last diagnostics received ("0" before any).
-std::string pipeline_counter(Received* received, const char* key) {
-    std::lock_guard<std::mutex> lock(received->mutex);
-    const auto& pipeline = received->last_diagnostics["lidarfuse/bench/pipeline"];
-    const auto it = pipeline.find(key);
-    return it == pipeline.end() ? std::string("0") : it->second;
-}
-
-// Prints the mean RSS of the first and last quarter of the samples and their difference:
-// flat means a drift near 0.
-void print_rss_drift(const std::vector<double>& rss, const std::string& tag) {
-    const std::size_t q = rss.size() / 4;
-    if (q == 0) {
-        std::printf("daemon_soak_samples_%s %zu samples (too few for a drift)\n", tag.c_str(),
-                    rss.size());
-        return;
-    }
-    double first = 0.0, last = 0.0;
-    for (std::size_t i = 0; i < q; ++i) {
-        first += rss[i] / static_cast<double>(q);
-        last += rss[rss.size() - 1 - i] / static_cast<double>(q);
-    }
-    std::printf("daemon_soak_samples_%s %zu samples\n", tag.c_str(), rss.size());
-    std::printf("daemon_soak_rss_first_quarter_%s %.1f MiB\n", tag.c_str(), first);
-    std::printf("daemon_soak_rss_last_quarter_%s %.1f MiB\n", tag.c_str(), last);
-    std::printf("daemon_soak_rss_drift_%s %.1f MiB\n", tag.c_str(), last - first);
-    std::printf("daemon_soak_rss_max_%s %.1f MiB\n", tag.c_str(),
-                *std::max_element(rss.begin(), rss.end()));
-}
-
-// Runs the looped replay, printing a `daemon_soak_t` line per sample (RSS now, the
-// pipeline's frame counters); returns the datagrams it sent.
-std::uint64_t soak_replay(const fs::path& sim, const std::vector<SensorReplay>& sensors,
-                          const Soak& soak, pid_t pid, Received* received, const std::string& tag) {
-    std::string cmd = tool_dir() + "/lidarfuse replay " + (sim / "capture.pcap").string() +
-                      " --to 127.0.0.1 --loop --duration " + std::to_string(soak.minutes * 60.0);
-    for (const auto& s : sensors)
-        cmd += " --port-map " + std::to_string(s.capture_port) + ":" + std::to_string(s.send_port);
-    std::atomic<bool> done{false};
-    std::uint64_t sent = 0;
-    std::thread replayer([&] {
-        FILE* pipe = ::popen((cmd + " 2>/dev/null").c_str(), "r");
-        char line[256];
-        unsigned long long datagrams = 0;
-        while (pipe && std::fgets(line, sizeof line, pipe))
-            if (std::sscanf(line, "replay_datagrams_sent %llu", &datagrams) == 1) sent = datagrams;
-        if (pipe) ::pclose(pipe);
-        done = true;
-    });
-    std::vector<double> rss;
-    const auto start = std::chrono::steady_clock::now();
-    for (int k = 1;; ++k) {
-        const auto due = start + std::chrono::duration<double>(k * soak.sample_s);
-        while (!done.load() && std::chrono::steady_clock::now() < due)
-            std::this_thread::sleep_for(std::chrono::milliseconds(100));
-        if (done.load()) break;
-        rss.push_back(bench::rss_mib(pid));
-        std::printf(
-            "daemon_soak_t %.0f s rss_mib %.1f frames_fused %s frames_predicted %s "
-            "frames_dropped %s\n",
-            k * soak.sample_s, rss.back(), pipeline_counter(received, "frames_fused").c_str(),
-            pipeline_counter(received, "frames_predicted").c_str(),
-            pipeline_counter(received, "frame_queue_drops").c_str());
-        std::fflush(stdout);
-    }
-    replayer.join();
-    print_rss_drift(rss, tag);
-    return sent;
 }
 
 RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& settings,
@@ -317,7 +232,10 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
     const std::int64_t t0 = monotonic_ns();
     const std::string tag = std::to_string(n) + "sensors";
     const std::uint64_t soak_sent =
-        soak.minutes > 0 ? soak_replay(sim, sensors, soak, pid, &received, tag) : 0;
+        soak.minutes > 0 ? bench::soak_replay({tool_dir() + "/lidarfuse", sim / "capture.pcap",
+                                               &sensors, pid, &received, kPipelineStatus},
+                                              soak, tag)
+                         : 0;
     if (soak.minutes <= 0) replay(sim / "capture.pcap", &sensors);
     const double wall_s = static_cast<double>(monotonic_ns() - t0) * 1e-9;
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // fusion catches up
@@ -370,10 +288,8 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
         if (it != received.last_diagnostics.end())
             received_packets += std::stoull(it->second.at("packets"));
     }
-    const auto& pipeline = received.last_diagnostics["lidarfuse/bench/pipeline"];
     const auto value = [&](const char* key) {
-        const auto it = pipeline.find(key);
-        return it == pipeline.end() ? std::string("0") : it->second;
+        return bench::diagnostic_value(&received, kPipelineStatus, key);
     };
     // A looped capture repeats its scans' stamps: the latency of a cloud is not defined.
     if (soak.minutes <= 0) print_latency(latency_ms, steady_latency_ms, tag);
@@ -411,8 +327,7 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
     std::printf("daemon_initial_registration_%s %s ms\n", tag.c_str(),
                 value("last_initial_registration_ms").c_str());
     // The reader keys clouds by stamp, which a looped capture repeats.
-    if (soak.minutes <= 0)
-        print_delivery(received, value("frames_fused"), value("frames_before_world_frame"), tag);
+    if (soak.minutes <= 0) print_delivery(received, fused, value("frames_before_world_frame"), tag);
     std::printf("daemon_mean_fusion_%s %s ms\n", tag.c_str(), value("mean_fusion_ms").c_str());
     std::printf("daemon_dds_write_failures_%s %s writes\n", tag.c_str(),
                 value("dds_write_failures").c_str());

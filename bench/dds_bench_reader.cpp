@@ -106,4 +106,12 @@ void subscribe(int domain, const Delivery& delivery, std::atomic<bool>* stop,
     dds_delete(participant);
 }
 
+std::string diagnostic_value(Received* received, const std::string& status, const char* key) {
+    std::lock_guard<std::mutex> lock(received->mutex);
+    const auto values = received->last_diagnostics.find(status);
+    if (values == received->last_diagnostics.end()) return "0";
+    const auto it = values->second.find(key);
+    return it == values->second.end() ? std::string("0") : it->second;
+}
+
 }  // namespace lidarfuse::bench

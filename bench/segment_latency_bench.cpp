@@ -269,7 +269,6 @@ int run(const Options& o) {
     std::printf("segment_clouds_received_%s %zu frames\n", tag.c_str(),
                 received.cloud_arrival_ns.size());
     std::printf("segment_frames_played_%s %zu frames\n", tag.c_str(), published[0].clouds);
-    auto& pipeline = received.last_diagnostics["lidarfuse/bench/pipeline"];
     const std::pair<const char*, const char*> figures[] = {{"frames_fused", "frames"},
                                                            {"frames_predicted", "frames"},
                                                            {"frame_queue_drops", "frames"},
@@ -277,7 +276,8 @@ int run(const Options& o) {
                                                            {"mean_fusion_ms", "ms"}};
     for (const auto& [key, unit] : figures) {
         std::printf("segment_%s_%s %s %s\n", key, tag.c_str(),
-                    pipeline.count(key) ? pipeline[key].c_str() : "0", unit);
+                    bench::diagnostic_value(&received, "lidarfuse/bench/pipeline", key).c_str(),
+                    unit);
     }
     for (const char* stage : {"fusion", "initial", "output", "dds", "sync", "main"}) {
         const bench::StageUsage before = cpu0.count(stage) ? cpu0.at(stage) : bench::StageUsage{};
