@@ -158,9 +158,8 @@ void print_latency(const std::vector<double>& latency_ms,
 }
 
 // The clouds the reader received against those published (fused after the world frame).
-void print_delivery(const Received& received, std::size_t fused,
-                    const std::string& frames_before_world, const std::string& tag) {
-    const std::size_t before_world = std::stoull(frames_before_world);
+void print_delivery(const Received& received, std::size_t fused, std::size_t before_world,
+                    const std::string& tag) {
     const std::size_t published = fused > before_world ? fused - before_world : 0;
     std::printf("daemon_clouds_received_%s %zu frames\n", tag.c_str(),
                 received.cloud_arrival_ns.size());
@@ -231,12 +230,13 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
     const double harness_cpu0_s = process_cpu_s() + children_cpu_s();
     const std::int64_t t0 = monotonic_ns();
     const std::string tag = std::to_string(n) + "sensors";
-    const std::uint64_t soak_sent =
-        soak.minutes > 0 ? bench::soak_replay({tool_dir() + "/lidarfuse", sim / "capture.pcap",
-                                               &sensors, pid, &received, kPipelineStatus},
-                                              soak, tag)
-                         : 0;
-    if (soak.minutes <= 0) replay(sim / "capture.pcap", &sensors);
+    std::uint64_t soak_sent = 0;
+    if (soak.minutes > 0)
+        soak_sent = bench::soak_replay({tool_dir() + "/lidarfuse", sim / "capture.pcap", &sensors,
+                                        pid, &received, kPipelineStatus},
+                                       soak, tag);
+    else
+        replay(sim / "capture.pcap", &sensors);
     const double wall_s = static_cast<double>(monotonic_ns() - t0) * 1e-9;
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // fusion catches up
     const auto cpu1 = usage_by_stage(pid);
@@ -327,7 +327,8 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
     std::printf("daemon_initial_registration_%s %s ms\n", tag.c_str(),
                 value("last_initial_registration_ms").c_str());
     // The reader keys clouds by stamp, which a looped capture repeats.
-    if (soak.minutes <= 0) print_delivery(received, fused, value("frames_before_world_frame"), tag);
+    if (soak.minutes <= 0)
+        print_delivery(received, fused, std::stoull(value("frames_before_world_frame")), tag);
     std::printf("daemon_mean_fusion_%s %s ms\n", tag.c_str(), value("mean_fusion_ms").c_str());
     std::printf("daemon_dds_write_failures_%s %s writes\n", tag.c_str(),
                 value("dds_write_failures").c_str());

@@ -166,7 +166,8 @@ private:
     GicpCloud current_target_;
     BackgroundModel background_;
     BackgroundUpdate background_update_;
-    // Registered poses, oldest first: the last three, and those within
+    // Registered poses, oldest first, their stamps strictly increasing (finish_frame clears
+    // it when a clock steps back): the last three, and those within
     // FusionParams::prediction_window_s of the newest.
     std::vector<PoseSample> history_;
     // The fit's last checks against registered poses: how far each missed (m, deg). Their
