@@ -14,7 +14,7 @@
 // least 95 % of the capture's frames (real time).
 //
 // Usage: daemon_latency_bench [--sensors 2,4,6,8] [--seconds 5] [--scenario curve]
-//                             [--queue-depth 1]   (sync.queue_depth of the daemon; 1 its default)
+//                             [--queue-depth N]   (sync.queue_depth; default: the daemon's, 2)
 //                             [--fusion-threads N]  (registration.threads; default: the daemon's,
 //                             2)
 //                             [--record 1]        (output.record on: the recorder's CPU and drops)
@@ -106,7 +106,7 @@ enum class FoxgloveMode { kOff, kServer, kClient };
 
 // What the bench's daemon config sets; the rest is the daemon's defaults.
 struct DaemonSettings {
-    int queue_depth = 1;      // the daemon's default
+    int queue_depth = 0;      // 0: the daemon's default (sync.queue_depth)
     int fusion_threads = 0;   // 0: the daemon's default (registration.threads)
     std::string when_behind;  // "": the daemon's default (sync.when_behind)
     bool record = false;      // --record 1: output.record on (into the bench's folder)
@@ -114,6 +114,17 @@ struct DaemonSettings {
     double receive_coalesce_ms = -1;  // < 0: the daemon's default (network.receive_coalesce_ms)
     std::string executable = bench::built_daemon_path();  // the lidarfused that runs
 };
+
+// The sync section's keys the bench sets; the others are the daemon's defaults.
+std::string sync_settings(const DaemonSettings& settings) {
+    std::string keys;
+    const auto add = [&](const std::string& key, const std::string& value) {
+        keys += (keys.empty() ? "" : ", ") + key + ": " + value;
+    };
+    if (settings.queue_depth > 0) add("queue_depth", std::to_string(settings.queue_depth));
+    if (!settings.when_behind.empty()) add("when_behind", settings.when_behind);
+    return keys;
+}
 
 // Frames dropped from the first diagnostics report at or after from_ns to the last one
 // (0 when none came after from_ns).
@@ -193,8 +204,7 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
            << (settings.receive_coalesce_ms < 0
                    ? ""
                    : ", receive_coalesce_ms: " + std::to_string(settings.receive_coalesce_ms))
-           << "}\nsync: {queue_depth: " << settings.queue_depth
-           << (settings.when_behind.empty() ? "" : ", when_behind: " + settings.when_behind)
+           << "}\nsync: {" << sync_settings(settings)
            << "}\noutput:\n  directory: " << out_dir.string() << "\n  dds: {domain_id: " << domain
            << ", frame_id: station, diagnostics_period_ms: 500}\n";
     if (settings.record)

@@ -35,10 +35,11 @@ struct SyncConfig {
     double max_clock_skew_ms = 1000.0;
     // Synchronised frames waiting for the fusion thread (and fused ones for the output
     // thread); when full the oldest is dropped and counted. While fusion is slower than the
-    // frame rate, a frame waits up to this many fusion times: 1 gives the freshest output
-    // (measured, 4 sensors on 2 cores: median latency 42 ms at 1 against 297 ms at 4, with
-    // the same number of frames fused).
-    int queue_depth = 1;
+    // frame rate, a frame waits up to this many fusion times. 2: a frame that arrives while
+    // another waits is not dropped but fused at predicted poses after it (when_behind); 1
+    // drops more frames at the same latency, 4 and more add latency (bench/BENCHMARK.md,
+    // "The frame queue's depth").
+    int queue_depth = 2;
     // sync.when_behind. predict (the default): when a frame already waits as fusion
     // finishes one, the next is fused at the poses predicted from the registered frames
     // (FrameMode::kPredict) instead of registered, so that more frames are fused while

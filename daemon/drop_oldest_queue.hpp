@@ -10,6 +10,7 @@
 // close() wakes it for shutdown. A consumer of several queues sleeps on a Doorbell instead,
 // which every push rings (set_doorbell).
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -28,14 +29,16 @@ namespace lidarfuse::daemon {
 template <typename T>
 class DropOldestQueue {
 public:
-    // Capacity is rounded up to a power of two (at least 2).
-    explicit DropOldestQueue(std::size_t capacity) : mask_(round_up(capacity) - 1) {
+    // Holds at most `capacity` items (at least 1): a frame queue of depth 1 keeps only the
+    // newest frame. The ring under it has a power of two of slots, at least 2.
+    explicit DropOldestQueue(std::size_t capacity)
+        : capacity_(std::max<std::size_t>(1, capacity)), mask_(round_up(capacity_) - 1) {
         slots_ = std::make_unique<Slot[]>(mask_ + 1);
         for (std::size_t i = 0; i <= mask_; ++i)
             slots_[i].sequence.store(i, std::memory_order_relaxed);
     }
 
-    std::size_t capacity() const { return mask_ + 1; }
+    std::size_t capacity() const { return capacity_; }
 
     // Every later push() also rings `bell` (null: none). Set before the producer starts.
     void set_doorbell(Doorbell* bell) { doorbell_ = bell; }
@@ -43,15 +46,18 @@ public:
     // Producer. Returns false when an older item had to be dropped to make room.
     bool push(T item) {
         bool dropped_one = false;
-        while (!try_push(item)) {
-            // Full only when every slot holds an unclaimed item; otherwise the consumer
-            // has claimed the slot we need and is moving its item out: let it finish.
+        for (;;) {
+            // Full: capacity items not yet claimed by the consumer. Otherwise a failed
+            // try_push means the consumer has claimed the slot we need and is moving its
+            // item out: let it finish.
             const std::size_t head = head_.load(std::memory_order_acquire);
-            if (tail_.load(std::memory_order_relaxed) - head > mask_) {
+            if (tail_.load(std::memory_order_relaxed) - head >= capacity_) {
                 if (try_pop_internal()) {
                     dropped_.fetch_add(1, std::memory_order_relaxed);
                     dropped_one = true;
                 }
+            } else if (try_push(item)) {
+                break;
             } else {
                 std::this_thread::yield();
             }
@@ -115,7 +121,7 @@ private:
         const std::size_t pos = tail_.load(std::memory_order_relaxed);
         Slot& slot = slots_[pos & mask_];
         const std::size_t seq = slot.sequence.load(std::memory_order_acquire);
-        if (seq != pos) return false;  // full: the slot still holds an unconsumed item
+        if (seq != pos) return false;  // the consumer is still moving this slot's item out
         slot.value.emplace(std::move(item));
         tail_.store(pos + 1, std::memory_order_relaxed);
         slot.sequence.store(pos + 1, std::memory_order_release);
@@ -143,6 +149,7 @@ private:
         }
     }
 
+    const std::size_t capacity_;
     const std::size_t mask_;
     std::unique_ptr<Slot[]> slots_;
     alignas(64) std::atomic<std::size_t> head_{0};

@@ -2,6 +2,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include <fstream>
 #include <string>
@@ -452,6 +453,19 @@ TEST(DaemonConfigExample, RegistrationAndDynamicsHoldTheDefaults) {
     EXPECT_EQ(e.background.dynamic_threshold, d.background.dynamic_threshold);
     EXPECT_EQ(e.background.voxel_size_m, d.background.voxel_size_m);
     EXPECT_EQ(e.background.change.cone_bins, d.background.change.cone_bins);
+}
+
+// The example states the sync section's defaults, the frame queue's depth among them.
+TEST(DaemonConfigExample, SyncHoldsTheDefaults) {
+    const YAML::Node sync =
+        YAML::LoadFile((test::source_dir() / "config" / "station.example.yaml").string())["sync"];
+    const SyncConfig d = DaemonConfig().sync;
+    EXPECT_EQ(d.queue_depth, 2);
+    EXPECT_EQ(sync["queue_depth"].as<int>(), d.queue_depth);
+    EXPECT_EQ(sync["deadline_ms"].as<double>(), d.deadline_ms);
+    EXPECT_EQ(sync["reset_jump_ms"].as<double>(), d.reset_jump_ms);
+    EXPECT_EQ(sync["max_clock_skew_ms"].as<double>(), d.max_clock_skew_ms);
+    EXPECT_EQ(sync["when_behind"].as<std::string>() == "predict", d.predict_when_behind);
 }
 
 }  // namespace

@@ -9,12 +9,27 @@
 namespace lidarfuse::daemon {
 namespace {
 
-TEST(DropOldestQueue, FifoAndCapacityRoundsUpToPowerOfTwo) {
+TEST(DropOldestQueue, FifoUpToItsCapacity) {
     DropOldestQueue<int> q(3);
-    EXPECT_EQ(q.capacity(), 4u);
-    for (int i = 0; i < 4; ++i) EXPECT_TRUE(q.push(i));
-    for (int i = 0; i < 4; ++i) EXPECT_EQ(q.try_pop().value(), i);
+    EXPECT_EQ(q.capacity(), 3u);
+    for (int i = 0; i < 3; ++i) EXPECT_TRUE(q.push(i));
+    EXPECT_FALSE(q.push(3));  // a fourth does not fit in three, though the ring has four slots
+    for (int i = 1; i < 4; ++i) EXPECT_EQ(q.try_pop().value(), i);
     EXPECT_FALSE(q.try_pop().has_value());
+}
+
+// sync.queue_depth: 1 holds one frame, the newest, not two (its ring has two slots).
+TEST(DropOldestQueue, ACapacityOfOneKeepsOnlyTheNewest) {
+    DropOldestQueue<int> q(1);
+    EXPECT_EQ(q.capacity(), 1u);
+    EXPECT_TRUE(q.push(0));
+    EXPECT_FALSE(q.push(1));
+    EXPECT_FALSE(q.push(2));
+    EXPECT_EQ(q.dropped(), 2u);
+    EXPECT_EQ(q.try_pop().value(), 2);
+    EXPECT_TRUE(q.empty());
+    EXPECT_TRUE(q.push(3));  // room again once the consumer took the one
+    EXPECT_EQ(q.try_pop().value(), 3);
 }
 
 TEST(DropOldestQueue, FullQueueDropsTheOldestAndCountsIt) {
@@ -39,9 +54,12 @@ TEST(DropOldestQueue, MoveOnlyItemsAreNotLeaked) {
 
 // A fast producer and a slower consumer: the consumer sees a strictly increasing
 // sequence (no reordering, no duplicates) and every item is either consumed or counted.
-TEST(DropOldestQueue, ConcurrentProducerConsumerKeepsOrderAndAccounts) {
+// Capacities 1 and 3 (fewer items than ring slots) and 64.
+class DropOldestQueueCapacity : public ::testing::TestWithParam<std::size_t> {};
+
+TEST_P(DropOldestQueueCapacity, ConcurrentProducerConsumerKeepsOrderAndAccounts) {
     constexpr int kItems = 200000;
-    DropOldestQueue<int> q(64);
+    DropOldestQueue<int> q(GetParam());
     std::vector<int> seen;
     seen.reserve(kItems);
     std::thread consumer([&] {
@@ -63,6 +81,8 @@ TEST(DropOldestQueue, ConcurrentProducerConsumerKeepsOrderAndAccounts) {
     EXPECT_EQ(seen.size() + q.dropped(), static_cast<std::size_t>(kItems));
     EXPECT_EQ(seen.back(), kItems - 1);  // the newest item is never the one dropped
 }
+
+INSTANTIATE_TEST_SUITE_P(Capacities, DropOldestQueueCapacity, ::testing::Values(1, 3, 64));
 
 TEST(DropOldestQueue, CloseWakesAWaitingConsumer) {
     DropOldestQueue<int> q(8);
