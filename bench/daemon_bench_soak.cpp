@@ -60,7 +60,7 @@ std::uint64_t soak_replay(const SoakTarget& target, const Soak& soak, const std:
         done = true;
     });
     const auto counter = [&](const char* key) {
-        return diagnostic_value(target.received, target.pipeline_status, key);
+        return diagnostic_value(target.received, kBenchPipelineStatus, key);
     };
     std::vector<double> rss;
     const auto start = std::chrono::steady_clock::now();

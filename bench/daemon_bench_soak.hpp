@@ -26,8 +26,7 @@ struct SoakTarget {
     std::filesystem::path capture;             // the capture to loop
     const std::vector<SensorReplay>* sensors;  // capture port -> the daemon's port
     pid_t daemon;
-    Received* received;           // the bench reader's diagnostics
-    std::string pipeline_status;  // the pipeline's diagnostic status name
+    Received* received;  // the bench reader's diagnostics (kBenchPipelineStatus)
 };
 
 // Runs the looped replay for soak.minutes, printing a `daemon_soak_t` line per sample (RSS

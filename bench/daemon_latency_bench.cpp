@@ -79,9 +79,6 @@ namespace {
 // of the next second or so cost several times a steady frame.
 constexpr double kSettleS = 2.0;
 
-// The pipeline's diagnostic status of the bench's station ("station: bench" below).
-const char* const kPipelineStatus = "lidarfuse/bench/pipeline";
-
 using namespace lidarfuse;
 using bench::children_cpu_s;
 using bench::cyclone_uri;
@@ -242,9 +239,8 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
     const std::string tag = std::to_string(n) + "sensors";
     std::uint64_t soak_sent = 0;
     if (soak.minutes > 0)
-        soak_sent = bench::soak_replay({tool_dir() + "/lidarfuse", sim / "capture.pcap", &sensors,
-                                        pid, &received, kPipelineStatus},
-                                       soak, tag);
+        soak_sent = bench::soak_replay(
+            {tool_dir() + "/lidarfuse", sim / "capture.pcap", &sensors, pid, &received}, soak, tag);
     else
         replay(sim / "capture.pcap", &sensors);
     const double wall_s = static_cast<double>(monotonic_ns() - t0) * 1e-9;
@@ -299,7 +295,7 @@ RunResult run(const fs::path& sim, int n, int domain, const DaemonSettings& sett
             received_packets += std::stoull(it->second.at("packets"));
     }
     const auto value = [&](const char* key) {
-        return bench::diagnostic_value(&received, kPipelineStatus, key);
+        return bench::diagnostic_value(&received, bench::kBenchPipelineStatus, key);
     };
     // A looped capture repeats its scans' stamps: the latency of a cloud is not defined.
     if (soak.minutes <= 0) print_latency(latency_ms, steady_latency_ms, tag);

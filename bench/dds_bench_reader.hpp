@@ -38,8 +38,11 @@ struct Received {
     std::vector<std::pair<std::int64_t, std::uint64_t>> queue_drops_over_time;
 };
 
-// The value of `key` in diagnostic status `status` (e.g. "lidarfuse/bench/pipeline") as the
-// last diagnostics received gave it; "0" before any, or where the status has no such key.
+// The pipeline's diagnostic status of the benches' daemons (their configs say "station: bench").
+inline const char* const kBenchPipelineStatus = "lidarfuse/bench/pipeline";
+
+// The value of `key` in diagnostic status `status` (e.g. kBenchPipelineStatus) as the last
+// diagnostics received gave it; "0" before any, or where the status has no such key.
 std::string diagnostic_value(Received* received, const std::string& status, const char* key);
 
 // Reads clouds, poses and diagnostics on `domain` until `stop`, arrival times taken on

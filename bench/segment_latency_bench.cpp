@@ -276,7 +276,7 @@ int run(const Options& o) {
                                                            {"mean_fusion_ms", "ms"}};
     for (const auto& [key, unit] : figures) {
         std::printf("segment_%s_%s %s %s\n", key, tag.c_str(),
-                    bench::diagnostic_value(&received, "lidarfuse/bench/pipeline", key).c_str(),
+                    bench::diagnostic_value(&received, bench::kBenchPipelineStatus, key).c_str(),
                     unit);
     }
     for (const char* stage : {"fusion", "initial", "output", "dds", "sync", "main"}) {
