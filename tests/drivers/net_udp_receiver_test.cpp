@@ -1,11 +1,14 @@
 // UdpReceiver on loopback (127.0.0.1, ephemeral ports only): payloads and sources arrive
 // intact, senders sharing a port are told apart, truncation is counted, stop() wakes the loop,
-// and datagrams arriving during the wait after a wake-up are read together.
+// datagrams arriving during the wait after a wake-up are read together, and of the receive
+// ring only what datagrams fill becomes resident.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
 #include <cstring>
+#include <fstream>
 #include <future>
 #include <map>
 #include <thread>
@@ -317,6 +320,44 @@ TEST(UdpReceiver, StopEndsTheWaitAfterAWakeUpAtOnce) {
     // Well within the 10 s wait: stop() must end it, not the wait's end.
     EXPECT_EQ(running.wait_for(std::chrono::seconds(5)), std::future_status::ready);
     running.wait();
+}
+
+// The process's resident set (bytes), from /proc/self/statm.
+std::size_t resident_bytes() {
+    std::ifstream statm("/proc/self/statm");
+    std::size_t pages_total = 0, pages_resident = 0;
+    statm >> pages_total >> pages_resident;
+    return pages_resident * static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+}
+
+// A receiver per sensor port holds batch_size slots of max_datagram_bytes; only the bytes the
+// kernel writes may become resident. Here the ring is 64 x 64 KiB = 4 MiB and 64 datagrams
+// of 1,000 bytes touch at most 64 pages of it (256 KiB), so the process must grow by well
+// under 1 MiB; a ring filled on construction would add the whole 4 MiB.
+TEST(UdpReceiver, OnlyTheBytesDatagramsFillAreResident) {
+    UdpReceiverParams params = loopback_params(1);
+    params.batch_size = 64;
+    params.max_datagram_bytes = 65536;
+    constexpr std::size_t kMiB = std::size_t{1} << 20;
+    const std::size_t before = resident_bytes();
+    UdpReceiver receiver(params);
+    UdpSender sender({"127.0.0.1", 0});
+    constexpr std::size_t kDatagrams = 64;
+    for (std::uint32_t i = 0; i < kDatagrams; ++i) {
+        const auto data = payload(1000, i);
+        ASSERT_TRUE(
+            sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
+    }
+    std::size_t got = 0;
+    for (int i = 0; i < 200 && got < kDatagrams; ++i) {
+        receiver.poll_once(50, [&](const ReceivedDatagram& d) {
+            EXPECT_EQ(d.size, 1000u);
+            ++got;
+        });
+    }
+    EXPECT_EQ(got, kDatagrams);
+    const std::size_t grown = resident_bytes() - std::min(before, resident_bytes());
+    EXPECT_LT(grown, kMiB) << "the receive ring became resident beyond what was received";
 }
 
 TEST(UdpReceiver, AWaitOutsideItsRangeIsRefused) {
