@@ -49,8 +49,11 @@ const seen = {
   counted: {},   // count: topic -> [messages, bytes]
 };
 
+// Written beside OUT and renamed onto it, so that a reader waiting for OUT to exist never
+// reads it half-written (seen: the refused client's OUT read empty on a loaded machine).
 function finish() {
-  fs.writeFileSync(out, JSON.stringify(seen));
+  fs.writeFileSync(`${out}.part`, JSON.stringify(seen));
+  fs.renameSync(`${out}.part`, out);
   process.exit(0);
 }
 process.on("SIGTERM", finish);
