@@ -348,15 +348,11 @@ TEST(UdpReceiver, OnlyTheBytesDatagramsFillAreResident) {
         ASSERT_TRUE(
             sender.send_to(kLoopbackIpv4, receiver.sockets()[0].port, data.data(), data.size()));
     }
-    std::size_t got = 0;
-    for (int i = 0; i < 200 && got < kDatagrams; ++i) {
-        receiver.poll_once(50, [&](const ReceivedDatagram& d) {
-            EXPECT_EQ(d.size, 1000u);
-            ++got;
-        });
-    }
-    EXPECT_EQ(got, kDatagrams);
-    const std::size_t grown = resident_bytes() - std::min(before, resident_bytes());
+    const auto got = receive(receiver, kDatagrams);
+    ASSERT_EQ(got.size(), kDatagrams);
+    for (const auto& g : got) EXPECT_EQ(g.data.size(), 1000u);
+    const std::size_t after = resident_bytes();
+    const std::size_t grown = after - std::min(before, after);
     EXPECT_LT(grown, kMiB) << "the receive ring became resident beyond what was received";
 }
 
